@@ -1,0 +1,39 @@
+#include "materials/fresnel.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lamina {
+
+double refracted_cos(double cos_theta_i, double n_i, double n_t) {
+  const double cos_i = std::min(1.0, std::abs(cos_theta_i));
+  const double eta = n_i / n_t;
+  // sin^2(theta_i) = (1 - cos)(1 + cos) keeps precision when cos is near 1.
+  const double sin2_t = eta * eta * (1.0 - cos_i) * (1.0 + cos_i);
+  if (sin2_t >= 1.0) return -1.0;
+  return std::sqrt(1.0 - sin2_t);
+}
+
+double fresnel_dielectric(double cos_theta_i, double n_i, double n_t) {
+  if (n_i == n_t) return 0.0;  // index-matched: no interface at all, even at grazing incidence
+  const double cos_i = std::min(1.0, std::abs(cos_theta_i));
+  const double cos_t = refracted_cos(cos_i, n_i, n_t);
+  if (cos_t < 0.0) return 1.0;  // total internal reflection
+  // Fresnel amplitude coefficients for s and p polarisation (Born and Wolf eq. 1.5.20).
+  const double r_s = (n_i * cos_i - n_t * cos_t) / (n_i * cos_i + n_t * cos_t);
+  const double r_p = (n_t * cos_i - n_i * cos_t) / (n_t * cos_i + n_i * cos_t);
+  return std::clamp(0.5 * (r_s * r_s + r_p * r_p), 0.0, 1.0);
+}
+
+bool refract_through_plane(glm::dvec3* d, double n_i, double n_t) {
+  const double cos_t = refracted_cos(d->z, n_i, n_t);
+  if (cos_t < 0.0) return false;
+  const double eta = n_i / n_t;
+  glm::dvec3 out{eta * d->x, eta * d->y, std::copysign(cos_t, d->z)};
+  // Renormalise against rounding: |tangential|^2 + cos_t^2 = 1 analytically.
+  const double len = std::sqrt(out.x * out.x + out.y * out.y + out.z * out.z);
+  *d = out / len;
+  return true;
+}
+
+}  // namespace lamina

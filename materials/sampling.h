@@ -1,0 +1,53 @@
+// Random numbers and warps.
+//
+// A random stream is a pure function of (seed, stream index): the renderer uses one stream per
+// (pixel, sample), the BRDF tool one per photon, so results never depend on threads or
+// scheduling (architecture.md, "Rules of thumb").
+#pragma once
+
+#include <cstdint>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace lamina {
+
+// SplitMix64 finaliser (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
+// OOPSLA 2014): a bijective 64-bit mixer used to derive independent stream states.
+std::uint64_t mix64(std::uint64_t x);
+
+// PCG32 (O'Neill, "PCG: A family of simple fast space-efficient statistically good algorithms
+// for random number generation", 2014): 64-bit state, 32-bit output, selectable stream.
+class Rng {
+ public:
+  // The stream for (seed, a, b): e.g. (seed, pixel, sample) in the renderer, (seed, photon, 0)
+  // in the BRDF tool. Distinct keys give statistically independent sequences.
+  Rng(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0);
+
+  std::uint32_t next_u32();
+  // Uniform in [0, 1): 53 random bits, so never exactly 1 and fine enough for -log(u) tails.
+  double uniform();
+  // Uniform in (0, 1]: safe as the argument of log().
+  double uniform_open0() { return 1.0 - uniform(); }
+
+ private:
+  std::uint64_t state_;
+  std::uint64_t inc_;
+};
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInvPi = 1.0 / kPi;
+constexpr double kInv4Pi = 1.0 / (4.0 * kPi);
+
+// Cosine-weighted hemisphere about +z (Malley's method); pdf = cos(theta)/pi.
+glm::dvec3 sample_cosine_hemisphere(glm::dvec2 u);
+// Uniform sphere; pdf = 1/(4 pi).
+glm::dvec3 sample_uniform_sphere(glm::dvec2 u);
+
+// An orthonormal basis (t, b, n) around the unit vector n, continuous except on a set of
+// measure zero and exact at n = +-z (Duff et al., "Building an Orthonormal Basis, Revisited",
+// JCGT 2017). Replaces the slides' direction update, which divides by sin(theta) and fails
+// when the direction is along the normal.
+void orthonormal_basis(const glm::dvec3& n, glm::dvec3* t, glm::dvec3* b);
+
+}  // namespace lamina

@@ -1,0 +1,81 @@
+// A stack of plane-parallel homogeneous layers (Hanrahan and Krueger 1993, section 3).
+//
+// Layers run from the top (the side the surface normal points to, +z) down. Coefficients are per
+// millimetre, thicknesses in millimetres; only optical depths matter (contracts.md, "Units").
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "materials/spectrum.h"
+
+namespace lamina {
+
+constexpr double kInfiniteThickness = std::numeric_limits<double>::infinity();
+
+// One Henyey-Greenstein lobe of a layer's phase function. A composite layer has one lobe per
+// component: its scattering coefficient is w_i * sigma_s_i (volume fraction times the
+// component's own), so the layer's phase function in channel c is the scattering-weighted
+// mixture  p_c(cos) = sum_i sigma_s_{i,c} p_HG(cos; g_{i,c}) / sum_i sigma_s_{i,c}
+// (Hanrahan and Krueger eq. 8; contracts.md, "Material file").
+struct PhaseLobe {
+  Spectrum sigma_s;  // this lobe's share of the layer's scattering coefficient, 1/mm
+  Spectrum g;        // HG asymmetry, |g| < 1
+};
+
+struct Layer {
+  std::string name;
+  double ior = 1.0;
+  double thickness = 0.0;  // mm; kInfiniteThickness for a semi-infinite (last) layer
+  Spectrum sigma_a;        // absorption, 1/mm (sum of w_i sigma_a_i for a composite)
+  std::vector<PhaseLobe> lobes;
+
+  Spectrum sigma_s() const;  // sum of the lobes' scattering
+  Spectrum sigma_t() const { return sigma_a + sigma_s(); }
+  // Single-scattering albedo sigma_s/sigma_t per channel (0 where sigma_t = 0).
+  Spectrum albedo() const;
+  bool semi_infinite() const { return thickness == kInfiniteThickness; }
+  // Optical depth tau = sigma_t * thickness in channel c (infinity for a semi-infinite layer
+  // unless sigma_t = 0, where it is 0).
+  double optical_depth(int channel) const;
+
+  // The normalised phase function of channel c: the lobes' mixture (see PhaseLobe).
+  double phase(int channel, double cos_theta) const;
+  // Chooses a lobe of channel c with probability proportional to its scattering (u in [0,1)).
+  int choose_lobe(int channel, double u) const;
+};
+
+// A single-layer homogeneous layer with one HG lobe.
+Layer make_layer(std::string name, double ior, double thickness, Spectrum sigma_a,
+                 Spectrum sigma_s, Spectrum g);
+
+// What lies below the last layer.
+struct Below {
+  enum class Kind { Dielectric, Lambert };
+  Kind kind = Kind::Dielectric;
+  double ior = 1.0;  // Dielectric: the index of the medium below (air under a leaf)
+  Spectrum albedo;   // Lambert: an opaque diffuse substrate (flesh under skin)
+};
+
+struct LayerStack {
+  std::string name;
+  double above_ior = 1.0;
+  std::vector<Layer> layers;
+  Below below;
+
+  // True if light can leave through the bottom (a transmitting medium below, and no
+  // semi-infinite layer).
+  bool transmits() const;
+  // Index of refraction on the far side of interface k: interface 0 is the top surface
+  // (above_ior | layers[0]); interface k (1 <= k < N) lies between layers[k-1] and layers[k];
+  // interface N is the bottom (layers[N-1] | below).
+  double ior_above_interface(int k) const;
+  double ior_below_interface(int k) const;
+};
+
+// Returns an empty string if the stack is physically valid, else the first problem found, in
+// the form "layers[1].sigma_a[2]: must be finite and >= 0" (the JSON path of the bad value).
+std::string validate_stack(const LayerStack& stack);
+
+}  // namespace lamina

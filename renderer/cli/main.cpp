@@ -1,0 +1,40 @@
+// lamina: one program, subcommands. main() only dispatches (architecture.md, "cli/").
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+namespace {
+
+void print_usage(std::FILE* out) {
+  std::fputs(
+      "usage: lamina <command> [options]\n"
+      "\n"
+      "commands:\n"
+      "  render   render a glTF 2.0 scene to a linear EXR\n"
+      "  brdf     BRDF/BTDF of a layered material (first order or Monte Carlo)\n"
+      "  compare  relative difference of two images\n"
+      "  batch    render and compare the jobs of a manifest\n"
+      "\n"
+      "'lamina <command> --help' describes a command.\n",
+      out);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    print_usage(stderr);
+    return 2;
+  }
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help") {
+    print_usage(stdout);
+    return 0;
+  }
+  if (command == "--version") {
+    std::puts("lamina 0.1.0");
+    return 0;
+  }
+  std::fprintf(stderr, "lamina: unknown command '%s' (try 'lamina --help')\n", command.c_str());
+  return 2;
+}

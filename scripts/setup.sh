@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs the Debian packages Lamina needs, only those missing. Run as root (or with sudo).
+# Idempotent: does nothing (and needs no network) when everything is installed.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libembree-dev            # Embree 3: ray tracing kernels
+  libopenimageio-dev openimageio-tools  # EXR/PNG/HDR I/O, contact sheets
+  libopenexr-dev
+  libtinygltf-dev          # glTF 2.0 loader (with stb_image and nlohmann-json)
+  nlohmann-json3-dev       # material files and manifests
+  libcli11-dev             # command-line parsing
+  libglm-dev libtbb-dev
+  libgtest-dev libbenchmark-dev
+  python3 python3-numpy python3-matplotlib  # figures and reports only, never the render path
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+echo "setup: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,51 @@
+#include "materials/fresnel.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace lamina {
+
+TEST(Fresnel, NormalIncidenceMatchesClosedForm) {
+  // ((n_t - n_i)/(n_t + n_i))^2 at normal incidence, from either side.
+  EXPECT_NEAR(fresnel_dielectric(1.0, 1.0, 1.5), 0.04, 1e-15);
+  EXPECT_NEAR(fresnel_dielectric(1.0, 1.5, 1.0), 0.04, 1e-15);
+}
+
+TEST(Fresnel, IndexRatioOneGivesZeroEvenAtGrazing) {
+  EXPECT_EQ(fresnel_dielectric(1.0, 1.33, 1.33), 0.0);
+  EXPECT_EQ(fresnel_dielectric(0.0, 1.33, 1.33), 0.0);
+}
+
+TEST(Fresnel, TotalInternalReflectionAboveCriticalAngle) {
+  const double critical_sin = 1.0 / 1.5;
+  const double cos_c = std::sqrt(1.0 - critical_sin * critical_sin);
+  EXPECT_EQ(fresnel_dielectric(cos_c * 0.999, 1.5, 1.0), 1.0);
+  EXPECT_LT(fresnel_dielectric(cos_c * 1.001, 1.5, 1.0), 1.0);
+  EXPECT_LT(refracted_cos(cos_c * 0.999, 1.5, 1.0), 0.0);
+}
+
+TEST(Fresnel, GrazingIncidenceReflectsEverything) {
+  EXPECT_NEAR(fresnel_dielectric(0.0, 1.0, 1.5), 1.0, 1e-15);
+  EXPECT_NEAR(fresnel_dielectric(1e-9, 1.0, 1.5), 1.0, 1e-8);
+}
+
+TEST(Fresnel, ContinuousInAngle) {
+  double prev = fresnel_dielectric(1.0, 1.0, 1.5);
+  for (int i = 1; i <= 10000; ++i) {
+    const double mu = 1.0 - i / 10000.0;
+    const double r = fresnel_dielectric(mu, 1.0, 1.5);
+    EXPECT_LT(std::abs(r - prev), 0.02) << "mu=" << mu;
+    prev = r;
+  }
+}
+
+TEST(Fresnel, RefractionKeepsUnitLengthAndSnell) {
+  glm::dvec3 d{std::sin(0.7), 0.0, -std::cos(0.7)};
+  ASSERT_TRUE(refract_through_plane(&d, 1.0, 1.4));
+  EXPECT_NEAR(std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z), 1.0, 1e-15);
+  EXPECT_NEAR(d.x * 1.4, std::sin(0.7), 1e-14);  // n_i sin_i = n_t sin_t
+  EXPECT_LT(d.z, 0.0);
+}
+
+}  // namespace lamina
