@@ -125,7 +125,7 @@ EnvironmentMap EnvironmentMap::from_file(const std::string& path) {
 }
 
 EnvironmentMap EnvironmentMap::from_argument(const std::string& value) {
-  if (value.empty()) throw std::invalid_argument("--env: empty value (a number, R,G,B or an EXR/HDR file)");
+  if (value.empty()) throw std::invalid_argument("--env '': empty value (a number, R,G,B or an EXR/HDR file)");
   // Split at commas; one or three numeric parts are a radiance, anything else a path.
   std::vector<std::string> parts;
   std::size_t start = 0;
