@@ -24,13 +24,15 @@ struct CommandResult {
   std::string out, err;
 };
 
+// A fresh directory per test, so tests may run in parallel (ctest -j) without sharing files.
 fs::path dir() {
-  static const fs::path d = [] {
-    fs::path p = fs::path(::testing::TempDir()) / "lamina_cli_compare";
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-  }();
+  static fs::path d;
+  const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  if (d.empty() || d.filename() != name) {
+    d = fs::path(::testing::TempDir()) / "lamina_cli_compare" / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+  }
   return d;
 }
 
