@@ -76,6 +76,19 @@ std::vector<float> luminance(const Image& image) {
   return y;
 }
 
+std::vector<float> relative_luminance_difference(const Image& reference, const Image& test, double epsilon) {
+  check_same_size(reference, test);
+  const std::vector<float> yr = luminance(reference), yt = luminance(test);
+  double sum = 0.0;
+  for (float v : yr) sum += v;
+  const double mean = yr.empty() ? 0.0 : sum / static_cast<double>(yr.size());
+  const double floor = epsilon * mean > 0.0 ? epsilon * mean : kBlackReferenceFloor;
+  std::vector<float> rel(yr.size());
+  for (std::size_t i = 0; i < yr.size(); ++i)
+    rel[i] = static_cast<float>((static_cast<double>(yt[i]) - yr[i]) / std::max<double>(yr[i], floor));
+  return rel;
+}
+
 CompareMetrics compare_images(const Image& reference, const Image& test, double epsilon) {
   check_same_size(reference, test);
   CompareMetrics m;

@@ -24,6 +24,11 @@ Image relative_difference(const Image& reference, const Image& test, double floo
 // Rec. 709 luminance of each pixel: one float a pixel, row-major.
 std::vector<float> luminance(const Image& image);
 
+// The relative difference of Rec. 709 luminance, one float a pixel, guarded as above with the
+// floor taken from the reference's luminance: what `lamina compare --png` shows.
+std::vector<float> relative_luminance_difference(const Image& reference, const Image& test,
+                                                 double epsilon = kDefaultGuardEpsilon);
+
 struct CompareMetrics {
   double guard_floor = 0.0;
   // Over every pixel and channel (all pixels count, including black ones where both images

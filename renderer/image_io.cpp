@@ -1,6 +1,7 @@
 // Image files through OpenImageIO (see image_io.h).
 #include "renderer/image_io.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -46,6 +47,13 @@ void write_atomically(const std::string& path, const std::string& format, const 
     fail(why);
   }
   if (!out->close()) fail(out->geterror());
+  // Flush the data to the disk before the rename makes it visible, so that after a crash the
+  // name points either to the old file or to the complete new one.
+  const int fd = ::open(tmp.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename failed");
 }
 

@@ -90,14 +90,7 @@ int compare(const CompareArgs& args) {
                {"lamina:compare:guard_floor", std::to_string(m.guard_floor)}});
   }
   if (!args.out_png.empty()) {
-    // The picture shows the relative difference of luminance, guarded the same way.
-    const std::vector<float> yr = luminance(ref), yt = luminance(test);
-    double sum = 0.0;
-    for (float v : yr) sum += v;
-    const double mean = yr.empty() ? 0.0 : sum / yr.size();
-    const double floor = args.epsilon * mean > 0.0 ? args.epsilon * mean : kBlackReferenceFloor;
-    std::vector<float> rel(yr.size());
-    for (std::size_t i = 0; i < yr.size(); ++i) rel[i] = static_cast<float>((yt[i] - yr[i]) / std::max<double>(yr[i], floor));
+    const std::vector<float> rel = relative_luminance_difference(ref, test, args.epsilon);
     write_png(args.out_png, false_colour_with_legend(rel, ref.width, ref.height, args.range));
   }
   if (!args.out_json.empty()) {
@@ -109,6 +102,7 @@ int compare(const CompareArgs& args) {
     if (!args.crop.empty()) j["crop"] = args.crop;
     j["guard_epsilon"] = args.epsilon;
     j["guard_floor"] = m.guard_floor;
+    j["range"] = args.range;
     j["mean_relative"] = m.mean_relative;
     j["rms_relative"] = m.rms_relative;
     j["max_abs_relative"] = m.max_abs_relative;
@@ -149,9 +143,11 @@ int run_compare(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);  // prints the help, status 0
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+    std::fprintf(stderr, "lamina compare: %s (see 'lamina compare --help')\n", e.what());
+    return 2;
   }
   try {
     return lamina::compare(args);

@@ -177,7 +177,9 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("channel"), std::string::npos) << r.err;
 
-  EXPECT_EQ(lamina("compare " + ref).status, 2);                          // missing TEST
+  r = lamina("compare " + ref);  // missing TEST
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_EQ(lamina("compare " + ref + " " + ref + " --range 0").status, 2);  // range must be > 0
   // An unwritable output names the file.
   const std::string bad_out = (dir() / "no_dir" / "d.exr").string();

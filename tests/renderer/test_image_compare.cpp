@@ -57,6 +57,18 @@ TEST(ImageCompare, GuardDividesByAFractionOfTheMeanWhereTheReferenceIsDark) {
   EXPECT_TRUE(std::isfinite(m.ssim));
 }
 
+TEST(ImageCompare, LuminanceDifferenceUsesRec709WeightsAndTheGuard) {
+  // REF grey 1 and 0; TEST (2, 1, 1) brighter in red only: Y = 1 + 0.2126, relative +0.2126.
+  // Second pixel: REF 0, TEST (0, 0, 1): Y = 0.0722, floor = 0.01 * mean(Y_ref) = 0.005.
+  Image ref(2, 1), test(2, 1);
+  ref.pixel(0, 0)[0] = ref.pixel(0, 0)[1] = ref.pixel(0, 0)[2] = 1.0f;
+  test.pixel(0, 0)[0] = 2.0f, test.pixel(0, 0)[1] = test.pixel(0, 0)[2] = 1.0f;
+  test.pixel(1, 0)[2] = 1.0f;
+  const std::vector<float> rel = relative_luminance_difference(ref, test);
+  EXPECT_NEAR(rel[0], 0.2126, 1e-6);
+  EXPECT_NEAR(rel[1], 0.0722 / 0.005, 1e-4);
+}
+
 TEST(ImageCompare, SsimIdentities) {
   Image a(20, 15);
   for (std::size_t i = 0; i < a.rgb.size(); ++i) a.rgb[i] = 0.5f + 0.4f * std::sin(0.37f * i);
