@@ -126,7 +126,19 @@ TEST(Environment, PixelProbabilityIsLuminanceTimesSolidAngle) {
 }
 
 TEST(Environment, SampleAgreesWithPdfAndEval) {
-  const EnvironmentMap env = map_from(synthetic_map(7, 5), "consistency");
+  constexpr int W = 7, H = 5;
+  const Image image = synthetic_map(W, H);
+  const EnvironmentMap env = map_from(image, "consistency");
+  // The bound environment.cpp states: L/pdf <= (1/0.0722) * 2 * 2 pi^2 I, with I the mean of the
+  // weights lum * mean_row(sin theta).
+  double I = 0.0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const float* p = image.pixel(x, y);
+      const double t0 = kPi * y / H, t1 = kPi * (y + 1) / H;
+      I += (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) * (std::cos(t0) - std::cos(t1)) / (t1 - t0) / (W * H);
+    }
+  const double bound = 2.0 * 2.0 * kPi * kPi * I / 0.0722;
   for (int s = 0; s < 20000; ++s) {
     Rng rng(22, s);
     glm::dvec3 d;
@@ -136,6 +148,7 @@ TEST(Environment, SampleAgreesWithPdfAndEval) {
     ASSERT_NEAR(env.pdf(d), pdf, 1e-9 * pdf) << s;
     ASSERT_EQ(env.eval(d), L) << s;
     ASSERT_TRUE(L.is_finite());
+    ASSERT_LE(L.max() / pdf, bound * (1.0 + 1e-9));
   }
 }
 
