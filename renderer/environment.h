@@ -6,6 +6,10 @@
 // Convention (glTF is +Y up): a world direction d maps to
 //   u = 0.5 + atan2(d.x, -d.z) / (2 pi),  v = acos(d.y) / pi,
 // so the map's centre looks down -Z and its top row is straight up.
+//
+// Lookup is nearest-pixel, the radiance a step function over pixels; the sampling density is a
+// step function over the same pixels (weight: luminance times the pixel's solid angle), so
+// pdf > 0 exactly where eval > 0 (see environment.cpp for why not bilinear).
 #pragma once
 
 #include <memory>
@@ -23,10 +27,14 @@ class EnvironmentMap {
  public:
   // Black: no environment (the default, contracts.md `--env`).
   EnvironmentMap();
+  // Throws std::invalid_argument for negative or non-finite radiance.
   static EnvironmentMap constant(const Spectrum& radiance);
-  // Throws ImageIoError naming the file on failure.
+  // Throws ImageIoError naming the file on failure (unreadable, negative or non-finite pixel).
+  // An all-black map gives the black environment.
   static EnvironmentMap from_file(const std::string& path);
-  // Parses the `--env` value: a number, "R,G,B", or a path to an EXR/HDR file.
+  // Parses the `--env` value: a number, "R,G,B", or a path to an EXR/HDR file. Throws
+  // std::invalid_argument (one line, quoting the value) for malformed, negative or NaN values
+  // and missing files, ImageIoError for unreadable files.
   static EnvironmentMap from_argument(const std::string& value);
 
   bool is_black() const;
