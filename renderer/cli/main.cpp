@@ -3,6 +3,8 @@
 #include <cstring>
 #include <string>
 
+#include "renderer/cli/commands.h"
+
 namespace {
 
 void print_usage(std::FILE* out) {
@@ -35,6 +37,7 @@ int main(int argc, char** argv) {
     std::puts("lamina 0.1.0");
     return 0;
   }
+  if (command == "render") return run_render(argc - 1, argv + 1);
   std::fprintf(stderr, "lamina: unknown command '%s' (try 'lamina --help')\n", command.c_str());
   return 2;
 }
