@@ -18,7 +18,8 @@ class Camera {
 
  private:
   glm::dvec3 origin_, forward_, right_, up_;
-  double tan_half_y_, aspect_, width_, height_;
+  double scale_x_, scale_y_;  // screen-window units per pixel (no division per ray)
+  double tan_half_y_, aspect_;
 };
 
 }  // namespace lamina

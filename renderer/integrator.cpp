@@ -147,6 +147,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
     const int x1 = std::min(x0 + kTile, s.width), y1 = std::min(y0 + kTile, s.height);
     RayCounters rays;
+    rays.log = s.ray_log;
     std::uint64_t bad = 0;
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
@@ -171,7 +172,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     if (on_progress) on_progress(static_cast<std::uint64_t>(x1 - x0) * (y1 - y0) * s.spp);
   };
 
-  tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::task_arena::automatic);
+  tbb::task_arena arena(s.ray_log ? 1 : s.threads > 0 ? s.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
       for (int t = r.begin(); t != r.end(); ++t) render_tile(t);

@@ -25,6 +25,7 @@ struct RenderSettings {
   std::uint64_t seed = 0;
   int max_depth = 64;  // bounces: 0 shows emitters and the environment only
   int threads = 0;     // 0: all cores
+  RayLog* ray_log = nullptr;  // benchmark only: records every ray (forces one thread)
 };
 
 struct RenderStats {

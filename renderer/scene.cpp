@@ -72,6 +72,7 @@ Scene::~Scene() {
 
 bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters* counters, double tmax) const {
   ++counters->closest;
+  if (counters->log) counters->log->closest.push_back(ray);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -118,6 +119,7 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters* counters, do
 
 bool Scene::occluded(const Ray& ray, double tmax, RayCounters* counters) const {
   ++counters->shadow;
+  if (counters->log) counters->log->shadow.emplace_back(ray, tmax);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;

@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -17,11 +19,18 @@ struct Ray {
   glm::dvec3 direction;  // unit length
 };
 
+// Every ray traced, for the benchmark's replay (bench/bench_render.cpp); normally absent.
+struct RayLog {
+  std::vector<Ray> closest;
+  std::vector<std::pair<Ray, double>> shadow;  // with tmax
+};
+
 // Rays traced, counted by the caller's thread (one RayCounters per tile) and summed after.
 struct RayCounters {
   std::uint64_t closest = 0;  // rtcIntersect1: camera and bounce rays
   std::uint64_t camera = 0;   // of which camera rays
   std::uint64_t shadow = 0;   // rtcOccluded1
+  RayLog* log = nullptr;      // if set, every ray is also recorded (single-threaded use only)
   RayCounters& operator+=(const RayCounters& o) {
     closest += o.closest; camera += o.camera; shadow += o.shadow;
     return *this;

@@ -379,10 +379,11 @@ Spectrum Texture::lookup(glm::dvec2 uv) const {
     const int m = i % n;
     return m < 0 ? m + n : m;
   };
-  double x = uv.x * width - 0.5, y = uv.y * height - 0.5;
-  if (!std::isfinite(x) || !std::isfinite(y)) return Spectrum(0.0);
-  x = std::fmod(x, 1 << 20);  // keep floor() inside int range; texture repeats anyway
-  y = std::fmod(y, 1 << 20);
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return Spectrum(0.0);
+  // Keep coordinates in int range: repeat wraps uv to [0, 1); clamp clamps it (the same texels).
+  const double u = clamp_s ? std::clamp(uv.x, 0.0, 1.0) : uv.x - std::floor(uv.x);
+  const double v = clamp_t ? std::clamp(uv.y, 0.0, 1.0) : uv.y - std::floor(uv.y);
+  const double x = u * width - 0.5, y = v * height - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
   const double tx = x - fx, ty = y - fy;
   const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
