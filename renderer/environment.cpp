@@ -2,9 +2,12 @@
 //
 // Lookup: nearest pixel. The radiance is a step function over the map's pixels, and the
 // sampling density is a step function in (u, v) over the same pixels (times the Jacobian
-// 1/(2 pi^2 sin theta)), so eval/pdf is bounded by max(L)/min-nonzero-weight and, above all,
-// pdf > 0 exactly where eval > 0: no pixel that contributes is ever missed, no pixel that is
-// black is ever sampled. Bilinear lookup would spread a pixel's radiance into its neighbours'
+// 1/(2 pi^2 sin theta)), so pdf > 0 exactly where eval > 0: no pixel that contributes is ever
+// missed, no pixel that is black is ever sampled. The weight w = lum * mean_row(sin theta)
+// makes the estimator's ratio bounded whatever the map's contrast:
+//   L/pdf = L * 2 pi^2 sin(theta) * I / w = (L/lum) * (sin theta / mean_row sin) * 2 pi^2 I,
+// with I the distribution's integral, L/lum <= 1/0.0722 per channel and sin/mean sin <= 2 (the
+// worst case is the polar rows, where sin grows linearly across the row). Bilinear lookup would spread a pixel's radiance into its neighbours'
 // cells, where a black neighbour would have pdf = 0 and the estimator would be biased unless
 // the distribution were widened to cover that support (pbrt-v4 section 12.5.2 does this).
 #include "renderer/environment.h"
@@ -125,7 +128,7 @@ EnvironmentMap EnvironmentMap::from_file(const std::string& path) {
 }
 
 EnvironmentMap EnvironmentMap::from_argument(const std::string& value) {
-  if (value.empty()) throw std::invalid_argument("--env: empty value (a number, R,G,B or an EXR/HDR file)");
+  if (value.empty()) throw std::invalid_argument("--env '': empty value (a number, R,G,B or an EXR/HDR file)");
   // Split at commas; one or three numeric parts are a radiance, anything else a path.
   std::vector<std::string> parts;
   std::size_t start = 0;

@@ -1,6 +1,7 @@
 // Image files through OpenImageIO (see image_io.h).
 #include "renderer/image_io.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,16 +17,6 @@ namespace lamina {
 namespace {
 
 namespace OIIO = OIIO_NAMESPACE;
-
-// The IEC 61966-2-1 (sRGB) transfer function and its inverse, on [0, 1].
-double srgb_encode(double linear) {
-  if (!(linear > 0.0)) return 0.0;  // also maps NaN to black
-  if (linear >= 1.0) return 1.0;
-  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
-}
-double srgb_decode(double encoded) {
-  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
-}
 
 // A temporary name beside `path` (same directory, so rename(2) is atomic on POSIX: it never
 // crosses a file system). Unique per process and call, so concurrent writers do not collide.
@@ -56,6 +47,13 @@ void write_atomically(const std::string& path, const std::string& format, const 
     fail(why);
   }
   if (!out->close()) fail(out->geterror());
+  // Flush the data to the disk before the rename makes it visible, so that after a crash the
+  // name points either to the old file or to the complete new one.
+  const int fd = ::open(tmp.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename failed");
 }
 
@@ -79,6 +77,16 @@ bool stored_as_srgb(const OIIO::ImageSpec& spec) {
 
 }  // namespace
 
+// The IEC 61966-2-1 (sRGB) transfer function: linear below 0.0031308, a 2.4 power above.
+double srgb_encode(double linear) {
+  if (!(linear > 0.0)) return 0.0;  // also maps NaN to black
+  if (linear >= 1.0) return 1.0;
+  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+}
+double srgb_decode(double encoded) {
+  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
+}
+
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata) {
   check_size(path, image);
   OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::FLOAT);
@@ -97,7 +105,7 @@ void write_png(const std::string& path, const Image& image) {
   write_atomically(path, "png", spec, bytes.data());
 }
 
-Image read_image(const std::string& path) {
+Image read_image(const std::string& path, int* colour_channels) {
   auto fail = [&](const std::string& why) -> void {
     throw ImageIoError("cannot read '" + path + "': " + why);
   };
@@ -126,6 +134,7 @@ Image read_image(const std::string& path) {
     const int y = find("Y");
     src[0] = src[1] = src[2] = (y >= 0 ? y : 0);
   }
+  if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
 
   std::vector<float> all(static_cast<std::size_t>(spec.width) * spec.height * nc);
   if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, all.data())) {

@@ -25,7 +25,13 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
 void write_png(const std::string& path, const Image& image);
 // Reads any image OpenImageIO reads (EXR, HDR, PNG, JPEG) as linear RGB (8-bit files are
 // decoded from sRGB). Alpha and extra channels are dropped; grey is expanded to RGB.
-Image read_image(const std::string& path);
+// `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
+Image read_image(const std::string& path, int* colour_channels = nullptr);
+// The sRGB transfer function (IEC 61966-2-1) and its inverse, on [0, 1]; encode clamps and
+// maps NaN to 0.
+double srgb_encode(double linear);
+double srgb_decode(double encoded);
+
 // Reads the string attributes of an EXR header (e.g. a batch job's hash).
 Metadata read_metadata(const std::string& path);
 

@@ -8,6 +8,7 @@ packages=(
   libembree-dev            # Embree 3: ray tracing kernels
   libopenimageio-dev openimageio-tools  # EXR/PNG/HDR I/O, contact sheets
   libopenexr-dev
+  fonts-dejavu-core        # legend text in `lamina compare --png` (a bitmap font is the fallback)
   libtinygltf-dev          # glTF 2.0 loader (with stb_image and nlohmann-json)
   nlohmann-json3-dev       # material files and manifests
   libcli11-dev             # command-line parsing

@@ -1,5 +1,7 @@
-// The subcommands of `lamina`. Each takes its own argv (argv[0] is the subcommand's name) and
-// returns the process exit code; main.cpp only dispatches.
+// The subcommands of `lamina`, one file each in renderer/cli/; main.cpp dispatches to them.
+// Each takes the arguments after the command name (argv[0] is "lamina <command>") and returns
+// the process exit status.
 #pragma once
 
 int run_render(int argc, char** argv);
+int run_compare(int argc, char** argv);

@@ -132,6 +132,24 @@ TEST(ImageIo, GreyIsExpandedAndAlphaDropped) {
   EXPECT_EQ(a.pixel(0, 0)[2], 0.125f);
 }
 
+TEST(ImageIo, RadianceHdrIsReadAsLinear) {
+  // Radiance RGBE keeps an 8-bit mantissa per channel with a shared exponent: for channels within
+  // a factor 2 of the largest the relative rounding error is below 2^-7.
+  const fs::path dir = fresh_dir("hdr");
+  const std::string path = (dir / "sky.hdr").string();
+  const float px[3] = {3.0f, 2.5f, 1.75f};
+  {
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out);
+    OIIO::ImageSpec spec(1, 1, 3, OIIO::TypeDesc::FLOAT);
+    ASSERT_TRUE(out->open(path, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
+    out->close();
+  }
+  const Image back = read_image(path);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.pixel(0, 0)[c], px[c], px[c] / 128.0) << c;
+}
+
 TEST(ImageIo, UnwritablePathThrowsNamingTheFileAndLeavesNothing) {
   const fs::path dir = fresh_dir("unwritable");
   const std::string missing_dir = (dir / "no_such_dir" / "out.exr").string();
