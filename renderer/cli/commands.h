@@ -3,4 +3,5 @@
 // the process exit status.
 #pragma once
 
+int run_render(int argc, char** argv);
 int run_compare(int argc, char** argv);
