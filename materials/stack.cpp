@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "materials/henyey_greenstein.h"
 
@@ -75,6 +76,17 @@ double LayerStack::ior_below_interface(int k) const {
   const int n = static_cast<int>(layers.size());
   if (k < n) return layers[k].ior;
   return below.kind == Below::Kind::Dielectric ? below.ior : layers[n - 1].ior;
+}
+
+LayerStack flipped(const LayerStack& stack) {
+  if (!stack.transmits())
+    throw std::invalid_argument("flipped(): stack '" + stack.name +
+                                "' has an opaque bottom (Lambert substrate or semi-infinite layer)");
+  LayerStack f = stack;
+  f.layers.assign(stack.layers.rbegin(), stack.layers.rend());
+  f.above_ior = stack.below.ior;
+  f.below.ior = stack.above_ior;
+  return f;
 }
 
 namespace {
