@@ -133,6 +133,14 @@ std::string validate_stack(const LayerStack& stack) {
       return p + ".thickness: only the last layer may be semi-infinite (\"inf\")";
     if (auto e = check_spectrum(p + ".sigma_a", layer.sigma_a, false); !e.empty()) return e;
     if (layer.lobes.empty()) return p + ": a layer needs at least one phase lobe";
+    if (layer.semi_infinite()) {
+      // Light entering a semi-infinite layer that cannot collide would travel forever: the
+      // model (and the random walk) needs sigma_t > 0 there.
+      for (int c = 0; c < kChannels; ++c)
+        if (!(layer.sigma_t()[c] > 0.0))
+          return p + ": a semi-infinite layer needs sigma_a + sigma_s > 0 in every channel (channel " +
+                 std::to_string(c) + " is 0)";
+    }
     for (std::size_t j = 0; j < layer.lobes.size(); ++j) {
       const std::string q = layer.lobes.size() == 1 ? p : p + ".components[" + std::to_string(j) + "]";
       if (auto e = check_spectrum(q + ".sigma_s", layer.lobes[j].sigma_s, false); !e.empty()) return e;

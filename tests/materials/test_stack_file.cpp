@@ -221,6 +221,11 @@ TEST(StackFileErrors, InfiniteLayerNotLast) {
   expect_error(replaced(kGood, "\"thickness\": 0.1", "\"thickness\": \"inf\""), "layers[0].thickness",
                "only the last layer");
 }
+TEST(StackFileErrors, ClearSemiInfiniteLayer) {
+  expect_error(R"({"lamina_material": 1, "layers": [
+      {"ior": 1.3, "thickness": "inf", "sigma_a": 0, "sigma_s": [1, 0, 1], "g": 0}]})",
+               "layers[0]", "semi-infinite layer needs sigma_a + sigma_s > 0");
+}
 TEST(StackFileErrors, NegativeFraction) {
   expect_error(replaced(replaced(kGood, "\"fraction\": 0.6", "\"fraction\": -0.6"), "\"fraction\": 0.4",
                         "\"fraction\": 1.6"),
