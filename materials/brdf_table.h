@@ -1,0 +1,94 @@
+// BRDF/BTDF tables and energy totals of a layer stack, estimated by the random walk
+// (`lamina brdf --method monte-carlo`, contracts.md).
+//
+// Binning: K bins uniform in |cos(theta_o)| per hemisphere and M bins uniform in phi_o, so every
+// bin has the same solid angle 2 pi / (K M). phi_o is the azimuth of wo measured from the light's
+// azimuth phi_i: phi_o = 0 on the light's side (back scattering), 180 the mirror side.
+//
+// Bin value: a walk that leaves with weight W in direction w carries the fraction W of the
+// incident power. The power leaving per unit irradiance into a set of directions B is
+//   P(B) = integral_B f(wi, w) |cos theta| dw,
+// so (1/N) sum_{exits in B} W estimates P(B), and
+//   value(B) = P(B) / Omega_proj(B),  Omega_proj(B) = integral_B |cos theta| dw
+//            = (mu_hi^2 - mu_lo^2)/2 * dphi,
+// is the BRDF (BTDF) averaged over the bin weighted by projected solid angle (contracts.md).
+// Standard errors come from per-photon sums of squares: a photon adds to at most one bin.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "materials/random_walk.h"
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+struct BrdfOptions {
+  double theta_i_deg = 0.0;
+  double phi_i_deg = 0.0;
+  std::uint64_t samples = 100000;
+  int bins_theta = 18;  // K
+  int bins_phi = 36;    // M
+  std::uint64_t seed = 1;
+  WalkSettings walk;
+};
+
+// The direction towards the light for (theta_i, phi_i) in degrees.
+glm::dvec3 incident_direction(double theta_i_deg, double phi_i_deg);
+
+struct Estimate {
+  Spectrum value;
+  Spectrum stderr_;  // standard error of value
+};
+
+// The five totals of contracts.md (fractions of the incident power, per channel).
+struct EnergyTotals {
+  Estimate R_specular, R_diffuse, T_ballistic, T_diffuse, absorbed;
+  // absorbed above is 1 minus the other four (conservation by construction). The walk's direct
+  // tally of absorption, an estimator of the same quantity with its own noise:
+  Estimate absorbed_direct;
+};
+
+enum class BrdfSide { Reflect = 0, Transmit = 1 };
+
+struct BrdfTable {
+  BrdfOptions options;
+  EnergyTotals totals;
+  // Per bin and channel, indexed by bin_index(side, k, m): value = single + multiple.
+  std::vector<Spectrum> value, stderr_, single, multiple;
+  // How the walks ended, indexed by WalkResult::End.
+  std::vector<std::uint64_t> ends;
+
+  int bin_index(BrdfSide side, int k, int m) const {
+    return (static_cast<int>(side) * options.bins_theta + k) * options.bins_phi + m;
+  }
+  // Bin k spans |cos theta| in [k/K, (k+1)/K]; centres are those of the cos and phi ranges.
+  double theta_centre_deg(int k) const;
+  double phi_centre_deg(int m) const;
+  double projected_solid_angle(int k) const;
+};
+
+// Monte Carlo table: options.samples walks, photon i using Rng(seed, i); identical bits for any
+// number of threads (fixed partition into blocks, reduced in block order).
+BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& options);
+
+// The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
+// directions: the average over walks of sum_events throughput * connection_weight(wo). An
+// estimator independent of the bin counts (it never uses the exits).
+struct PointEstimate {
+  Estimate total, single;  // single: events of order 1 only
+};
+std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
+                                                    const std::vector<glm::dvec3>& wo,
+                                                    std::uint64_t samples, std::uint64_t seed,
+                                                    const WalkSettings& walk = {});
+
+// The same estimator averaged over each bin of a table (for every event, one direction drawn in
+// every bin uniformly in projected solid angle: |cos|^2 uniform, phi uniform), so that it
+// estimates exactly what the bin counts estimate. Fills value, stderr_, single, multiple.
+BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& options);
+
+}  // namespace lamina
