@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include "materials/fresnel.h"
+#include "materials/zeroth_order.h"
 
 namespace lamina {
 
@@ -68,7 +69,7 @@ BrdfTable empty_table(const BrdfOptions& options) {
 }
 
 // Fractions of incident power: totals slots in the accumulator.
-enum TotalSlot { kRs, kRd, kTb, kTd, kAbs, kAbsDirect, kTotalSlots };
+enum TotalSlot { kRs, kRd, kTb, kTd, kAbs, kAbsDirect, kRsWalk, kTbWalk, kTotalSlots };
 
 }  // namespace
 
@@ -93,8 +94,9 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   BrdfTable table = empty_table(options);
   const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
   const double phi_i = options.phi_i_deg * kDegree;
-  // Fresnel reflection at the top: exact, identical for every photon (zero variance).
+  // Fresnel reflection at the top (exact, zero variance) and the analytic delta parts.
   const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
+  const ZerothOrder zeroth = zeroth_order(stack, wi.z);
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single].
   const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds;
@@ -104,10 +106,13 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
     Rng rng(options.seed, i);
     const WalkResult walk = random_walk(stack, wi, rng, {}, options.walk);
     Spectrum x[kTotalSlots];
-    x[kRs] = Spectrum(r_top);
+    x[kRs] = zeroth.R_specular;
+    x[kTb] = zeroth.T_ballistic;
+    x[kRsWalk] = Spectrum(r_top);
+    // Unscattered exits leave in the mirror / ballistic direction: delta parts, not diffuse.
     const bool delta = walk.scatter_count == 0;
-    if (walk.side == WalkResult::Side::Top) x[delta ? kRs : kRd] += walk.weight;
-    if (walk.side == WalkResult::Side::Bottom) x[delta ? kTb : kTd] += walk.weight;
+    if (walk.side == WalkResult::Side::Top) x[delta ? kRsWalk : kRd] += walk.weight;
+    if (walk.side == WalkResult::Side::Bottom) x[delta ? kTbWalk : kTd] += walk.weight;
     // Conservation by construction: this photon's absorbed part is what did not leave.
     x[kAbs] = Spectrum(1.0) - x[kRs] - x[kRd] - x[kTb] - x[kTd];
     x[kAbsDirect] = walk.absorbed;
@@ -136,11 +141,15 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const std::uint64_t n = options.samples;
   Estimate* totals[kTotalSlots] = {&table.totals.R_specular, &table.totals.R_diffuse,
                                    &table.totals.T_ballistic, &table.totals.T_diffuse,
-                                   &table.totals.absorbed, &table.totals.absorbed_direct};
+                                   &table.totals.absorbed, &table.totals.absorbed_direct,
+                                   &table.totals.R_specular_walk, &table.totals.T_ballistic_walk};
   for (int s = 0; s < kTotalSlots; ++s)
     for (int c = 0; c < kChannels; ++c)
       mean_and_error(acc[totals_at + (s * kChannels + c) * 2], acc[totals_at + (s * kChannels + c) * 2 + 1],
                      n, &totals[s]->value[c], &totals[s]->stderr_[c]);
+  // The analytic parts are the same for every photon: report them exactly (no summation error).
+  table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
+  table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
   for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
   for (std::size_t b = 0; b < nb; ++b)
     for (int c = 0; c < kChannels; ++c) {

@@ -45,11 +45,15 @@ struct Estimate {
 };
 
 // The five totals of contracts.md (fractions of the incident power, per channel).
+// R_specular and T_ballistic are the analytic zeroth order (materials/zeroth_order: exact, zero
+// standard error); R_diffuse and T_diffuse are the walks' exits after at least one scattering
+// event; absorbed is, photon by photon, 1 minus the other four, so the five sum to 1 by
+// construction and absorbed is still an unbiased estimator (with the diffuse parts' noise).
 struct EnergyTotals {
   Estimate R_specular, R_diffuse, T_ballistic, T_diffuse, absorbed;
-  // absorbed above is 1 minus the other four (conservation by construction). The walk's direct
-  // tally of absorption, an estimator of the same quantity with its own noise:
-  Estimate absorbed_direct;
+  // Independent Monte Carlo estimates of the same quantities, for tests: the walk's direct tally
+  // of absorption, and its unscattered exits (top Fresnel reflection included) as delta parts.
+  Estimate absorbed_direct, R_specular_walk, T_ballistic_walk;
 };
 
 enum class BrdfSide { Reflect = 0, Transmit = 1 };
