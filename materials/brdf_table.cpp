@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "materials/first_order.h"
 #include "materials/fresnel.h"
 #include "materials/zeroth_order.h"
 
@@ -63,7 +64,7 @@ BrdfTable empty_table(const BrdfOptions& options) {
   table.options = options;
   const std::size_t nb = 2u * options.bins_theta * options.bins_phi;
   table.value.assign(nb, Spectrum(0.0));
-  table.stderr_ = table.single = table.multiple = table.value;
+  table.stderr_ = table.single = table.multiple = table.single_stderr = table.value;
   table.ends.assign(kEndKinds, 0);
   return table;
 }
@@ -98,9 +99,10 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
   const ZerothOrder zeroth = zeroth_order(stack, wi.z);
   const std::size_t nb = table.value.size();
-  // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single].
+  // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
+  // single2].
   const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds;
-  const std::size_t size = bins_at + nb * kChannels * 3;
+  const std::size_t size = bins_at + nb * kChannels * 4;
 
   const std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(options.seed, i);
@@ -129,10 +131,13 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
         const double scale = 1.0 / table.projected_solid_angle(k);
         for (int c = 0; c < kChannels; ++c) {
           const double v = walk.weight[c] * scale;
-          double* slot = &a[bins_at + (b * kChannels + c) * 3];
+          double* slot = &a[bins_at + (b * kChannels + c) * 4];
           slot[0] += v;
           slot[1] += v * v;
-          if (walk.scatter_count == 1) slot[2] += v;
+          if (walk.scatter_count == 1) {
+            slot[2] += v;
+            slot[3] += v * v;
+          }
         }
       }
     }
@@ -153,11 +158,52 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
   for (std::size_t b = 0; b < nb; ++b)
     for (int c = 0; c < kChannels; ++c) {
-      const double* slot = &acc[bins_at + (b * kChannels + c) * 3];
+      const double* slot = &acc[bins_at + (b * kChannels + c) * 4];
       mean_and_error(slot[0], slot[1], n, &table.value[b][c], &table.stderr_[b][c]);
-      table.single[b][c] = slot[2] / static_cast<double>(n);
+      mean_and_error(slot[2], slot[3], n, &table.single[b][c], &table.single_stderr[b][c]);
       table.multiple[b][c] = table.value[b][c] - table.single[b][c];
     }
+  return table;
+}
+
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n) {
+  BrdfTable table = empty_table(options);
+  const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
+  const double phi_i = options.phi_i_deg * kDegree;
+  const int K = options.bins_theta, M = options.bins_phi;
+  // Bin average weighted by projected solid angle: with x = mu^2 (dx = 2 mu dmu, so
+  // mu dmu dphi = dx dphi / 2) the weight is uniform in (x, phi): Gauss-Legendre in x on
+  // [lo^2, hi^2] and the midpoint rule in phi, normalised by the bin's area in (x, phi).
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, 2 * K), [&](const tbb::blocked_range<int>& range) {
+    std::vector<double> nodes(n), weights(n);
+    for (int sk = range.begin(); sk != range.end(); ++sk) {
+      const int side = sk / K, k = sk % K;
+      const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
+      gauss_legendre(n, lo * lo, hi * hi, nodes.data(), weights.data());
+      for (int m = 0; m < M; ++m) {
+        Spectrum sum;
+        for (int a = 0; a < n; ++a) {
+          const double mu = std::sqrt(nodes[a]);
+          const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
+          for (int b = 0; b < n; ++b) {
+            const double phi = phi_i + 2.0 * kPi * (m + (b + 0.5) / n) / M;
+            const glm::dvec3 wo{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
+            sum += first_order_bsdf(stack, wi, wo) * (weights[a] / n);
+          }
+        }
+        const int idx = table.bin_index(static_cast<BrdfSide>(side), k, m);
+        table.value[idx] = table.single[idx] = sum / ((hi - lo) * (hi + lo));
+      }
+    }
+  });
+  const ZerothOrder zeroth = zeroth_order(stack, wi.z);
+  const FirstOrderAlbedo albedo = first_order_albedo(stack, wi.z);
+  table.totals.R_specular.value = zeroth.R_specular;
+  table.totals.T_ballistic.value = zeroth.T_ballistic;
+  table.totals.R_diffuse.value = albedo.R_diffuse;
+  table.totals.T_diffuse.value = albedo.T_diffuse;
+  table.totals.absorbed.value = Spectrum(1.0) - zeroth.R_specular - zeroth.T_ballistic - albedo.R_diffuse - albedo.T_diffuse;
   return table;
 }
 
@@ -166,13 +212,15 @@ std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, con
                                                     std::uint64_t samples, std::uint64_t seed,
                                                     const WalkSettings& walk_settings) {
   const std::size_t nd = wo.size();
+  std::vector<ConnectionTarget> targets;
+  for (const glm::dvec3& w : wo) targets.push_back(prepare_connection(stack, w));
   // Layout: [direction][channel][sum, sum2, single sum, single sum2].
   const std::vector<double> acc = run_photons(samples, nd * kChannels * 4, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(seed, i);
     std::vector<Spectrum> total(nd), single(nd);
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
       for (std::size_t j = 0; j < nd; ++j) {
-        const Spectrum v = event.throughput * connection_weight(stack, event, wo[j]);
+        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[j]);
         total[j] += v;
         if (event.order == 1) single[j] += v;
       }
@@ -207,22 +255,26 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
     Rng rng(options.seed, i);
     Rng directions(options.seed, i, 1);  // a separate stream: the walk is the same as the table's
     std::vector<Spectrum> total(nb), single(nb);
+    // One direction per bin and photon, uniform in projected solid angle within the bin (mu^2
+    // uniform in [lo^2, hi^2], phi uniform), drawn independently of the walk and shared by its
+    // events: E over w of sum_e W_e c(w) = sum_e W_e (bin average of c), so unbiased.
+    std::vector<ConnectionTarget> targets(nb);
+    for (int side = 0; side < 2; ++side)
+      for (int k = 0; k < K; ++k)
+        for (int m = 0; m < M; ++m) {
+          const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
+          const double mu = std::sqrt(lo * lo + directions.uniform() * (hi - lo) * (hi + lo));
+          const double phi = phi_i + 2.0 * kPi * (m + directions.uniform()) / M;
+          const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
+          const glm::dvec3 w{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
+          targets[table.bin_index(static_cast<BrdfSide>(side), k, m)] = prepare_connection(stack, w);
+        }
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
-      for (int side = 0; side < 2; ++side)
-        for (int k = 0; k < K; ++k)
-          for (int m = 0; m < M; ++m) {
-            // Uniform in projected solid angle within the bin: mu^2 uniform in [lo^2, hi^2].
-            const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
-            const double mu = std::sqrt(lo * lo + directions.uniform() * (hi - lo) * (hi + lo));
-            const double phi = phi_i + 2.0 * kPi * (m + directions.uniform()) / M;
-            const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
-            const glm::dvec3 w{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
-            if (mu <= 0.0) continue;
-            const int b = table.bin_index(static_cast<BrdfSide>(side), k, m);
-            const Spectrum v = event.throughput * connection_weight(stack, event, w);
-            total[b] += v;
-            if (event.order == 1) single[b] += v;
-          }
+      for (std::size_t b = 0; b < nb; ++b) {
+        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[b]);
+        total[b] += v;
+        if (event.order == 1) single[b] += v;
+      }
     }, options.walk);
     for (std::size_t b = 0; b < nb; ++b)
       for (int c = 0; c < kChannels; ++c) {

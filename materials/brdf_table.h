@@ -63,6 +63,7 @@ struct BrdfTable {
   EnergyTotals totals;
   // Per bin and channel, indexed by bin_index(side, k, m): value = single + multiple.
   std::vector<Spectrum> value, stderr_, single, multiple;
+  std::vector<Spectrum> single_stderr;  // standard error of `single` (Monte Carlo only)
   // How the walks ended, indexed by WalkResult::End.
   std::vector<std::uint64_t> ends;
 
@@ -79,9 +80,17 @@ struct BrdfTable {
 // number of threads (fixed partition into blocks, reduced in block order).
 BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& options);
 
+// The analytic table (`--method first-order`): value = single = the first-order BRDF/BTDF
+// (materials/first_order) averaged over each bin by quadrature weighted by projected solid angle
+// (n x n points per bin: Gauss-Legendre in |cos|^2... see the .cpp), stderr 0, multiple 0.
+// Totals: R_specular and T_ballistic from zeroth_order; R_diffuse and T_diffuse the first-order
+// albedos; absorbed = 1 - the others, i.e. the absorbed light PLUS the light of two and more
+// scattering events that first order leaves out (so that the five still sum to 1).
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n = 6);
+
 // The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
-// directions: the average over walks of sum_events throughput * connection_weight(wo). An
-// estimator independent of the bin counts (it never uses the exits).
+// directions: the average over walks of sum_events throughput * connection_weight_all_paths(wo).
+// An estimator independent of the bin counts (it never uses the exits).
 struct PointEstimate {
   Estimate total, single;  // single: events of order 1 only
 };

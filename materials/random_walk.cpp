@@ -6,6 +6,7 @@
 
 #include "materials/fresnel.h"
 #include "materials/henyey_greenstein.h"
+#include "materials/zeroth_order.h"
 
 namespace lamina {
 
@@ -222,6 +223,96 @@ Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, c
   const double cos_theta = glm::dot(event.direction, path.inside);
   for (int c = 0; c < kChannels; ++c)
     value[c] = layer.phase(c, cos_theta) / path.mu_inside * std::exp(-path.tau[c]) * common;
+  return value;
+}
+
+// connection_weight_all_paths: with the notation of the derivation above, let the event sit in
+// layer k (thickness h, index n_k) at depth z, and let mu be the cosine in layer k of the
+// direction that refracts out to w (Snell). Inside layer k there are two such directions,
+// d_up = (w_t n_out/n_k, +mu) and d_dn = (w_t n_out/n_k, -mu), and the event emits into both:
+// S_up = p(d -> d_up)/mu and S_dn = p(d -> d_dn)/mu (the substrate: S_up = albedo/pi, S_dn = 0).
+// With A = exp(-sigma_t z/mu) (to the top of layer k), B = exp(-sigma_t (h - z)/mu) (to its
+// bottom), t = exp(-sigma_t h/mu) (one full pass), and the adding-method elements of
+// zeroth_order.h for everything above layer k (transmittance T_a out of the top, reflectance
+// R_a back down) and below it (T_b, R_b), the unscattered radiance bounces between the two
+// parts as a geometric series with ratio R_a R_b t^2, so (each path leaves the stack through the
+// same media sequence, so the n^2 law gives the same (n_out/n_k)^2 for all of them):
+//   f_up(w) += W (n_out/n_k)^2 T_a (S_up A + S_dn B R_b t) / (1 - R_a R_b t^2),
+//   f_dn(w) += W (n_out/n_k)^2 T_b (S_dn B + S_up A R_a t) / (1 - R_a R_b t^2).
+// (Hanrahan and Krueger's first-order formulas are the case of one layer and one event.)
+ConnectionTarget prepare_connection(const LayerStack& stack, const glm::dvec3& w) {
+  ConnectionTarget target;
+  target.w = w;
+  if (!(w.z != 0.0)) return target;
+  const bool up = w.z > 0.0;
+  if (!up && !stack.transmits()) return target;
+  target.valid = true;
+  target.mu_out = std::min(1.0, std::abs(w.z));
+  const std::size_t n = stack.layers.size();
+  for (int c = 0; c < kChannels; ++c) {
+    const StackTransport st = unscattered_transport(stack, c, target.mu_out, up ? Outside::Above : Outside::Below);
+    target.mu.resize(n);
+    target.t[c].resize(n);
+    target.t_out[c].resize(n);
+    target.r_above[c].resize(n);
+    target.r_below[c].resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const LayerTransport& L = st.layers[k];
+      target.mu[k] = L.mu;
+      target.t[c][k] = L.t;
+      target.t_out[c][k] = up ? L.above.T : L.below.T;
+      target.r_above[c][k] = L.above.R_bottom;
+      target.r_below[c][k] = L.below.R_top;
+    }
+  }
+  return target;
+}
+
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const glm::dvec3& w) {
+  return connection_weight_all_paths(stack, event, prepare_connection(stack, w));
+}
+
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const ConnectionTarget& target) {
+  if (!target.valid) return Spectrum(0.0);
+  const glm::dvec3& w = target.w;
+  const bool up = w.z > 0.0;
+  const bool substrate = event.kind == ScatterEvent::Kind::Substrate;
+  if (substrate && (!up || stack.below.kind != Below::Kind::Lambert)) return Spectrum(0.0);
+  const int k = event.layer;
+  const Layer& layer = stack.layers[k];
+  const double mu = target.mu[k];
+  if (!(mu > 0.0)) return Spectrum(0.0);
+  const double n_out = up ? stack.above_ior : stack.below.ior;
+  const double r = n_out / layer.ior;
+  const glm::dvec3 d_up{w.x * r, w.y * r, mu}, d_dn{w.x * r, w.y * r, -mu};
+  const double cos_up = glm::dot(event.direction, d_up), cos_dn = glm::dot(event.direction, d_dn);
+  const Spectrum sigma_t = layer.sigma_t();
+  Spectrum value;
+  for (int c = 0; c < kChannels; ++c) {
+    const double T_out = target.t_out[c][k];
+    if (T_out == 0.0) continue;
+    auto attenuation = [&](double distance) {
+      if (distance <= 0.0 || sigma_t[c] == 0.0) return 1.0;
+      return std::exp(-sigma_t[c] * distance / mu);
+    };
+    double s_up, s_dn;
+    if (substrate) {
+      s_up = stack.below.albedo[c] * kInvPi;
+      s_dn = 0.0;
+    } else {
+      s_up = layer.phase(c, cos_up) / mu;
+      s_dn = layer.phase(c, cos_dn) / mu;
+    }
+    const double a = attenuation(event.depth);
+    const double b = layer.semi_infinite() ? 0.0 : attenuation(layer.thickness - event.depth);
+    const double t = target.t[c][k], ra = target.r_above[c][k], rb = target.r_below[c][k];
+    const double cycle = 1.0 - ra * rb * t * t;
+    if (!(cycle > 0.0)) continue;
+    const double inner = up ? s_up * a + s_dn * b * rb * t : s_dn * b + s_up * a * ra * t;
+    value[c] = r * r * T_out * inner / cycle;
+  }
   return value;
 }
 

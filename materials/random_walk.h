@@ -18,6 +18,7 @@
 #pragma once
 
 #include <functional>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -110,6 +111,33 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
 // Zero where no inside direction refracts out to w, or w points to a side that does not transmit.
 // Derivation: see random_walk.cpp, above its definition.
 Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+
+// Like connection_weight, but summed over ALL unscattered paths from the event out to w: the
+// direct one, and those that are specularly reflected (any number of times) by the interfaces
+// above and below before leaving, in closed form (the adding method of materials/zeroth_order).
+// Then sum over every event of throughput * connection_weight_all_paths(w) estimates the whole
+// f(wi -> w) by itself (every exit path is its last scattering event followed by unscattered
+// bounces), and its order-1 events the first order exactly. connection_weight (direct path only)
+// is what the renderer combines by MIS with the walk's straight exits; the walk's other exits
+// carry the bounced paths there. Equal to connection_weight for an index-matched stack.
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const glm::dvec3& w);
+
+// The part of connection_weight_all_paths that depends only on w (the adding-method elements of
+// every layer at w's Snell invariant, per channel), to evaluate many events towards one w.
+struct ConnectionTarget {
+  glm::dvec3 w{0.0, 0.0, 1.0};
+  bool valid = false;
+  double mu_out = 0.0;
+  std::vector<double> mu;                       // cosine in each layer (< 0: cannot propagate)
+  std::vector<double> t[kChannels];             // one-pass transmittance of each layer
+  std::vector<double> t_out[kChannels];         // transmittance from layer k out towards w
+  std::vector<double> r_above[kChannels];       // R back down from above layer k
+  std::vector<double> r_below[kChannels];       // R back up from below layer k
+};
+ConnectionTarget prepare_connection(const LayerStack& stack, const glm::dvec3& w);
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const ConnectionTarget& target);
 
 // The solid-angle density (outside measure, 1/sr) with which the walk itself leaves along w
 // straight from `event` with no further interaction: phase (or cosine) sampling pdf of the inside

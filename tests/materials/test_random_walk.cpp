@@ -160,6 +160,31 @@ TEST(RandomWalk, ColouredWeightsBounded) {
   EXPECT_GT(events, 5000);
 }
 
+// The all-paths connection adds the specularly bounced paths to the direct one: equal to it where
+// no interface reflects (index-matched), larger otherwise.
+TEST(RandomWalk, AllPathsConnectionContainsTheDirectPath) {
+  LayerStack matched = one_layer(1.0, 0.4, Spectrum(0.2, 0.5, 1.0), Spectrum(4.0), Spectrum(0.5));
+  matched.layers.push_back(make_layer("b", 1.0, 0.3, Spectrum(0.1), Spectrum(2.0, 3.0, 4.0), Spectrum(-0.2)));
+  LayerStack mismatched = matched;
+  mismatched.layers[0].ior = 1.5;
+  mismatched.layers[1].ior = 1.3;
+  for (const glm::dvec3& w : {incident_direction(20.0, 30.0), incident_direction(80.0, 200.0),
+                              -incident_direction(40.0, 10.0)}) {
+    for (int layer : {0, 1}) {
+      ScatterEvent e;
+      e.layer = layer;
+      e.depth = 0.1;
+      e.direction = glm::normalize(glm::dvec3(0.3, -0.2, -0.9));
+      const Spectrum direct = connection_weight(matched, e, w), all = connection_weight_all_paths(matched, e, w);
+      const Spectrum direct_m = connection_weight(mismatched, e, w), all_m = connection_weight_all_paths(mismatched, e, w);
+      for (int c = 0; c < kChannels; ++c) {
+        EXPECT_NEAR(all[c], direct[c], 1e-14 * (1.0 + direct[c]));
+        EXPECT_GT(all_m[c], direct_m[c]);
+      }
+    }
+  }
+}
+
 // The connection weight vanishes where no inside direction exists and towards sides that do not
 // transmit; it is finite at grazing and normal directions.
 TEST(RandomWalk, ConnectionWeightDomain) {
