@@ -117,12 +117,16 @@ TEST(RandomWalk, GreyPhotonConservesEnergyWithoutRoulette) {
 TEST(RandomWalk, AlbedoOneSemiInfiniteEndsAndConserves) {
   const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(0.0), Spectrum(10.0), Spectrum(0.0));
   const glm::dvec3 wi = incident_direction(0.0, 0.0);
+  // Earlier forced roulette than the default (same schedule), to keep the test short.
+  WalkSettings settings;
+  settings.forced_after = 100;
+  settings.forced_exponential_after = 100000;
   const int n = 10000;
   double sum = 0.0, sum2 = 0.0;
   int roulette = 0, exits = 0;
   for (int i = 0; i < n; ++i) {
     Rng rng(5, i);
-    const WalkResult r = random_walk(s, wi, rng);
+    const WalkResult r = random_walk(s, wi, rng, {}, settings);
     ASSERT_TRUE(r.weight.is_finite());
     if (r.end == WalkResult::End::Roulette) ++roulette;
     if (r.end == WalkResult::End::ExitTop) ++exits;
