@@ -196,6 +196,30 @@ TEST(BrdfMonteCarlo, ReciprocityOfBrdf) {
   }
 }
 
+// Generalised reciprocity of the BTDF (Veach's thesis eq. 5.20): with wi in the medium above
+// (index n_a) and wo in the medium below (n_b), f_t(wi -> wo) / n_b^2 = f_t'(wo -> wi) / n_a^2,
+// where f_t' is the BTDF for light from below, i.e. of flipped(stack) with z negated. Tests the
+// n^2 law in the transmitted connection weights (a missing or inverted factor fails by
+// (n_b/n_a)^2 = 2.25 here).
+TEST(BrdfMonteCarlo, GeneralisedReciprocityOfBtdf) {
+  LayerStack s = one_layer(1.4, 0.3, Spectrum(0.3), Spectrum(5.0), Spectrum(0.6), 1.0, 1.5);
+  s.layers.push_back(make_layer("under", 1.2, 0.2, Spectrum(0.5), Spectrum(3.0), Spectrum(-0.2)));
+  const LayerStack f = flipped(s);
+  const double n_a = 1.0, n_b = 1.5;
+  const double pairs[][3] = {{10.0, 40.0, 30.0}, {50.0, 20.0, 170.0}};
+  for (const auto& p : pairs) {
+    const glm::dvec3 wi = incident_direction(p[0], 0.0);
+    const glm::dvec3 wo = -incident_direction(p[1], p[2]);  // below
+    const glm::dvec3 wi_f{wo.x, wo.y, -wo.z}, wo_f{wi.x, wi.y, -wi.z};  // flipped frame
+    const PointEstimate forward = brdf_connection_estimate(s, wi, {wo}, 8000, 3)[0];
+    const PointEstimate backward = brdf_connection_estimate(f, wi_f, {wo_f}, 8000, 4)[0];
+    for (int c = 0; c < kChannels; ++c)
+      EXPECT_NEAR(forward.total.value[c] / (n_b * n_b), backward.total.value[c] / (n_a * n_a),
+                  3.5 * hypot3(forward.total.stderr_[c] / (n_b * n_b), backward.total.stderr_[c] / (n_a * n_a)))
+          << p[0] << " " << p[1];
+  }
+}
+
 // Numerics at the extremes: finite, balanced (the direct absorption tally agrees with the
 // complement), non-negative; walks end.
 TEST(BrdfMonteCarlo, ExtremesStayFiniteAndBalanced) {
