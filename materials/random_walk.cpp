@@ -373,7 +373,10 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   // the walk dies.
   auto roulette = [&](bool at_scatter) {
     double q = 1.0;
-    if (at_scatter && weight.max() < settings.roulette_threshold) q = settings.roulette_survival;
+    // Relative to the entering weight 1 - R: at grazing incidence that is tiny, and an absolute
+    // threshold would kill almost every walk at once (large relative variance for no gain).
+    if (at_scatter && weight.max() < settings.roulette_threshold * (1.0 - r_entry))
+      q = settings.roulette_survival;
     const int t = result.interactions;
     if (t > settings.forced_exponential_after) {
       q *= settings.forced_survival;
