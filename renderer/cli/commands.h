@@ -4,3 +4,4 @@
 #pragma once
 
 int run_compare(int argc, char** argv);
+int run_render(int argc, char** argv);

@@ -1,0 +1,179 @@
+// lamina render: a glTF scene to a linear EXR (contracts.md, "lamina render").
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "renderer/camera.h"
+#include "renderer/cli/commands.h"
+#include "renderer/environment.h"
+#include "renderer/image_io.h"
+#include "renderer/integrator.h"
+#include "renderer/lights.h"
+#include "renderer/progress.h"
+#include "renderer/scene.h"
+#include "renderer/scene_gltf.h"
+
+namespace lamina {
+namespace {
+
+constexpr const char* kVersion = "0.1.0";
+// Limits that catch typos (an extra zero or three), not real renders.
+constexpr int kMaxResolution = 16384;
+constexpr int kMaxSpp = 1 << 20;
+constexpr double kMaxPathSamples = 1e12;  // width x height x spp
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// The output path must be creatable: its directory exists and is writable, and it is not a
+// directory itself. Checked before rendering so a long render never ends in a failed write.
+void check_writable(const std::string& path, const char* what) {
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) throw UsageError(std::string(what) + " '" + path + "' is a directory");
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec)) throw UsageError(std::string(what) + " '" + path + "': directory '" + dir.string() + "' does not exist");
+  if (::access(dir.c_str(), W_OK) != 0) throw UsageError(std::string(what) + " '" + path + "': directory '" + dir.string() + "' is not writable");
+}
+
+std::string join_command_line(int argc, char** argv) {
+  std::string s = "lamina";
+  for (int i = 0; i < argc; ++i) s += std::string(" ") + argv[i];
+  return s;
+}
+
+const CameraDesc& find_camera(const SceneDesc& scene, const std::string& name) {
+  std::string names;
+  for (const CameraDesc& c : scene.cameras) {
+    if (c.name == name || c.node_name == name) return c;
+    names += (names.empty() ? "" : ", ") + ("'" + c.name + "'");
+  }
+  throw UsageError(scene.path + ": no camera named '" + name + "' (cameras: " + (names.empty() ? "none" : names) + ")");
+}
+
+}  // namespace
+}  // namespace lamina
+
+int run_render(int argc, char** argv) {
+  using namespace lamina;
+  CLI::App app("Renders a glTF 2.0 scene (.gltf/.glb) to a linear RGB EXR.", "lamina render");
+  std::string scene_path, out_path, camera_name, materials_path, env_value, png_path;
+  RenderSettings settings;
+  settings.width = 640;
+  settings.height = 480;
+  settings.spp = 16;
+  std::string subsurface = "random-walk";
+  app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
+  app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
+  app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str();
+  app.add_option("--width", settings.width, "image width in pixels")->capture_default_str();
+  app.add_option("--height", settings.height, "image height in pixels")->capture_default_str();
+  app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
+  app.add_option("--materials", materials_path, "material map JSON (layered materials; not available yet)");
+  app.add_option("--seed", settings.seed, "random seed")->capture_default_str();
+  app.add_option("--threads", settings.threads, "worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--subsurface", subsurface,
+                 "shading of layered materials: random-walk|first-order|table|lambert (no effect until layered "
+                 "materials exist)")
+      ->capture_default_str();
+  app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
+  app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
+  app.add_option("--png", png_path, "also write an sRGB PNG preview");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "lamina render: %s\n", e.what());
+    return 2;
+  }
+
+  try {
+    if (settings.width < 1 || settings.width > kMaxResolution || settings.height < 1 || settings.height > kMaxResolution)
+      throw UsageError("--width and --height must be between 1 and " + std::to_string(kMaxResolution));
+    if (settings.spp < 1 || settings.spp > kMaxSpp)
+      throw UsageError("--spp must be between 1 and " + std::to_string(kMaxSpp));
+    if (static_cast<double>(settings.width) * settings.height * settings.spp > kMaxPathSamples)
+      throw UsageError("--width x --height x --spp exceeds 1e12 paths");
+    if (settings.max_depth < 0 || settings.max_depth > 100000) throw UsageError("--max-depth must be between 0 and 100000");
+    if (settings.threads < 0 || settings.threads > 4096) throw UsageError("--threads must be between 0 and 4096");
+    if (subsurface != "random-walk" && subsurface != "first-order" && subsurface != "table" && subsurface != "lambert")
+      throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table or lambert");
+    if (!materials_path.empty())
+      throw UsageError("--materials '" + materials_path + "': material maps are not supported yet (layered materials)");
+    if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
+    check_writable(out_path, "output");
+    if (!png_path.empty()) check_writable(png_path, "--png");
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "lamina render: %s\n", e.what());
+    return 2;
+  }
+
+  try {
+    EnvironmentMap env;
+    if (!env_value.empty()) env = EnvironmentMap::from_argument(env_value);
+    SceneDesc desc = load_gltf(scene_path);
+    for (const std::string& w : desc.warnings) std::fprintf(stderr, "lamina render: warning: %s: %s\n", scene_path.c_str(), w.c_str());
+    const double aspect = static_cast<double>(settings.width) / settings.height;
+    CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
+                                         : find_camera(desc, camera_name);
+    const Scene scene(std::move(desc));
+    const LightSet lights(scene, env);
+    if (lights.empty())
+      std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
+                   scene_path.c_str());
+    const Camera camera(cam, settings.width, settings.height);
+
+    Progress progress("render", static_cast<std::uint64_t>(settings.width) * settings.height * settings.spp);
+    RenderStats stats;
+    const Image image = render_image(scene, lights, camera, settings, &stats,
+                                     [&](std::uint64_t n) { progress.advance(n); });
+    progress.finish();
+    const double seconds = progress.elapsed_seconds();
+
+    std::ostringstream sec;
+    sec << seconds;
+    const Metadata meta = {
+        {"lamina:version", kVersion},
+        {"lamina:command", join_command_line(argc, argv)},
+        {"lamina:scene", scene_path},
+        {"lamina:camera", cam.name},
+        {"lamina:spp", std::to_string(settings.spp)},
+        {"lamina:seed", std::to_string(settings.seed)},
+        {"lamina:max_depth", std::to_string(settings.max_depth)},
+        {"lamina:env", env_value.empty() ? "0" : env_value},
+        {"lamina:subsurface", subsurface},
+        {"lamina:seconds", sec.str()},
+        {"lamina:rays_closest", std::to_string(stats.rays.closest)},
+        {"lamina:rays_camera", std::to_string(stats.rays.camera)},
+        {"lamina:rays_shadow", std::to_string(stats.rays.shadow)},
+    };
+    write_exr(out_path, image, meta);
+    if (!png_path.empty()) write_png(png_path, image);
+
+    const double s = std::max(seconds, 1e-9);
+    std::printf(
+        "lamina render: %s -> %s: %dx%d, %d spp, %.2f s; rays: %.3g closest-hit (%.3g camera) = %.3g/s, %.3g shadow = "
+        "%.3g/s; peak memory %.0f MB\n",
+        scene_path.c_str(), out_path.c_str(), settings.width, settings.height, settings.spp, seconds,
+        static_cast<double>(stats.rays.closest), static_cast<double>(stats.rays.camera), stats.rays.closest / s,
+        static_cast<double>(stats.rays.shadow), stats.rays.shadow / s, peak_memory_bytes() / 1048576.0);
+    if (stats.invalid_samples > 0)
+      std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
+                   static_cast<unsigned long long>(stats.invalid_samples));
+    return 0;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "lamina render: %s\n", e.what());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina render: %s\n", e.what());
+  }
+  return 1;
+}

@@ -1,0 +1,48 @@
+// The unidirectional path tracer: next-event estimation at every bounce, multiple importance
+// sampling (power heuristic) between light and BSDF sampling, Russian roulette (pbrt-v4 13.4
+// and 14.1; Veach's thesis ch. 9 for MIS).
+//
+// Determinism: sample s of pixel i draws all its random numbers from Rng(seed, i, s) and each
+// pixel is summed in sample order by one task, so the image is bit-identical for any number
+// of threads.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "materials/sampling.h"
+#include "renderer/camera.h"
+#include "renderer/image.h"
+#include "renderer/lights.h"
+#include "renderer/scene.h"
+
+namespace lamina {
+
+struct RenderSettings {
+  int width = 640;
+  int height = 480;
+  int spp = 16;
+  std::uint64_t seed = 0;
+  int max_depth = 64;  // bounces: 0 shows emitters and the environment only
+  int threads = 0;     // 0: all cores
+  RayLog* ray_log = nullptr;  // benchmark only: records every ray (forces one thread)
+};
+
+struct RenderStats {
+  RayCounters rays;
+  std::uint64_t invalid_samples = 0;  // NaN/Inf path estimates, dropped (should stay 0)
+};
+
+// Radiance arriving at ray.origin along -ray.direction, estimated by one path.
+Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
+                       RayCounters* rays);
+
+// Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.
+Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
+                   RenderStats* stats, const std::function<void(std::uint64_t)>& on_progress = {});
+
+// A film offset in [-1, 1]^2 distributed as the tent filter of radius 1 pixel, so each
+// sample has weight 1 (filter importance sampling, pbrt-v4 8.8.1).
+glm::dvec2 sample_tent_filter(glm::dvec2 u);
+
+}  // namespace lamina

@@ -1,0 +1,110 @@
+// Reading a glTF 2.0 scene (.gltf or .glb, via tinygltf) into plain data: world-space triangle
+// meshes, materials, textures, cameras and punctual lights. Nothing here knows about Embree.
+//
+// Units of KHR_lights_punctual (glTF spec, KHR_lights_punctual "Light Types"): point and spot
+// intensity is in candela (lm/sr), directional in lux (lm/m^2). Lamina is radiometric and treats
+// these numbers as W/sr (radiant intensity) and W/m^2 (irradiance on a surface facing the
+// light) with no 683 lm/W factor: a point light of intensity I puts irradiance I cos/d^2 on a
+// surface. Emissive materials give radiance emissiveFactor x KHR_materials_emissive_strength x
+// emissiveTexture (W/(m^2 sr), the same arbitrary unit).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "materials/spectrum.h"
+
+namespace lamina {
+
+// Thrown with one line naming the file and the problem.
+struct SceneError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// A decoded texture in linear RGB (8-bit colour textures are decoded from sRGB when loaded).
+struct Texture {
+  int width = 0;
+  int height = 0;
+  std::vector<float> rgb;  // row-major from the top row (glTF: v = 0 at the top)
+  bool clamp_s = false;    // CLAMP_TO_EDGE, else REPEAT (mirrored repeat is read as repeat)
+  bool clamp_t = false;
+  // Bilinear lookup at texture coordinates uv.
+  Spectrum lookup(glm::dvec2 uv) const;
+};
+
+struct Material {
+  std::string name;
+  Spectrum base_color{0.8};  // linear; glTF default baseColorFactor is 1, see load_gltf
+  int base_color_texture = -1;
+  Spectrum emission;  // emissiveFactor x emissive_strength
+  int emissive_texture = -1;
+  bool double_sided = false;  // recorded; the path tracer shades both sides of every surface
+  // Material `extras`, flattened to dotted keys: {"lamina": {"stack": "skin.json"}} gives
+  // extras["lamina.stack"] = "skin.json". Non-string leaves are stored as their JSON text.
+  std::map<std::string, std::string> extras;
+};
+
+// A triangle mesh in world space (node transforms applied).
+struct Mesh {
+  std::string name;
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;    // one per position, unit length; empty: flat shading
+                                     // (glTF: "calculate flat normals" when NORMAL is absent)
+  std::vector<glm::vec2> texcoords;  // empty, or one per position
+  std::vector<std::uint32_t> indices;  // 3 per triangle, degenerate triangles removed
+  int material = -1;                   // -1: the default material
+};
+
+struct CameraDesc {
+  std::string name;       // the camera's name, or its node's when the camera has none
+  std::string node_name;
+  glm::dvec3 position{0.0};
+  glm::dvec3 forward{0.0, 0.0, -1.0};  // glTF cameras look down their local -Z
+  glm::dvec3 up{0.0, 1.0, 0.0};
+  double yfov = 0.0;  // radians
+};
+
+enum class LightType { kPoint, kSpot, kDirectional };
+
+struct LightDesc {
+  std::string name;
+  LightType type = LightType::kPoint;
+  Spectrum intensity;  // colour x intensity: W/sr (point, spot) or W/m^2 (directional)
+  glm::dvec3 position{0.0};
+  glm::dvec3 direction{0.0, 0.0, -1.0};  // the direction light travels (local -Z)
+  double cos_inner = 1.0;                // spot cone, cosines of the glTF cone angles
+  double cos_outer = 0.0;
+};
+
+struct SceneDesc {
+  std::string path;
+  std::vector<Mesh> meshes;
+  std::vector<Material> materials;
+  std::vector<Texture> textures;
+  std::vector<CameraDesc> cameras;
+  std::vector<LightDesc> lights;
+  glm::dvec3 bounds_min{0.0};
+  glm::dvec3 bounds_max{0.0};
+  std::uint64_t triangles = 0;
+  std::uint64_t degenerate_triangles = 0;  // skipped
+  std::vector<std::string> warnings;       // each once
+
+  const Material& material(int index) const;
+  void compute_bounds();
+};
+
+// Loads every mesh of the default scene (or scene 0). Throws SceneError on malformed files,
+// missing buffers or images, non-finite positions, or a scene with no triangles.
+SceneDesc load_gltf(const std::string& path);
+
+// A camera that sees the whole bounding box, looking down -Z (used when the file has none).
+CameraDesc framing_camera(const SceneDesc& scene, double aspect);
+
+}  // namespace lamina

@@ -1,0 +1,164 @@
+// `lamina render` as a user runs it: bad input gives one line on stderr naming the file and the
+// problem, a non-zero exit, no crash and no output file; good input writes the EXR (and PNG)
+// with its metadata.
+#include <sys/wait.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "renderer/image_io.h"
+#include "tests/renderer/gltf_fixture.h"
+
+namespace lamina {
+namespace {
+
+using testing::GltfBuilder;
+using testing::TempDir;
+
+struct Result {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Result run(const TempDir& dir, const std::string& args) {
+  const std::string cmd = std::string(LAMINA_EXE) + " render " + args + " >" + (dir / "stdout.txt") + " 2>" + (dir / "stderr.txt");
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = slurp(dir / "stdout.txt");
+  r.err = slurp(dir / "stderr.txt");
+  return r;
+}
+
+// A unit quad facing +Z, in front of the default framing camera.
+void write_quad(const std::string& path, bool glb = false) {
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  glb ? b.write_glb(path) : b.write_gltf(path);
+}
+
+// The error is one line, names `file`, and mentions `what`; nothing was written.
+void expect_failure(const Result& r, const std::string& file, const std::string& what, const std::string& out) {
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_LT(r.exit_code, 128) << "crashed: " << r.err;
+  std::string err = r.err;
+  while (!err.empty() && err.back() == '\n') err.pop_back();
+  EXPECT_EQ(err.find('\n'), std::string::npos) << "more than one line: " << r.err;
+  EXPECT_NE(err.find(file), std::string::npos) << r.err;
+  EXPECT_NE(err.find(what), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out)) << out;
+}
+
+TEST(RenderCli, RendersAndWritesMetadata) {
+  TempDir dir("cli-ok");
+  write_quad(dir / "quad.gltf");
+  const Result r = run(dir, dir / "quad.gltf" + " -o " + dir / "q.exr" + " --png " + dir / "q.png" +
+                                " --width 16 --height 12 --spp 2 --env 1 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image im = read_image(dir / "q.exr");
+  EXPECT_EQ(im.width, 16);
+  EXPECT_EQ(im.height, 12);
+  EXPECT_TRUE(std::filesystem::exists(dir / "q.png"));
+  bool spp = false, rays = false, seconds = false, command = false, version = false;
+  for (const auto& [k, v] : read_metadata(dir / "q.exr")) {
+    spp |= k == "lamina:spp" && v == "2";
+    rays |= k == "lamina:rays_closest" && std::stod(v) >= 16 * 12 * 2;
+    seconds |= k == "lamina:seconds";
+    command |= k == "lamina:command" && v.find("--spp 2") != std::string::npos;
+    version |= k == "lamina:version";
+  }
+  EXPECT_TRUE(spp && rays && seconds && command && version);
+  EXPECT_NE(r.out.find("spp"), std::string::npos);
+  EXPECT_NE(r.out.find("peak memory"), std::string::npos);
+}
+
+TEST(RenderCli, BadScenesFailCleanly) {
+  TempDir dir("cli-bad");
+  const std::string out = dir / "out.exr";
+  write_quad(dir / "ok.glb", true);
+  {
+    std::ifstream in(dir / "ok.glb", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.glb", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+    expect_failure(run(dir, dir / "cut.glb -o " + out), dir / "cut.glb", "", out);
+  }
+  {
+    std::ofstream(dir / "garbage.glb") << "this is not a glTF file";
+    expect_failure(run(dir, dir / "garbage.glb -o " + out), dir / "garbage.glb", "", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0})}});
+    b.write_gltf(dir / "ext.gltf", "ext.bin");
+    std::filesystem::remove(dir / "ext.bin");
+    expect_failure(run(dir, dir / "ext.gltf -o " + out), dir / "ext.gltf", "ext.bin", out);
+  }
+  {
+    GltfBuilder b;
+    b.json()["images"] = {{{"uri", "gone.png"}}};
+    b.json()["textures"] = {{{"source", 0}}};
+    b.json()["materials"].push_back({{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+    b.write_gltf(dir / "tex.gltf");
+    expect_failure(run(dir, dir / "tex.gltf -o " + out), dir / "tex.gltf", "gone.png", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"name", "nothing here"}});
+    b.write_gltf(dir / "empty.gltf");
+    expect_failure(run(dir, dir / "empty.gltf -o " + out), dir / "empty.gltf", "no triangles", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, NAN, 0, 0, 0, 1, 0})}});
+    b.write_gltf(dir / "nan.gltf");
+    expect_failure(run(dir, dir / "nan.gltf -o " + out), dir / "nan.gltf", "non-finite", out);
+  }
+  expect_failure(run(dir, dir / "missing.gltf -o " + out), dir / "missing.gltf", "", out);
+}
+
+TEST(RenderCli, DegenerateTrianglesAreSkippedAndCounted) {
+  TempDir dir("cli-degenerate");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2})}});
+  b.write_gltf(dir / "d.gltf");
+  const Result r = run(dir, dir / "d.gltf -o " + dir / "d.exr" + " --width 8 --height 8 --spp 1 --env 1");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("1 degenerate triangle"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "d.exr"));
+}
+
+TEST(RenderCli, BadOptionsFailCleanly) {
+  TempDir dir("cli-options");
+  const std::string scene = dir / "quad.gltf";
+  const std::string out = dir / "out.exr";
+  write_quad(scene);
+  expect_failure(run(dir, scene + " -o " + out + " --camera nosuch"), scene, "no camera named 'nosuch'", out);
+  expect_failure(run(dir, scene + " -o " + out + " --width 100000"), "--width", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --height 0"), "--height", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp 0"), "--spp", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp -3"), "--spp", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp lots"), "--spp", "", out);
+  expect_failure(run(dir, scene + " -o " + out + " --width 16384 --height 16384 --spp 1000000"), "--spp", "1e12", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface dipole"), "--subsurface 'dipole'", "random-walk", out);
+  expect_failure(run(dir, scene + " -o " + out + " --env not-a-file.exr"), "not-a-file.exr", "", out);
+  const std::string nodir = dir / "no/such/dir/out.exr";
+  expect_failure(run(dir, scene + " -o " + nodir), nodir, "does not exist", nodir);
+  expect_failure(run(dir, scene + " -o " + dir.path.string()), dir.path.string(), "is a directory", out);
+  expect_failure(run(dir, scene + " -o " + out + " --png " + nodir), nodir, "does not exist", out);
+}
+
+}  // namespace
+}  // namespace lamina
