@@ -41,7 +41,10 @@ struct BatchArgs {
   int threads = 0;
 };
 
-struct BatchError : std::runtime_error {
+struct BatchError : std::runtime_error {  // exit status 1
+  using std::runtime_error::runtime_error;
+};
+struct UsageError : std::runtime_error {  // bad arguments: exit status 2
   using std::runtime_error::runtime_error;
 };
 
@@ -268,7 +271,7 @@ int run(const BatchArgs& args) {
     try {
       std::tie(shard, shard_count) = parse_shard(args.shard);
     } catch (const std::invalid_argument& e) {
-      throw BatchError(e.what());
+      throw UsageError(e.what());
     }
   }
   const Manifest m = load_manifest(args.manifest);
@@ -284,8 +287,8 @@ int run(const BatchArgs& args) {
 
   std::error_code ec;
   fs::create_directories(fs::path(out) / "jobs", ec);
-  if (ec || !fs::is_directory(fs::path(out) / "jobs")) throw BatchError("--out '" + out + "': cannot create the directory");
-  if (::access(out.c_str(), W_OK) != 0) throw BatchError("--out '" + out + "': the directory is not writable");
+  if (ec || !fs::is_directory(fs::path(out) / "jobs")) throw UsageError("--out '" + out + "': cannot create the directory");
+  if (::access(out.c_str(), W_OK) != 0) throw UsageError("--out '" + out + "': the directory is not writable");
   // A record of the expansion: what each job is and its hash.
   json record = json::array();
   for (const BatchJob& job : jobs) record.push_back({{"id", job.id}, {"hash", job.hash}, {"description", job.description}});
@@ -359,9 +362,9 @@ int run_batch(int argc, char** argv) {
   } catch (const lamina::ManifestError& e) {
     std::fprintf(stderr, "lamina batch: %s\n", e.what());
     return 2;
-  } catch (const lamina::BatchError& e) {
+  } catch (const lamina::UsageError& e) {
     std::fprintf(stderr, "lamina batch: %s\n", e.what());
-    return e.what()[0] == '-' ? 2 : 1;
+    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lamina batch: %s\n", e.what());
     return 1;
