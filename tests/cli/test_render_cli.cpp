@@ -84,6 +84,32 @@ TEST(RenderCli, RendersAndWritesMetadata) {
   EXPECT_NE(r.out.find("peak memory"), std::string::npos);
 }
 
+// --camera picks a camera by name; --env reads an equirectangular EXR. The quad is emissive-free
+// and lit by a uniform EXR environment, so every pixel is finite and non-negative.
+TEST(RenderCli, NamedCameraAndEnvironmentFile) {
+  TempDir dir("cli-camera");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.json()["cameras"] = {{{"name", "near"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}},
+                         {{"name", "far"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
+  b.add_node({{"camera", 0}, {"translation", {0, 0, 2}}});
+  b.add_node({{"camera", 1}, {"translation", {0, 0, 50}}});
+  b.write_gltf(dir / "cams.gltf");
+  Image sky(8, 4);
+  for (float& v : sky.rgb) v = 0.5f;
+  write_exr(dir / "sky.exr", sky);
+  const Result r = run(dir, dir / "cams.gltf -o " + dir / "far.exr" + " --camera far --env " + dir / "sky.exr" +
+                                " --width 8 --height 8 --spp 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  bool far = false;
+  for (const auto& [k, v] : read_metadata(dir / "far.exr")) far |= k == "lamina:camera" && v == "far";
+  EXPECT_TRUE(far);
+  const Image im = read_image(dir / "far.exr");
+  // From 50 units a 2-unit quad covers ~0.07 of the view: the corner pixel sees the sky (0.5).
+  EXPECT_NEAR(im.pixel(0, 0)[0], 0.5, 1e-3);
+  for (float v : im.rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+}
+
 TEST(RenderCli, BadScenesFailCleanly) {
   TempDir dir("cli-bad");
   const std::string out = dir / "out.exr";

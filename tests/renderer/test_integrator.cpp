@@ -206,6 +206,45 @@ TEST(Integrator, LambertPlaneUnderDirectionalLight) {
       }
 }
 
+// Point and spot lights of intensity I straight above a Lambert plane at height h: L = a I/(pi h^2)
+// at the foot of the light (one pixel of a 0.001 degree field of view, symmetric about the foot: cos and 1/d^2 vary
+// by < 1e-8 over it); a spot aimed away from the plane gives 0; halfway through the falloff
+// ramp, t = 1/2 gives attenuation 1/4.
+TEST(Integrator, PointAndSpotLightsAbovePlane) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  const double h = 5.0, intensity = 7.0;
+  auto radiance_below = [&](LightType type, glm::dvec3 direction, double cos_inner, double cos_outer) {
+    SceneDesc d = make_scene({plane}, {mat});
+    LightDesc l;
+    l.type = type;
+    l.intensity = Spectrum(intensity);
+    l.position = {0.0, h, 0.0};
+    l.direction = direction;
+    l.cos_inner = cos_inner;
+    l.cos_outer = cos_outer;
+    d.lights.push_back(l);
+    const Image im = render(d, EnvironmentMap(), camera_at({0.0, 2.0 * h, 0.0}, {0.0, -1.0, 0.0}, 0.001), 1, 1, 4);
+    return static_cast<double>(im.pixel(0, 0)[0]);
+  };
+  const double expected = 0.5 * intensity / (kPi * h * h);
+  EXPECT_NEAR(radiance_below(LightType::kPoint, {0, -1, 0}, 1, 0), expected, 1e-6 * expected);
+  EXPECT_NEAR(radiance_below(LightType::kSpot, {0, -1, 0}, std::cos(0.3), std::cos(0.5)), expected, 1e-6 * expected);
+  EXPECT_EQ(radiance_below(LightType::kSpot, {0, 1, 0}, std::cos(0.3), std::cos(0.5)), 0.0);
+  // Aim the spot so the plane's foot point sits at cos = (cos_inner + cos_outer)/2.
+  const double ci = std::cos(0.3), co = std::cos(0.5), c = 0.5 * (ci + co);
+  const glm::dvec3 tilted(std::sqrt(1.0 - c * c), -c, 0.0);
+  // On the ramp, attenuation t^2 changes by 2 dt/t = 2 sin(theta) d(theta) / (t (ci - co)); the
+  // pixel's samples reach at most 1.5 pixel widths (2h tan(fov/2) each, seen from distance 2h)
+  // from the foot, i.e. d(theta) <= 3 h tan(fov/2) / h, seen from the light at distance h.
+  const double dtheta = 3.0 * std::tan(0.5 * 0.001 * kPi / 180.0) * 2.0 * h / h;
+  const double rel = 2.0 * std::sqrt(1.0 - c * c) * dtheta / (0.5 * (ci - co));
+  EXPECT_NEAR(radiance_below(LightType::kSpot, tilted, ci, co), 0.25 * expected, rel * 0.25 * expected);
+}
+
 // An emissive quad seen directly shows its radiance exactly, from the front only.
 TEST(Integrator, EmissiveQuadSeenDirectly) {
   Material mat;
