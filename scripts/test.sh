@@ -3,6 +3,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
+# The Ray batch driver's test (tests/cli/test_batch_ray.cpp) needs the Python package ray: a
+# pinned version, installed here rather than in setup.sh so building and rendering never wait
+# for it. It fails (never skips silently) when ray is missing; LAMINA_SKIP_RAY=1 skips it.
+RAY_VERSION=2.60.0
+if [ "${LAMINA_SKIP_RAY:-0}" != 1 ] && ! python3 -c "import ray" >/dev/null 2>&1; then
+  echo "test: installing ray==${RAY_VERSION} for the Ray batch driver test"
+  python3 -m pip install --quiet "ray==${RAY_VERSION}"
+fi
 scripts/build.sh
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" --timeout 600

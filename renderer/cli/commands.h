@@ -3,6 +3,7 @@
 // the process exit status.
 #pragma once
 
-int run_render(int argc, char** argv);
 int run_compare(int argc, char** argv);
 int run_brdf(int argc, char** argv);
+int run_render(int argc, char** argv);
+int run_batch(int argc, char** argv);

@@ -39,8 +39,9 @@ int main(int argc, char** argv) {
     return 0;
   }
   // One line per command: it sees argv[1..] (its own name as argv[0]).
-  if (command == "render") return run_render(argc - 1, argv + 1);
   if (command == "compare") return run_compare(argc - 1, argv + 1);
+  if (command == "render") return run_render(argc - 1, argv + 1);
+  if (command == "batch") return run_batch(argc - 1, argv + 1);
   std::fprintf(stderr, "lamina: unknown command '%s' (try 'lamina --help')\n", command.c_str());
   return 2;
 }

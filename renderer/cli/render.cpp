@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -86,6 +87,8 @@ int run_render(int argc, char** argv) {
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
+  std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
+  app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
   try {
     app.parse(argc, argv);
@@ -109,6 +112,9 @@ int run_render(int argc, char** argv) {
       throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table or lambert");
     if (!materials_path.empty())
       throw UsageError("--materials '" + materials_path + "': material maps are not supported yet (layered materials)");
+    for (const std::string& kv : extra_meta)
+      if (kv.find('=') == std::string::npos || kv.front() == '=')
+        throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     check_writable(out_path, "output");
     if (!png_path.empty()) check_writable(png_path, "--png");
@@ -141,7 +147,7 @@ int run_render(int argc, char** argv) {
 
     std::ostringstream sec;
     sec << seconds;
-    const Metadata meta = {
+    Metadata meta = {
         {"lamina:version", kVersion},
         {"lamina:command", join_command_line(argc, argv)},
         {"lamina:scene", scene_path},
@@ -156,6 +162,10 @@ int run_render(int argc, char** argv) {
         {"lamina:rays_camera", std::to_string(stats.rays.camera)},
         {"lamina:rays_shadow", std::to_string(stats.rays.shadow)},
     };
+    for (const std::string& kv : extra_meta) {
+      const std::size_t eq = kv.find('=');
+      meta.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    }
     write_exr(out_path, image, meta);
     if (!png_path.empty()) write_png(png_path, image);
 

@@ -1,0 +1,372 @@
+// lamina batch: renders the jobs of a manifest, compares them, and writes a contact sheet and a
+// summary (contracts.md, "lamina batch"; the manifest schema and outputs are in docs/batch.md).
+//
+// Every job runs in this process through run_render (the code path of `lamina render`), with
+// the job's hash written into its EXR header; a job whose EXR exists and carries its hash is
+// complete and is skipped, and since EXRs are written to a temporary file and renamed, a killed
+// batch leaves no complete-looking output behind.
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "renderer/batch_manifest.h"
+#include "renderer/cli/commands.h"
+#include "renderer/contact_sheet.h"
+#include "renderer/false_colour.h"
+#include "renderer/image_compare.h"
+#include "renderer/image_io.h"
+#include "renderer/progress.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct BatchArgs {
+  std::string manifest, out, shard;
+  bool finalize = false, list = false, force = false;
+  int threads = 0;
+};
+
+struct BatchError : std::runtime_error {  // exit status 1
+  using std::runtime_error::runtime_error;
+};
+struct UsageError : std::runtime_error {  // bad arguments: exit status 2
+  using std::runtime_error::runtime_error;
+};
+
+std::string job_exr(const std::string& out, const BatchJob& job) { return (fs::path(out) / "jobs" / (job.id + ".exr")).string(); }
+
+// A file name for a glTF material name (any UTF-8 string): unsafe bytes become '_'.
+std::string file_stem_for(const std::string& name) {
+  std::string s;
+  for (unsigned char c : name) s += (std::isalnum(c) || c == '-' || c == '.') ? static_cast<char>(c) : '_';
+  if (s.empty() || s[0] == '.') s = "_" + s;
+  return s;
+}
+
+// Writes `text` to `path` unless the file already holds exactly that: through a temporary file
+// named after this host and process and rename(2), so shards running at once on a shared
+// file system never see a half-written file.
+void write_text_if_changed(const std::string& path, const std::string& text) {
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (in) {
+      std::ostringstream s;
+      s << in.rdbuf();
+      if (s.str() == text) return;
+    }
+  }
+  char host[256] = "host";
+  ::gethostname(host, sizeof host - 1);
+  const std::string tmp = path + ".tmp-" + host + "-" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw BatchError(path + ": cannot write");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw BatchError(path + ": cannot write (rename failed)");
+  }
+}
+
+// A job is complete when its EXR exists and its header carries the job's hash.
+bool job_complete(const std::string& out, const BatchJob& job, Metadata* metadata = nullptr) {
+  const std::string path = job_exr(out, job);
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  try {
+    Metadata meta = read_metadata(path);
+    for (const auto& [k, v] : meta)
+      if (k == "lamina:job_hash" && v == job.hash) {
+        if (metadata) *metadata = std::move(meta);
+        return true;
+      }
+  } catch (const std::exception&) {
+  }
+  return false;
+}
+
+// The material map of a job (glTF material name -> stack file, relative to the map), with the
+// stacks written beside it: out/materials/<scene>/<variant>/.
+std::string write_material_map(const std::string& out, const BatchJob& job) {
+  const fs::path dir = fs::path(out) / "materials" / job.scene / job.variant;
+  fs::create_directories(dir);
+  json map = json::object();
+  std::set<std::string> stems;
+  for (const MaterialBinding& b : job.materials) {
+    std::string stem = file_stem_for(b.material);
+    for (int k = 2; stems.count(stem); ++k) stem = file_stem_for(b.material) + "-" + std::to_string(k);
+    stems.insert(stem);
+    write_text_if_changed((dir / (stem + ".json")).string(), b.stack.dump(2) + "\n");
+    map[b.material] = stem + ".json";
+  }
+  const std::string map_path = (dir / "map.json").string();
+  write_text_if_changed(map_path, map.dump(2) + "\n");
+  return map_path;
+}
+
+std::string number(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+// Renders one job through `lamina render`'s code path. Returns its exit status.
+int render_job(const std::string& out, const BatchJob& job, const Manifest& m, int threads) {
+  std::vector<std::string> args = {"render", job.scene_file, "-o", job_exr(out, job),
+                                   "--spp", std::to_string(job.spp), "--width", std::to_string(m.settings.width),
+                                   "--height", std::to_string(m.settings.height), "--seed", std::to_string(m.settings.seed),
+                                   "--max-depth", std::to_string(m.settings.max_depth), "--subsurface", job.mode,
+                                   "--threads", std::to_string(threads)};
+  if (!job.env.empty()) args.insert(args.end(), {"--env", job.env});
+  if (!job.camera.empty()) args.insert(args.end(), {"--camera", job.camera});
+  if (!job.materials.empty()) args.insert(args.end(), {"--materials", write_material_map(out, job)});
+  args.insert(args.end(), {"--meta", "lamina:job_id=" + job.id, "--meta", "lamina:job_hash=" + job.hash});
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  return run_render(static_cast<int>(args.size()), argv.data());
+}
+
+// Temporary files left by a killed write (image_io's "<file>.tmp-<pid>-<n>", ours
+// "<file>.tmp-<host>-<pid>"): only removed when no other process can be writing them.
+void remove_stale_temporaries(const std::string& out) {
+  for (const char* sub : {"jobs", "diffs"}) {
+    std::error_code ec;
+    const fs::path dir = fs::path(out) / sub;
+    if (!fs::is_directory(dir, ec)) continue;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
+      if (e.path().filename().string().find(".tmp-") != std::string::npos) fs::remove(e.path(), ec);
+  }
+}
+
+std::string meta_value(const Metadata& meta, const std::string& key) {
+  for (const auto& [k, v] : meta)
+    if (k == key) return v;
+  return "";
+}
+
+// Display colours of a signed relative difference, as linear values for write_png.
+Image diff_thumbnail(const std::vector<float>& relative, int width, int height, double range) {
+  Image image(width, height);
+  for (std::size_t i = 0; i < relative.size(); ++i) {
+    const std::array<float, 3> c = diverging_colour(relative[i] / range);
+    for (int k = 0; k < 3; ++k) image.rgb[i * 3 + k] = static_cast<float>(srgb_decode(c[k]));
+  }
+  return image;
+}
+
+// Shortest text that reads back as the same double (nlohmann::json prints numbers so).
+std::string csv_number(double v) { return std::isfinite(v) ? json(v).dump() : ""; }
+
+// Comparisons, previews, the contact sheet and the summary: needs every job complete.
+int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJob>& jobs, const std::vector<ComparisonPair>& pairs) {
+  std::vector<Metadata> meta(jobs.size());
+  std::vector<std::string> missing;
+  for (const BatchJob& job : jobs)
+    if (!job_complete(out, job, &meta[job.index])) missing.push_back(job.id);
+  if (!missing.empty())
+    throw BatchError(std::to_string(missing.size()) + " of " + std::to_string(jobs.size()) + " jobs have no complete output in '" + out +
+                     "' (first: " + missing.front() + "); render them first (all shards)");
+  remove_stale_temporaries(out);
+  fs::create_directories(fs::path(out) / "diffs");
+
+  std::vector<Image> images;
+  images.reserve(jobs.size());
+  for (const BatchJob& job : jobs) {
+    images.push_back(read_image(job_exr(out, job)));
+    write_png((fs::path(out) / "jobs" / (job.id + ".png")).string(), images.back());
+  }
+
+  // Comparisons: the difference images and their metrics.
+  std::vector<CompareMetrics> metrics(pairs.size());
+  std::vector<ContactCell> diff_cells;
+  std::ostringstream cmp_csv;
+  cmp_csv << "comparison,reference,test,mean_relative,rms_relative,max_abs_relative,rmse,ssim\n";
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const ComparisonPair& p = pairs[i];
+    const Image& ref = images[p.reference];
+    const Image& test = images[p.test];
+    if (ref.width != test.width || ref.height != test.height) throw BatchError(p.id + ": the two images differ in size");
+    metrics[i] = compare_images(ref, test);
+    const CompareMetrics& c = metrics[i];
+    const std::string stem = (fs::path(out) / "diffs" / p.id).string();
+    write_exr(stem + ".exr", relative_difference(ref, test, c.guard_floor),
+              {{"lamina:compare:reference", jobs[p.reference].id},
+               {"lamina:compare:test", jobs[p.test].id},
+               {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
+               {"lamina:compare:guard_floor", number(c.guard_floor)}});
+    const std::vector<float> rel = relative_luminance_difference(ref, test);
+    write_png(stem + ".png", false_colour_with_legend(rel, ref.width, ref.height, m.contact_sheet.diff_range));
+    cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << csv_number(c.mean_relative) << ","
+            << csv_number(c.rms_relative) << "," << csv_number(c.max_abs_relative) << "," << csv_number(c.rmse) << ","
+            << csv_number(c.ssim) << "\n";
+    char range[32];
+    std::snprintf(range, sizeof range, "+-%g%%", 100.0 * m.contact_sheet.diff_range);
+    diff_cells.push_back({diff_thumbnail(rel, ref.width, ref.height, m.contact_sheet.diff_range),
+                          {"diff " + p.name + " " + range, jobs[p.test].id}});
+  }
+  write_text_if_changed((fs::path(out) / "comparisons.csv").string(), cmp_csv.str());
+
+  // The summary: one row per job; the error columns hold the first comparison the job is the
+  // test of, and are empty for jobs that are no comparison's test.
+  std::ostringstream csv;
+  csv << "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference\n";
+  for (const BatchJob& job : jobs) {
+    const Metadata& mt = meta[job.index];
+    double seconds = NAN, rays = NAN;
+    try {
+      seconds = std::stod(meta_value(mt, "lamina:seconds"));
+      rays = std::stod(meta_value(mt, "lamina:rays_closest")) + std::stod(meta_value(mt, "lamina:rays_shadow"));
+    } catch (const std::exception&) {
+    }
+    csv << job.id << "," << job.scene << "," << job.variant << "," << job.lighting << "," << job.mode << "," << job.spp << ","
+        << csv_number(seconds) << "," << csv_number(seconds > 0.0 ? rays / seconds : NAN) << ",";
+    const auto it = std::find_if(pairs.begin(), pairs.end(), [&](const ComparisonPair& p) { return p.test == job.index; });
+    if (it != pairs.end()) {
+      const CompareMetrics& c = metrics[static_cast<std::size_t>(it - pairs.begin())];
+      csv << csv_number(c.rmse) << "," << csv_number(c.rms_relative);
+    } else {
+      csv << ",";
+    }
+    csv << "\n";
+  }
+  write_text_if_changed((fs::path(out) / "summary.csv").string(), csv.str());
+
+  // Contact sheet: every job, then every difference.
+  std::vector<ContactCell> cells;
+  for (const BatchJob& job : jobs)
+    cells.push_back({images[job.index], {job.scene + " / " + job.variant + " / " + job.lighting, job.mode + ", " + std::to_string(job.spp) + " spp"}});
+  for (ContactCell& c : diff_cells) cells.push_back(std::move(c));
+  bool labelled = true;
+  const Image sheet = make_contact_sheet(cells, m.contact_sheet.columns, m.contact_sheet.thumbnail_width, &labelled);
+  if (!labelled) std::fprintf(stderr, "lamina batch: warning: DejaVu Sans not found (fonts-dejavu-core): contact sheet without labels\n");
+  write_png((fs::path(out) / "contact_sheet.png").string(), sheet);
+  std::printf("lamina batch: %s: %zu images, %zu comparisons, contact_sheet.png, summary.csv\n", out.c_str(), jobs.size(), pairs.size());
+  return 0;
+}
+
+int run(const BatchArgs& args) {
+  int shard = 0, shard_count = 1;
+  if (!args.shard.empty()) {
+    try {
+      std::tie(shard, shard_count) = parse_shard(args.shard);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(e.what());
+    }
+  }
+  const Manifest m = load_manifest(args.manifest);
+  const std::vector<BatchJob> jobs = expand_jobs(m);
+  const std::vector<ComparisonPair> pairs = resolve_comparisons(m, jobs);
+  const std::string out = args.out.empty() ? fs::path(args.manifest).stem().string() + "-batch" : args.out;
+
+  if (args.list) {
+    for (const BatchJob& job : jobs)
+      if (in_shard(job.index, shard, shard_count)) std::printf("%zu %s %s\n", job.index, job.id.c_str(), job.hash.c_str());
+    return 0;
+  }
+
+  std::error_code ec;
+  fs::create_directories(fs::path(out) / "jobs", ec);
+  if (ec || !fs::is_directory(fs::path(out) / "jobs")) throw UsageError("--out '" + out + "': cannot create the directory");
+  if (::access(out.c_str(), W_OK) != 0) throw UsageError("--out '" + out + "': the directory is not writable");
+  // A record of the expansion: what each job is and its hash.
+  json record = json::array();
+  for (const BatchJob& job : jobs) record.push_back({{"id", job.id}, {"hash", job.hash}, {"description", job.description}});
+  write_text_if_changed((fs::path(out) / "jobs.json").string(), record.dump(2) + "\n");
+
+  if (!args.finalize) {
+    if (shard_count == 1) remove_stale_temporaries(out);
+    std::vector<const BatchJob*> mine;
+    for (const BatchJob& job : jobs)
+      if (in_shard(job.index, shard, shard_count)) mine.push_back(&job);
+    std::size_t rendered = 0, skipped = 0;
+    std::vector<std::string> failed;
+    Progress progress("batch", mine.size());
+    for (std::size_t k = 0; k < mine.size(); ++k) {
+      const BatchJob& job = *mine[k];
+      if (!args.force && job_complete(out, job)) {
+        ++skipped;
+        std::printf("lamina batch: [%zu/%zu] %s: complete, skipped\n", k + 1, mine.size(), job.id.c_str());
+      } else {
+        std::printf("lamina batch: [%zu/%zu] %s: rendering\n", k + 1, mine.size(), job.id.c_str());
+        std::fflush(stdout);
+        const int status = render_job(out, job, m, args.threads);
+        if (status == 0 && job_complete(out, job)) {
+          ++rendered;
+        } else {
+          failed.push_back(job.id);
+          std::fprintf(stderr, "lamina batch: job %s failed (status %d)\n", job.id.c_str(), status);
+        }
+      }
+      std::fflush(stdout);
+      progress.advance();
+    }
+    progress.finish();
+    std::printf("lamina batch: %s%zu jobs: %zu rendered, %zu already complete, %zu failed\n",
+                shard_count > 1 ? ("shard " + args.shard + ": ").c_str() : "", mine.size(), rendered, skipped, failed.size());
+    if (!failed.empty()) {
+      std::fprintf(stderr, "lamina batch: %zu job(s) failed (first: %s); rerun to retry them\n", failed.size(), failed.front().c_str());
+      return 1;
+    }
+    if (shard_count > 1) return 0;  // comparisons and the sheet: `--finalize` once every shard is done
+  }
+  return finalize(out, m, jobs, pairs);
+}
+
+}  // namespace
+}  // namespace lamina
+
+int run_batch(int argc, char** argv) {
+  lamina::BatchArgs args;
+  CLI::App app("Renders the jobs of a batch manifest (docs/batch.md), skipping complete ones, then writes the comparisons, "
+               "a contact sheet and a summary CSV.",
+               "lamina batch");
+  app.add_option("manifest", args.manifest, "batch manifest (JSON)")->required();
+  app.add_option("--out", args.out, "output directory (default: <manifest name>-batch)");
+  auto* shard = app.add_option("--shard", args.shard, "render only shard i of n (jobs whose index mod n is i); no comparisons");
+  auto* fin = app.add_flag("--finalize", args.finalize, "render nothing: write comparisons, contact sheet and summary (after all shards)");
+  shard->excludes(fin);
+  app.add_flag("--list", args.list, "print the jobs (index, id, hash) of the batch or shard and exit");
+  app.add_flag("--force", args.force, "re-render jobs even if their output is complete");
+  app.add_option("--threads", args.threads, "render threads per job (0: all cores)")->check(CLI::Range(0, 4096));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "lamina batch: %s\n", e.what());
+    return 2;
+  }
+  try {
+    return lamina::run(args);
+  } catch (const lamina::ManifestError& e) {
+    std::fprintf(stderr, "lamina batch: %s\n", e.what());
+    return 2;
+  } catch (const lamina::UsageError& e) {
+    std::fprintf(stderr, "lamina batch: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina batch: %s\n", e.what());
+    return 1;
+  }
+}
