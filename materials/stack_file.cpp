@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <sstream>
@@ -250,6 +251,9 @@ LayerStack parse_stack_json(const std::string& text, const std::string& source_n
 }
 
 LayerStack load_stack_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw StackFileError(path + ": is a directory, not a material file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw StackFileError(path + ": cannot open material file (" + std::strerror(errno) + ")");
   std::ostringstream text;
