@@ -14,7 +14,7 @@ W=${BENCH_W:-48}; H=${BENCH_H:-60}
 REF_SPP=${BENCH_REF_SPP:-256}
 SPPS=${BENCH_SPP:-"4 16"}
 TARGET=${BENCH_TARGET:-0.01}
-OUT=out/bench_layered
+OUT=${BENCH_OUT:-out/bench_layered}
 mkdir -p "$OUT"
 SCENE=scenes/lee_perry_smith_head/head_lit.gltf
 MAP=scenes/lee_perry_smith_head/skin_map.json
