@@ -123,11 +123,12 @@ int run_render(int argc, char** argv) {
     EnvironmentMap env;
     if (!env_value.empty()) env = EnvironmentMap::from_argument(env_value);
     SceneDesc desc = load_gltf(scene_path);
+    // Bound before the loader's warnings are printed, so that a binding error is one line.
+    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
     for (const std::string& w : desc.warnings) std::fprintf(stderr, "lamina render: warning: %s: %s\n", scene_path.c_str(), w.c_str());
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
-    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
     std::unique_ptr<LayeredTables> tables;
     if (bindings.count() > 0 && mode == SubsurfaceMode::Table) {
       tables = std::make_unique<LayeredTables>(bindings, TableSettings{});
