@@ -1,8 +1,10 @@
 // lamina render: a glTF scene to a linear EXR (contracts.md, "lamina render").
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,6 +16,8 @@
 #include "renderer/environment.h"
 #include "renderer/image_io.h"
 #include "renderer/integrator.h"
+#include "renderer/layered_material.h"
+#include "renderer/layered_table.h"
 #include "renderer/lights.h"
 #include "renderer/progress.h"
 #include "renderer/scene.h"
@@ -71,18 +75,18 @@ int run_render(int argc, char** argv) {
   settings.height = 480;
   settings.spp = 16;
   std::string subsurface = "random-walk";
+  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
   app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
   app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str();
   app.add_option("--width", settings.width, "image width in pixels")->capture_default_str();
   app.add_option("--height", settings.height, "image height in pixels")->capture_default_str();
   app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
-  app.add_option("--materials", materials_path, "material map JSON (layered materials; not available yet)");
+  app.add_option("--materials", materials_path, "material map JSON: {\"glTF material name\": \"stack.json\", ...} (paths relative to the map)");
   app.add_option("--seed", settings.seed, "random seed")->capture_default_str();
   app.add_option("--threads", settings.threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_option("--subsurface", subsurface,
-                 "shading of layered materials: random-walk|first-order|table|lambert (no effect until layered "
-                 "materials exist)")
+                 "shading of layered materials: random-walk|first-order|table|lambert")
       ->capture_default_str();
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
@@ -108,10 +112,8 @@ int run_render(int argc, char** argv) {
       throw UsageError("--width x --height x --spp exceeds 1e12 paths");
     if (settings.max_depth < 0 || settings.max_depth > 100000) throw UsageError("--max-depth must be between 0 and 100000");
     if (settings.threads < 0 || settings.threads > 4096) throw UsageError("--threads must be between 0 and 4096");
-    if (subsurface != "random-walk" && subsurface != "first-order" && subsurface != "table" && subsurface != "lambert")
+    if (!parse_subsurface_mode(subsurface, &mode))
       throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table or lambert");
-    if (!materials_path.empty())
-      throw UsageError("--materials '" + materials_path + "': material maps are not supported yet (layered materials)");
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
@@ -127,10 +129,35 @@ int run_render(int argc, char** argv) {
     EnvironmentMap env;
     if (!env_value.empty()) env = EnvironmentMap::from_argument(env_value);
     SceneDesc desc = load_gltf(scene_path);
+    // Bound before the loader's warnings are printed, so that a binding error is one line.
+    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
     for (const std::string& w : desc.warnings) std::fprintf(stderr, "lamina render: warning: %s: %s\n", scene_path.c_str(), w.c_str());
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
+    std::unique_ptr<LayeredTables> tables;
+    if (bindings.count() > 0 && mode == SubsurfaceMode::Table) {
+      tables = std::make_unique<LayeredTables>(bindings, TableSettings{});
+      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
+                  bindings.count(), tables->build_seconds(), tables->bytes() / 1024.0);
+    }
+    if (bindings.count() > 0 && mode == SubsurfaceMode::Lambert) {
+      // Computed before rendering so that the render's time is the render's.
+      const auto t0 = std::chrono::steady_clock::now();
+      for (const auto& m : bindings.by_material)
+        if (m) {
+          const Spectrum a = m->lambert_albedo(), se = m->lambert_albedo_stderr();
+          std::printf("lamina render: lambert mode: %s: diffuse bihemispherical albedo %.4f %.4f %.4f (+- %.4f %.4f %.4f)\n",
+                      m->source().c_str(), a[0], a[1], a[2], se[0], se[1], se[2]);
+        }
+      std::printf("lamina render: lambert mode: albedos by the walk in %.2f s\n",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    LayeredShading layered;
+    layered.bindings = &bindings;
+    layered.mode = mode;
+    layered.tables = tables.get();
+    settings.layered = &layered;
     const Scene scene(std::move(desc));
     const LightSet lights(scene, env);
     if (lights.empty())
@@ -161,6 +188,9 @@ int run_render(int argc, char** argv) {
         {"lamina:rays_closest", std::to_string(stats.rays.closest)},
         {"lamina:rays_camera", std::to_string(stats.rays.camera)},
         {"lamina:rays_shadow", std::to_string(stats.rays.shadow)},
+        {"lamina:layered_materials", std::to_string(bindings.count())},
+        {"lamina:scatter_events", std::to_string(stats.rays.scatter_events)},
+        {"lamina:event_shadow_rays", std::to_string(stats.rays.event_shadow)},
     };
     for (const std::string& kv : extra_meta) {
       const std::size_t eq = kv.find('=');
@@ -176,6 +206,10 @@ int run_render(int argc, char** argv) {
         scene_path.c_str(), out_path.c_str(), settings.width, settings.height, settings.spp, seconds,
         static_cast<double>(stats.rays.closest), static_cast<double>(stats.rays.camera), stats.rays.closest / s,
         static_cast<double>(stats.rays.shadow), stats.rays.shadow / s, peak_memory_bytes() / 1048576.0);
+    if (bindings.count() > 0)
+      std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events, %.3g shadow rays from events\n",
+                  subsurface.c_str(), bindings.count(), static_cast<double>(stats.rays.scatter_events),
+                  static_cast<double>(stats.rays.event_shadow));
     if (stats.invalid_samples > 0)
       std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
                    static_cast<unsigned long long>(stats.invalid_samples));
