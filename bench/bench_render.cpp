@@ -24,9 +24,10 @@
 //   bench_render [SCENE.glb ...]   (default: the Stanford bunny and the Lee Perry-Smith head)
 //   env: LAMINA_BENCH_SIZE (256), LAMINA_BENCH_SPP (8), LAMINA_BENCH_DEPTH (8),
 //        LAMINA_BENCH_REPEAT (3), LAMINA_BENCH_CAMERA (both | scene | framed),
-//        LAMINA_BENCH_RENDER_ONLY (set: no ceilings, one render; for profilers; with
-//        valgrind --tool=callgrind use --toggle-collect='lamina::render_image*' for the loop
-//        and --toggle-collect='*ceiling_loop*' for the ceiling).
+//        LAMINA_BENCH_RENDER_ONLY (set: no ceilings, one render; for profilers),
+//        LAMINA_BENCH_NO_REPLAY (set: skip the replay ceiling).
+// Instruction counts of the loop and the ceiling: bench/callgrind_render.sh (callgrind with
+// --toggle-collect on timed_render and ceiling_loop).
 #include <time.h>
 
 #include <algorithm>
@@ -125,6 +126,12 @@ __attribute__((noinline)) void replay_loop(RTCScene scene, std::vector<RTCRayHit
   for (RTCRay& r : *shadow) rtcOccluded1(scene, &context, &r);
 }
 
+// The timed render (a named function, so callgrind can count it alone).
+__attribute__((noinline)) void timed_render(const Scene& scene, const LightSet& lights, const Camera& camera,
+                                            const RenderSettings& s, RenderStats* stats) {
+  render_image(scene, lights, camera, s, stats);
+}
+
 void to_rtc(const Ray& r, float tfar, RTCRay* out) {
   *out = RTCRay{};
   out->org_x = static_cast<float>(r.origin.x);
@@ -179,7 +186,7 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
     const Clock b = now();
     ceiling_t.add(a, b);
     const Clock c = now();
-    render_image(scene, lights, camera, s, &stats);
+    timed_render(scene, lights, camera, s, &stats);
     const Clock d = now();
     render_t.add(c, d);
   }
@@ -187,7 +194,7 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
   const double loop = rays / render_t.cpu, ceiling = camera_rays.size() / ceiling_t.cpu;
   std::printf("  %s camera (%s): %.0f%% of camera rays hit\n", label, cam_desc.name.c_str(),
               100.0 * hits / camera_rays.size());
-  std::printf("    render loop: %.3g rays (%.3g closest-hit, %.3g shadow) in %.3f s cpu (%.3f wall) = %.3g Mrays/s\n",
+  std::printf("    render loop: %.0f rays (%.0f closest-hit, %.0f shadow) in %.3f s cpu (%.3f wall) = %.3g Mrays/s\n",
               rays, static_cast<double>(stats.rays.closest), static_cast<double>(stats.rays.shadow), render_t.cpu,
               render_t.wall, loop / 1e6);
   std::printf("    embree ceiling (camera rays, rtcIntersect1): %zu rays in %.3f s cpu (%.3f wall) = %.3g Mrays/s\n",
@@ -195,6 +202,7 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
   std::printf("    ratio to the camera-ray ceiling: %.1f%% (cpu), %.1f%% (wall)\n", 100.0 * loop / ceiling,
               100.0 * (rays / render_t.wall) / (camera_rays.size() / ceiling_t.wall));
 
+  if (std::getenv("LAMINA_BENCH_NO_REPLAY")) return;
   // The replay ceiling: the render loop's own rays, recorded in one more (untimed) render.
   RayLog log;
   s.ray_log = &log;
