@@ -37,12 +37,14 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <stdexcept>
 #include <vector>
 
 #include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
 
 #include "renderer/camera.h"
+#include "renderer/image.h"
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
 #include "renderer/scene.h"
@@ -127,9 +129,42 @@ __attribute__((noinline)) void replay_loop(RTCScene scene, std::vector<RTCRayHit
 }
 
 // The timed render (a named function, so callgrind can count it alone).
-__attribute__((noinline)) void timed_render(const Scene& scene, const LightSet& lights, const Camera& camera,
-                                            const RenderSettings& s, RenderStats* stats) {
-  render_image(scene, lights, camera, s, stats);
+__attribute__((noinline)) Image timed_render(const Scene& scene, const LightSet& lights, const Camera& camera,
+                                             const RenderSettings& s, RenderStats* stats) {
+  return render_image(scene, lights, camera, s, stats);
+}
+
+// Optimisations must not change the image beyond floating-point noise: with
+// LAMINA_BENCH_SAVE=DIR the rendered images are written there (raw floats), with
+// LAMINA_BENCH_COMPARE=DIR compared with those (bit-identical, or the largest difference).
+void save_or_compare(const Image& image, const std::string& key) {
+  std::string name = key;
+  for (char& c : name)
+    if (c == '/' || c == '.' || c == ' ') c = '_';
+  if (const char* dir = std::getenv("LAMINA_BENCH_SAVE")) {
+    FILE* f = std::fopen((std::string(dir) + "/" + name + ".raw").c_str(), "wb");
+    if (!f) throw std::runtime_error(std::string(dir) + ": cannot write " + name + ".raw");
+    std::fwrite(image.rgb.data(), sizeof(float), image.rgb.size(), f);
+    std::fclose(f);
+  }
+  if (const char* dir = std::getenv("LAMINA_BENCH_COMPARE")) {
+    std::vector<float> ref(image.rgb.size());
+    FILE* f = std::fopen((std::string(dir) + "/" + name + ".raw").c_str(), "rb");
+    if (!f || std::fread(ref.data(), sizeof(float), ref.size(), f) != ref.size())
+      throw std::runtime_error(std::string(dir) + "/" + name + ".raw: missing or wrong size");
+    std::fclose(f);
+    double max_abs = 0.0, sum = 0.0, sum_ref = 0.0;
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+      const double d = std::fabs(static_cast<double>(image.rgb[i]) - ref[i]);
+      max_abs = std::max(max_abs, d);
+      differ += image.rgb[i] != ref[i];
+      sum += image.rgb[i];
+      sum_ref += ref[i];
+    }
+    std::printf("    vs reference: %zu of %zu values differ, largest difference %.3g, mean %.9g vs %.9g\n", differ,
+                ref.size(), max_abs, sum / ref.size(), sum_ref / ref.size());
+  }
 }
 
 void to_rtc(const Ray& r, float tfar, RTCRay* out) {
@@ -156,11 +191,14 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
 
   if (std::getenv("LAMINA_BENCH_RENDER_ONLY")) {
     RenderStats stats;
-    const Clock a = now();
-    render_image(scene, lights, camera, s, &stats);
-    const Clock b = now();
+    Timing t;
+    for (int k = 0; k < repeat; ++k) {
+      const Clock a = now();
+      timed_render(scene, lights, camera, s, &stats);
+      t.add(a, now());
+    }
     const double rays = static_cast<double>(stats.rays.closest + stats.rays.shadow);
-    std::printf("  %s camera: render loop %.3g Mrays/s (cpu)\n", label, rays / (b.cpu - a.cpu) / 1e6);
+    std::printf("  %s camera: render loop %.3g Mrays/s (cpu)\n", label, rays / t.cpu / 1e6);
     return;
   }
 
@@ -178,6 +216,7 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
   // Render and ceiling alternate, so a burst of load from other jobs hits both alike.
   Timing render_t, ceiling_t;
   RenderStats stats;
+  Image image;
   std::size_t hits = 0;
   for (int k = 0; k < repeat; ++k) {
     std::vector<RTCRayHit> fresh = camera_rays;
@@ -186,10 +225,11 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
     const Clock b = now();
     ceiling_t.add(a, b);
     const Clock c = now();
-    timed_render(scene, lights, camera, s, &stats);
+    image = timed_render(scene, lights, camera, s, &stats);
     const Clock d = now();
     render_t.add(c, d);
   }
+  save_or_compare(image, std::string(label) + "_" + scene.desc().path.substr(scene.desc().path.rfind('/') + 1));
   const double rays = static_cast<double>(stats.rays.closest + stats.rays.shadow);
   const double loop = rays / render_t.cpu, ceiling = camera_rays.size() / ceiling_t.cpu;
   std::printf("  %s camera (%s): %.0f%% of camera rays hit\n", label, cam_desc.name.c_str(),
