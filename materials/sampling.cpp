@@ -4,39 +4,6 @@
 
 namespace lamina {
 
-std::uint64_t mix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
-Rng::Rng(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
-  // Key the state on all three numbers and the stream (increment) on a different mix of them, so
-  // neighbouring keys share neither.
-  const std::uint64_t key = mix64(mix64(mix64(seed) ^ a) ^ (b * 0xd1342543de82ef95ull));
-  state_ = 0;
-  inc_ = (mix64(key ^ 0x5851f42d4c957f2dull) << 1u) | 1u;
-  next_u32();
-  state_ += key;
-  next_u32();
-}
-
-std::uint32_t Rng::next_u32() {
-  const std::uint64_t old = state_;
-  state_ = old * 6364136223846793005ull + inc_;
-  const auto xorshifted = static_cast<std::uint32_t>(((old >> 18u) ^ old) >> 27u);
-  const auto rot = static_cast<std::uint32_t>(old >> 59u);
-  return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31u));
-}
-
-double Rng::uniform() {
-  const std::uint64_t hi = next_u32();
-  const std::uint64_t lo = next_u32();
-  const std::uint64_t bits = ((hi << 32) | lo) >> 11;  // 53 bits
-  return static_cast<double>(bits) * 0x1.0p-53;
-}
-
 glm::dvec3 sample_cosine_hemisphere(glm::dvec2 u) {
   const double r = std::sqrt(u.x);
   const double phi = 2.0 * kPi * u.y;

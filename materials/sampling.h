@@ -14,7 +14,14 @@ namespace lamina {
 
 // SplitMix64 finaliser (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
 // OOPSLA 2014): a bijective 64-bit mixer used to derive independent stream states.
-std::uint64_t mix64(std::uint64_t x);
+// Inline (as is the generator below): the renderer draws several numbers per ray and makes one
+// generator per (pixel, sample), so a call per number was a measurable share of the render loop.
+inline std::uint64_t mix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
 
 // PCG32 (O'Neill, "PCG: A family of simple fast space-efficient statistically good algorithms
 // for random number generation", 2014): 64-bit state, 32-bit output, selectable stream.
@@ -22,11 +29,31 @@ class Rng {
  public:
   // The stream for (seed, a, b): e.g. (seed, pixel, sample) in the renderer, (seed, photon, 0)
   // in the BRDF tool. Distinct keys give statistically independent sequences.
-  Rng(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0);
+  Rng(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0) {
+    // Key the state on all three numbers and the stream (increment) on a different mix of
+    // them, so neighbouring keys share neither.
+    const std::uint64_t key = mix64(mix64(mix64(seed) ^ a) ^ (b * 0xd1342543de82ef95ull));
+    state_ = 0;
+    inc_ = (mix64(key ^ 0x5851f42d4c957f2dull) << 1u) | 1u;
+    next_u32();
+    state_ += key;
+    next_u32();
+  }
 
-  std::uint32_t next_u32();
+  std::uint32_t next_u32() {
+    const std::uint64_t old = state_;
+    state_ = old * 6364136223846793005ull + inc_;
+    const auto xorshifted = static_cast<std::uint32_t>(((old >> 18u) ^ old) >> 27u);
+    const auto rot = static_cast<std::uint32_t>(old >> 59u);
+    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31u));
+  }
   // Uniform in [0, 1): 53 random bits, so never exactly 1 and fine enough for -log(u) tails.
-  double uniform();
+  double uniform() {
+    const std::uint64_t hi = next_u32();
+    const std::uint64_t lo = next_u32();
+    const std::uint64_t bits = ((hi << 32) | lo) >> 11;  // 53 bits
+    return static_cast<double>(bits) * 0x1.0p-53;
+  }
   // Uniform in (0, 1]: safe as the argument of log().
   double uniform_open0() { return 1.0 - uniform(); }
 

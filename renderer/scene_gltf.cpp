@@ -374,10 +374,11 @@ void Loader::run() {
 
 Spectrum Texture::lookup(glm::dvec2 uv) const {
   // Texel centres at (i + 0.5) / width (glTF follows OpenGL sampling).
+  // i is in [-1, n] (x below is in [-0.5, n - 0.5]), so repeat needs one add or subtract, not
+  // an integer division (which was a visible share of the render loop on textured meshes).
   auto wrap = [](int i, int n, bool clamp) {
     if (clamp) return std::clamp(i, 0, n - 1);
-    const int m = i % n;
-    return m < 0 ? m + n : m;
+    return i < 0 ? i + n : i >= n ? i - n : i;
   };
   if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return Spectrum(0.0);
   // Keep coordinates in int range: repeat wraps uv to [0, 1); clamp clamps it (the same texels).
