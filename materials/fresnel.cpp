@@ -7,11 +7,16 @@ namespace lamina {
 
 double refracted_cos(double cos_theta_i, double n_i, double n_t) {
   const double cos_i = std::min(1.0, std::abs(cos_theta_i));
+  if (n_i == n_t) return cos_i;
   const double eta = n_i / n_t;
-  // sin^2(theta_i) = (1 - cos)(1 + cos) keeps precision when cos is near 1.
-  const double sin2_t = eta * eta * (1.0 - cos_i) * (1.0 + cos_i);
-  if (sin2_t >= 1.0) return -1.0;
-  return std::sqrt(1.0 - sin2_t);
+  // cos^2(theta_t) = 1 - eta^2 sin^2(theta_i) = (1 - eta)(1 + eta) + eta^2 cos^2(theta_i).
+  // The second form has no cancellation at grazing incidence for eta <= 1 (1 - sin^2 would
+  // lose ~eps/cos^2 relative precision there) and is as good as the first elsewhere; for
+  // eta > 1 the cancellation near the critical angle is the problem's own conditioning.
+  // (1 - eta) is exact for eta in [1/2, 2] (Sterbenz).
+  const double cos2_t = (1.0 - eta) * (1.0 + eta) + eta * eta * cos_i * cos_i;
+  if (cos2_t <= 0.0) return -1.0;  // at or beyond the critical angle
+  return std::sqrt(cos2_t);
 }
 
 double fresnel_dielectric(double cos_theta_i, double n_i, double n_t) {

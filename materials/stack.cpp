@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "materials/henyey_greenstein.h"
 
@@ -77,6 +78,17 @@ double LayerStack::ior_below_interface(int k) const {
   return below.kind == Below::Kind::Dielectric ? below.ior : layers[n - 1].ior;
 }
 
+LayerStack flipped(const LayerStack& stack) {
+  if (!stack.transmits())
+    throw std::invalid_argument("flipped(): stack '" + stack.name +
+                                "' has an opaque bottom (Lambert substrate or semi-infinite layer)");
+  LayerStack f = stack;
+  f.layers.assign(stack.layers.rbegin(), stack.layers.rend());
+  f.above_ior = stack.below.ior;
+  f.below.ior = stack.above_ior;
+  return f;
+}
+
 namespace {
 
 bool bad_coefficient(double v) { return !std::isfinite(v) || v < 0.0; }
@@ -121,6 +133,14 @@ std::string validate_stack(const LayerStack& stack) {
       return p + ".thickness: only the last layer may be semi-infinite (\"inf\")";
     if (auto e = check_spectrum(p + ".sigma_a", layer.sigma_a, false); !e.empty()) return e;
     if (layer.lobes.empty()) return p + ": a layer needs at least one phase lobe";
+    if (layer.semi_infinite()) {
+      // Light entering a semi-infinite layer that cannot collide would travel forever: the
+      // model (and the random walk) needs sigma_t > 0 there.
+      for (int c = 0; c < kChannels; ++c)
+        if (!(layer.sigma_t()[c] > 0.0))
+          return p + ": a semi-infinite layer needs sigma_a + sigma_s > 0 in every channel (channel " +
+                 std::to_string(c) + " is 0)";
+    }
     for (std::size_t j = 0; j < layer.lobes.size(); ++j) {
       const std::string q = layer.lobes.size() == 1 ? p : p + ".components[" + std::to_string(j) + "]";
       if (auto e = check_spectrum(q + ".sigma_s", layer.lobes[j].sigma_s, false); !e.empty()) return e;

@@ -74,6 +74,13 @@ struct LayerStack {
   double ior_below_interface(int k) const;
 };
 
+// The same stack seen from below: layers in reverse order, the medium below becomes the medium
+// above and vice versa. The renderer uses it when the light or the camera is on the back side
+// (a leaf lit from behind): f(stack, wi, wo) with wi.z < 0 equals f(flipped(stack), wi', wo')
+// with the z components negated. Only defined for a stack that transmits (a dielectric below
+// and no semi-infinite layer); throws std::invalid_argument otherwise.
+LayerStack flipped(const LayerStack& stack);
+
 // Returns an empty string if the stack is physically valid, else the first problem found, in
 // the form "layers[1].sigma_a[2]: must be finite and >= 0" (the JSON path of the bad value).
 std::string validate_stack(const LayerStack& stack);

@@ -49,3 +49,20 @@ TEST(Fresnel, RefractionKeepsUnitLengthAndSnell) {
 }
 
 }  // namespace lamina
+
+namespace lamina {
+
+TEST(Fresnel, RefractedCosKeepsPrecisionAtGrazing) {
+  // cos_t^2 = (1 - eta^2) + eta^2 cos_i^2 exactly; compare against that in long double for
+  // grazing cosines, where 1 - eta^2 sin^2 would lose eps/cos^2 relative precision.
+  for (double n_t : {1.0, 1.33, 1.5, 2.5}) {
+    for (double c : {1e-3, 1e-6, 0.01745240643728351, 0.3, 1.0}) {
+      const long double eta = 1.0L / n_t;
+      const long double exact = std::sqrt((1.0L - eta * eta) + eta * eta * (long double)c * c);
+      EXPECT_NEAR(refracted_cos(c, 1.0, n_t), (double)exact, 4e-16 * (double)exact) << n_t << " " << c;
+    }
+  }
+  EXPECT_EQ(refracted_cos(1e-9, 1.4, 1.4), 1e-9);
+}
+
+}  // namespace lamina

@@ -1,0 +1,297 @@
+#include "materials/brdf_table.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "materials/first_order.h"
+#include "materials/fresnel.h"
+#include "materials/zeroth_order.h"
+
+namespace lamina {
+
+namespace {
+
+constexpr double kDegree = kPi / 180.0;
+constexpr int kEndKinds = 5;  // number of WalkResult::End values
+
+// Runs photons [0, n) in a fixed number of contiguous blocks (independent of the thread count);
+// each block accumulates into its own vector of `size` doubles in photon order, and the blocks
+// are summed in block order, so the result has the same bits for any number of threads.
+template <typename PhotonFn>
+std::vector<double> run_photons(std::uint64_t n, std::size_t size, const PhotonFn& photon) {
+  const std::uint64_t blocks = std::max<std::uint64_t>(1, std::min<std::uint64_t>(n, 64));
+  std::vector<std::vector<double>> partial(blocks);
+  tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, blocks, 1),
+                    [&](const tbb::blocked_range<std::uint64_t>& range) {
+                      for (std::uint64_t b = range.begin(); b != range.end(); ++b) {
+                        std::vector<double>& acc = partial[b];
+                        acc.assign(size, 0.0);
+                        const std::uint64_t first = n * b / blocks, last = n * (b + 1) / blocks;
+                        for (std::uint64_t i = first; i < last; ++i) photon(i, acc);
+                      }
+                    });
+  std::vector<double> total(size, 0.0);
+  for (const std::vector<double>& acc : partial)
+    for (std::size_t j = 0; j < size; ++j) total[j] += acc[j];
+  return total;
+}
+
+// Mean and standard error of the mean from the sum and the sum of squares of n samples.
+void mean_and_error(double sum, double sum2, std::uint64_t n, double* mean, double* error) {
+  const double nn = static_cast<double>(n);
+  *mean = sum / nn;
+  const double var = n > 1 ? std::max(0.0, (sum2 - sum * sum / nn) / (nn - 1.0)) : 0.0;
+  *error = std::sqrt(var / nn);
+}
+
+// Index of the bin of an outside direction w, or -1 (w.z == 0).
+int bin_of(const BrdfTable& table, const glm::dvec3& w, double phi_i) {
+  if (w.z == 0.0) return -1;
+  const BrdfOptions& o = table.options;
+  const BrdfSide side = w.z > 0.0 ? BrdfSide::Reflect : BrdfSide::Transmit;
+  const int k = std::min(o.bins_theta - 1, static_cast<int>(std::abs(w.z) * o.bins_theta));
+  double phi = std::atan2(w.y, w.x) - phi_i;
+  phi -= 2.0 * kPi * std::floor(phi / (2.0 * kPi));
+  const int m = std::clamp(static_cast<int>(phi / (2.0 * kPi) * o.bins_phi), 0, o.bins_phi - 1);
+  return table.bin_index(side, k, m);
+}
+
+BrdfTable empty_table(const BrdfOptions& options) {
+  BrdfTable table;
+  table.options = options;
+  const std::size_t nb = 2u * options.bins_theta * options.bins_phi;
+  table.value.assign(nb, Spectrum(0.0));
+  table.stderr_ = table.single = table.multiple = table.single_stderr = table.value;
+  table.ends.assign(kEndKinds, 0);
+  return table;
+}
+
+// Fractions of incident power: totals slots in the accumulator.
+enum TotalSlot { kRs, kRd, kTb, kTd, kAbs, kAbsDirect, kRsWalk, kTbWalk, kTotalSlots };
+
+}  // namespace
+
+glm::dvec3 incident_direction(double theta_i_deg, double phi_i_deg) {
+  const double t = theta_i_deg * kDegree, p = phi_i_deg * kDegree;
+  return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+double BrdfTable::theta_centre_deg(int k) const {
+  return std::acos((k + 0.5) / options.bins_theta) / kDegree;
+}
+
+double BrdfTable::phi_centre_deg(int m) const { return (m + 0.5) * 360.0 / options.bins_phi; }
+
+double BrdfTable::projected_solid_angle(int k) const {
+  const double lo = static_cast<double>(k) / options.bins_theta;
+  const double hi = static_cast<double>(k + 1) / options.bins_theta;
+  return 0.5 * (hi - lo) * (hi + lo) * (2.0 * kPi / options.bins_phi);
+}
+
+BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& options) {
+  BrdfTable table = empty_table(options);
+  const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
+  const double phi_i = options.phi_i_deg * kDegree;
+  // Fresnel reflection at the top (exact, zero variance) and the analytic delta parts.
+  const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
+  const ZerothOrder zeroth = zeroth_order(stack, wi.z);
+  const std::size_t nb = table.value.size();
+  // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
+  // single2].
+  const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds;
+  const std::size_t size = bins_at + nb * kChannels * 4;
+
+  const std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
+    Rng rng(options.seed, i);
+    const WalkResult walk = random_walk(stack, wi, rng, {}, options.walk);
+    Spectrum x[kTotalSlots];
+    x[kRs] = zeroth.R_specular;
+    x[kTb] = zeroth.T_ballistic;
+    x[kRsWalk] = Spectrum(r_top);
+    // Unscattered exits leave in the mirror / ballistic direction: delta parts, not diffuse.
+    const bool delta = walk.scatter_count == 0;
+    if (walk.side == WalkResult::Side::Top) x[delta ? kRsWalk : kRd] += walk.weight;
+    if (walk.side == WalkResult::Side::Bottom) x[delta ? kTbWalk : kTd] += walk.weight;
+    // Conservation by construction: this photon's absorbed part is what did not leave.
+    x[kAbs] = Spectrum(1.0) - x[kRs] - x[kRd] - x[kTb] - x[kTd];
+    x[kAbsDirect] = walk.absorbed;
+    for (int s = 0; s < kTotalSlots; ++s)
+      for (int c = 0; c < kChannels; ++c) {
+        a[totals_at + (s * kChannels + c) * 2] += x[s][c];
+        a[totals_at + (s * kChannels + c) * 2 + 1] += x[s][c] * x[s][c];
+      }
+    a[ends_at + static_cast<int>(walk.end)] += 1.0;
+    if (!delta && walk.side != WalkResult::Side::None) {
+      const int b = bin_of(table, walk.direction, phi_i);
+      if (b >= 0) {
+        const int k = (b / options.bins_phi) % options.bins_theta;
+        const double scale = 1.0 / table.projected_solid_angle(k);
+        for (int c = 0; c < kChannels; ++c) {
+          const double v = walk.weight[c] * scale;
+          double* slot = &a[bins_at + (b * kChannels + c) * 4];
+          slot[0] += v;
+          slot[1] += v * v;
+          if (walk.scatter_count == 1) {
+            slot[2] += v;
+            slot[3] += v * v;
+          }
+        }
+      }
+    }
+  });
+
+  const std::uint64_t n = options.samples;
+  Estimate* totals[kTotalSlots] = {&table.totals.R_specular, &table.totals.R_diffuse,
+                                   &table.totals.T_ballistic, &table.totals.T_diffuse,
+                                   &table.totals.absorbed, &table.totals.absorbed_direct,
+                                   &table.totals.R_specular_walk, &table.totals.T_ballistic_walk};
+  for (int s = 0; s < kTotalSlots; ++s)
+    for (int c = 0; c < kChannels; ++c)
+      mean_and_error(acc[totals_at + (s * kChannels + c) * 2], acc[totals_at + (s * kChannels + c) * 2 + 1],
+                     n, &totals[s]->value[c], &totals[s]->stderr_[c]);
+  // The analytic parts are the same for every photon: report them exactly (no summation error).
+  table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
+  table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
+  for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
+  for (std::size_t b = 0; b < nb; ++b)
+    for (int c = 0; c < kChannels; ++c) {
+      const double* slot = &acc[bins_at + (b * kChannels + c) * 4];
+      mean_and_error(slot[0], slot[1], n, &table.value[b][c], &table.stderr_[b][c]);
+      mean_and_error(slot[2], slot[3], n, &table.single[b][c], &table.single_stderr[b][c]);
+      table.multiple[b][c] = table.value[b][c] - table.single[b][c];
+    }
+  return table;
+}
+
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n) {
+  BrdfTable table = empty_table(options);
+  const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
+  const double phi_i = options.phi_i_deg * kDegree;
+  const int K = options.bins_theta, M = options.bins_phi;
+  // Bin average weighted by projected solid angle: with x = mu^2 (dx = 2 mu dmu, so
+  // mu dmu dphi = dx dphi / 2) the weight is uniform in (x, phi): Gauss-Legendre in x on
+  // [lo^2, hi^2] and the midpoint rule in phi, normalised by the bin's area in (x, phi).
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, 2 * K), [&](const tbb::blocked_range<int>& range) {
+    std::vector<double> nodes(n), weights(n);
+    for (int sk = range.begin(); sk != range.end(); ++sk) {
+      const int side = sk / K, k = sk % K;
+      const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
+      gauss_legendre(n, lo * lo, hi * hi, nodes.data(), weights.data());
+      for (int m = 0; m < M; ++m) {
+        Spectrum sum;
+        for (int a = 0; a < n; ++a) {
+          const double mu = std::sqrt(nodes[a]);
+          const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
+          for (int b = 0; b < n; ++b) {
+            const double phi = phi_i + 2.0 * kPi * (m + (b + 0.5) / n) / M;
+            const glm::dvec3 wo{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
+            sum += first_order_bsdf(stack, wi, wo) * (weights[a] / n);
+          }
+        }
+        const int idx = table.bin_index(static_cast<BrdfSide>(side), k, m);
+        table.value[idx] = table.single[idx] = sum / ((hi - lo) * (hi + lo));
+      }
+    }
+  });
+  const ZerothOrder zeroth = zeroth_order(stack, wi.z);
+  const FirstOrderAlbedo albedo = first_order_albedo(stack, wi.z);
+  table.totals.R_specular.value = zeroth.R_specular;
+  table.totals.T_ballistic.value = zeroth.T_ballistic;
+  table.totals.R_diffuse.value = albedo.R_diffuse;
+  table.totals.T_diffuse.value = albedo.T_diffuse;
+  table.totals.absorbed.value = Spectrum(1.0) - zeroth.R_specular - zeroth.T_ballistic - albedo.R_diffuse - albedo.T_diffuse;
+  return table;
+}
+
+std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
+                                                    const std::vector<glm::dvec3>& wo,
+                                                    std::uint64_t samples, std::uint64_t seed,
+                                                    const WalkSettings& walk_settings) {
+  const std::size_t nd = wo.size();
+  std::vector<ConnectionTarget> targets;
+  for (const glm::dvec3& w : wo) targets.push_back(prepare_connection(stack, w));
+  // Layout: [direction][channel][sum, sum2, single sum, single sum2].
+  const std::vector<double> acc = run_photons(samples, nd * kChannels * 4, [&](std::uint64_t i, std::vector<double>& a) {
+    Rng rng(seed, i);
+    std::vector<Spectrum> total(nd), single(nd);
+    random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
+      for (std::size_t j = 0; j < nd; ++j) {
+        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[j]);
+        total[j] += v;
+        if (event.order == 1) single[j] += v;
+      }
+    }, walk_settings);
+    for (std::size_t j = 0; j < nd; ++j)
+      for (int c = 0; c < kChannels; ++c) {
+        double* slot = &a[(j * kChannels + c) * 4];
+        slot[0] += total[j][c];
+        slot[1] += total[j][c] * total[j][c];
+        slot[2] += single[j][c];
+        slot[3] += single[j][c] * single[j][c];
+      }
+  });
+  std::vector<PointEstimate> out(nd);
+  for (std::size_t j = 0; j < nd; ++j)
+    for (int c = 0; c < kChannels; ++c) {
+      const double* slot = &acc[(j * kChannels + c) * 4];
+      mean_and_error(slot[0], slot[1], samples, &out[j].total.value[c], &out[j].total.stderr_[c]);
+      mean_and_error(slot[2], slot[3], samples, &out[j].single.value[c], &out[j].single.stderr_[c]);
+    }
+  return out;
+}
+
+BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& options) {
+  BrdfTable table = empty_table(options);
+  const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
+  const double phi_i = options.phi_i_deg * kDegree;
+  const int K = options.bins_theta, M = options.bins_phi;
+  const std::size_t nb = table.value.size();
+  // Layout: [bin][channel][sum, sum2, single].
+  const std::vector<double> acc = run_photons(options.samples, nb * kChannels * 3, [&](std::uint64_t i, std::vector<double>& a) {
+    Rng rng(options.seed, i);
+    Rng directions(options.seed, i, 1);  // a separate stream: the walk is the same as the table's
+    std::vector<Spectrum> total(nb), single(nb);
+    // One direction per bin and photon, uniform in projected solid angle within the bin (mu^2
+    // uniform in [lo^2, hi^2], phi uniform), drawn independently of the walk and shared by its
+    // events: E over w of sum_e W_e c(w) = sum_e W_e (bin average of c), so unbiased.
+    std::vector<ConnectionTarget> targets(nb);
+    for (int side = 0; side < 2; ++side)
+      for (int k = 0; k < K; ++k)
+        for (int m = 0; m < M; ++m) {
+          const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
+          const double mu = std::sqrt(lo * lo + directions.uniform() * (hi - lo) * (hi + lo));
+          const double phi = phi_i + 2.0 * kPi * (m + directions.uniform()) / M;
+          const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
+          const glm::dvec3 w{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
+          targets[table.bin_index(static_cast<BrdfSide>(side), k, m)] = prepare_connection(stack, w);
+        }
+    random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
+      for (std::size_t b = 0; b < nb; ++b) {
+        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[b]);
+        total[b] += v;
+        if (event.order == 1) single[b] += v;
+      }
+    }, options.walk);
+    for (std::size_t b = 0; b < nb; ++b)
+      for (int c = 0; c < kChannels; ++c) {
+        double* slot = &a[(b * kChannels + c) * 3];
+        slot[0] += total[b][c];
+        slot[1] += total[b][c] * total[b][c];
+        slot[2] += single[b][c];
+      }
+  });
+  for (std::size_t b = 0; b < nb; ++b)
+    for (int c = 0; c < kChannels; ++c) {
+      const double* slot = &acc[(b * kChannels + c) * 3];
+      mean_and_error(slot[0], slot[1], options.samples, &table.value[b][c], &table.stderr_[b][c]);
+      table.single[b][c] = slot[2] / static_cast<double>(options.samples);
+      table.multiple[b][c] = table.value[b][c] - table.single[b][c];
+    }
+  return table;
+}
+
+}  // namespace lamina

@@ -1,0 +1,107 @@
+// BRDF/BTDF tables and energy totals of a layer stack, estimated by the random walk
+// (`lamina brdf --method monte-carlo`, contracts.md).
+//
+// Binning: K bins uniform in |cos(theta_o)| per hemisphere and M bins uniform in phi_o, so every
+// bin has the same solid angle 2 pi / (K M). phi_o is the azimuth of wo measured from the light's
+// azimuth phi_i: phi_o = 0 on the light's side (back scattering), 180 the mirror side.
+//
+// Bin value: a walk that leaves with weight W in direction w carries the fraction W of the
+// incident power. The power leaving per unit irradiance into a set of directions B is
+//   P(B) = integral_B f(wi, w) |cos theta| dw,
+// so (1/N) sum_{exits in B} W estimates P(B), and
+//   value(B) = P(B) / Omega_proj(B),  Omega_proj(B) = integral_B |cos theta| dw
+//            = (mu_hi^2 - mu_lo^2)/2 * dphi,
+// is the BRDF (BTDF) averaged over the bin weighted by projected solid angle (contracts.md).
+// Standard errors come from per-photon sums of squares: a photon adds to at most one bin.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "materials/random_walk.h"
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+struct BrdfOptions {
+  double theta_i_deg = 0.0;
+  double phi_i_deg = 0.0;
+  std::uint64_t samples = 100000;
+  int bins_theta = 18;  // K
+  int bins_phi = 36;    // M
+  std::uint64_t seed = 1;
+  WalkSettings walk;
+};
+
+// The direction towards the light for (theta_i, phi_i) in degrees.
+glm::dvec3 incident_direction(double theta_i_deg, double phi_i_deg);
+
+struct Estimate {
+  Spectrum value;
+  Spectrum stderr_;  // standard error of value
+};
+
+// The five totals of contracts.md (fractions of the incident power, per channel).
+// R_specular and T_ballistic are the analytic zeroth order (materials/zeroth_order: exact, zero
+// standard error); R_diffuse and T_diffuse are the walks' exits after at least one scattering
+// event; absorbed is, photon by photon, 1 minus the other four, so the five sum to 1 by
+// construction and absorbed is still an unbiased estimator (with the diffuse parts' noise).
+struct EnergyTotals {
+  Estimate R_specular, R_diffuse, T_ballistic, T_diffuse, absorbed;
+  // Independent Monte Carlo estimates of the same quantities, for tests: the walk's direct tally
+  // of absorption, and its unscattered exits (top Fresnel reflection included) as delta parts.
+  Estimate absorbed_direct, R_specular_walk, T_ballistic_walk;
+};
+
+enum class BrdfSide { Reflect = 0, Transmit = 1 };
+
+struct BrdfTable {
+  BrdfOptions options;
+  EnergyTotals totals;
+  // Per bin and channel, indexed by bin_index(side, k, m): value = single + multiple.
+  std::vector<Spectrum> value, stderr_, single, multiple;
+  std::vector<Spectrum> single_stderr;  // standard error of `single` (Monte Carlo only)
+  // How the walks ended, indexed by WalkResult::End.
+  std::vector<std::uint64_t> ends;
+
+  int bin_index(BrdfSide side, int k, int m) const {
+    return (static_cast<int>(side) * options.bins_theta + k) * options.bins_phi + m;
+  }
+  // Bin k spans |cos theta| in [k/K, (k+1)/K]; centres are those of the cos and phi ranges.
+  double theta_centre_deg(int k) const;
+  double phi_centre_deg(int m) const;
+  double projected_solid_angle(int k) const;
+};
+
+// Monte Carlo table: options.samples walks, photon i using Rng(seed, i); identical bits for any
+// number of threads (fixed partition into blocks, reduced in block order).
+BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& options);
+
+// The analytic table (`--method first-order`): value = single = the first-order BRDF/BTDF
+// (materials/first_order) averaged over each bin by quadrature weighted by projected solid angle
+// (n x n points per bin: Gauss-Legendre in |cos|^2... see the .cpp), stderr 0, multiple 0.
+// Totals: R_specular and T_ballistic from zeroth_order; R_diffuse and T_diffuse the first-order
+// albedos; absorbed = 1 - the others, i.e. the absorbed light PLUS the light of two and more
+// scattering events that first order leaves out (so that the five still sum to 1).
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n = 6);
+
+// The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
+// directions: the average over walks of sum_events throughput * connection_weight_all_paths(wo).
+// An estimator independent of the bin counts (it never uses the exits).
+struct PointEstimate {
+  Estimate total, single;  // single: events of order 1 only
+};
+std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
+                                                    const std::vector<glm::dvec3>& wo,
+                                                    std::uint64_t samples, std::uint64_t seed,
+                                                    const WalkSettings& walk = {});
+
+// The same estimator averaged over each bin of a table (for every event, one direction drawn in
+// every bin uniformly in projected solid angle: |cos|^2 uniform, phi uniform), so that it
+// estimates exactly what the bin counts estimate. Fills value, stderr_, single, multiple.
+BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& options);
+
+}  // namespace lamina

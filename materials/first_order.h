@@ -1,0 +1,53 @@
+// The analytic single-scattering ("first-order") BRDF and BTDF of a layer stack.
+//
+// "First order" is defined as the part of the Monte Carlo random walk made of paths with exactly
+// ONE scattering event: a volume scattering in some layer, or one reflection off a Lambert
+// substrate. Before and after that event the light is unscattered and may be reflected any
+// number of times by the Fresnel interfaces (all of them summed in closed form with the adding
+// results of zeroth_order.h). The delta parts (R_specular, T_ballistic) are not included: see
+// zeroth_order(). The derivation is in first_order.cpp.
+//
+// Conventions (contracts.md): local frame with +z the outward normal of the top layer; wi points
+// towards the light, wo towards the viewer, both unit vectors; f = dL_o / (L_i cos(theta_i)
+// dw_i) in 1/sr, per RGB channel. Light comes from above (wi.z > 0); for light from below use
+// flipped(stack) with the z components negated.
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+// Reflection: wi.z > 0, wo.z > 0. Returns 0 otherwise (and at wi.z == 0 or wo.z == 0).
+Spectrum first_order_brdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
+
+// Transmission: wi.z > 0, wo.z < 0 (wo in the medium below). 0 for a stack that does not
+// transmit (Lambert substrate or semi-infinite layer), and for other signs of wi.z, wo.z.
+Spectrum first_order_btdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
+
+// Dispatches on the sign of wo.z.
+Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
+
+// The single-scattering directional albedos for light arriving at cos(theta_i):
+//   R_diffuse = int_{wo.z > 0} f_r1 |wo.z| dwo,   T_diffuse = int_{wo.z < 0} f_t1 |wo.z| dwo,
+// by Gauss-Legendre quadrature in |cos(theta_o)| (n_mu nodes) and the midpoint rule in phi_o
+// (n_phi points, spectrally accurate for the periodic integrand). Accurate to ~1e-6 for smooth
+// lobes (|g| <~ 0.8) with the defaults; strongly forward lobes (g -> 1) need more nodes.
+struct FirstOrderAlbedo {
+  Spectrum R_diffuse;
+  Spectrum T_diffuse;
+};
+FirstOrderAlbedo first_order_albedo(const LayerStack& stack, double cos_theta_i, int n_mu = 48,
+                                    int n_phi = 96);
+
+// Bihemispherical (white-sky) albedos: 2 int_0^1 albedo(mu_i) mu_i dmu_i, Gauss-Legendre in mu_i.
+FirstOrderAlbedo first_order_bihemispherical_albedo(const LayerStack& stack, int n_mu_i = 24,
+                                                    int n_mu = 48, int n_phi = 96);
+
+// Nodes and weights of the n-point Gauss-Legendre rule on [a, b] (Newton on P_n; Numerical
+// Recipes 3rd ed. section 4.6).
+void gauss_legendre(int n, double a, double b, double* nodes, double* weights);
+
+}  // namespace lamina

@@ -1,0 +1,545 @@
+#include "materials/random_walk.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "materials/fresnel.h"
+#include "materials/henyey_greenstein.h"
+#include "materials/zeroth_order.h"
+
+namespace lamina {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---------------------------------------------------------------------------------------------
+// Spectral MIS (one walk for three channels).
+//
+// The RGB coefficients differ per channel, but a walk samples one set of distances and
+// directions. We use one-sample multiple importance sampling over the channels with the balance
+// heuristic (Veach 1997 section 9.2.4; the hero-wavelength scheme of Wilkie et al. 2014 and
+// pbrt-v4 section 14.2.2): the walk picks a channel h uniformly ONCE and samples everything in
+// h's coefficients; the density of the sampled path is then the mixture (1/3) sum_k p_k(path)
+// over the channels' path densities, and the weight of channel c is
+//     W_c = f_c(path) / ((1/3) sum_k p_k(path)) = a_c * 3 / sum_k (p_k / p_c),
+// where a_c = f_c / p_c is what a scalar walk in channel c would carry (products of albedos and
+// substrate albedos: <= 1). So W_c <= 3 a_c: weights stay bounded. (The per-decision mixture --
+// a new channel for every flight and every phase sample, the first design -- multiplies a ratio
+// of up to 3 per collision and its variance explodes for strongly coloured media; the test
+// SpectralWalkMatchesGreyWalks caught it.) Every prefix of the path is sampled with the same
+// mixture, so an event's throughput is W_c of the prefix.
+// The ratios p_k/p_h are kept as logarithms (lr_k) to survive long walks. Per decision:
+//  * free flight: an optical depth tau ~ Exp(1) is drawn in h; the flight is traced with h's
+//    coefficients, CARRYING the rest of tau across interfaces so that a flight through several
+//    layers is exact. A flight of straight pieces s_j in layers j (joined by Fresnel
+//    reflections/refractions, whose probabilities do not depend on the channel and cancel) has
+//    in channel k the density
+//        collision in layer l:  sigma_t,k(l) exp(-T_k),   T_k = sum_j sigma_t,k(j) s_j,
+//        reaching an exit / the substrate uncollided:  exp(-T_k);
+//    the kernel of channel c is sigma_s,c(l) exp(-T_c) (collision and scattering) or exp(-T_c):
+//    a_c *= sigma_s,c/sigma_t,c (the albedo), lr_k += log(p_k/p_h) of the flight.
+//    The absorbed part (sigma_a,c instead of sigma_s,c) is tallied as a direct estimate.
+//  * phase function: in h, a lobe is chosen by its share of h's scattering, then HG with that
+//    lobe's g: density p_h(cos) (the layer's phase mixture in h); a channel that does not
+//    scatter in this layer samples isotropically (1/(4 pi)) as its technique. a_c *= 1,
+//    lr_k += log(q_k / q_h).
+//  * Lambert substrate: cosine sampling in every channel: a_c *= albedo_c.
+// For a grey stack every lr_k is exactly 0 and W = a: the scalar walk, bit for bit.
+// ---------------------------------------------------------------------------------------------
+
+bool all_equal(const Spectrum& s) { return s[0] == s[1] && s[1] == s[2]; }
+
+// Phase function identical in all channels, so that the phase sampling ratios are exactly 1 and
+// need not be computed.
+bool phase_is_grey(const Layer& layer) {
+  const Spectrum total = layer.sigma_s();
+  for (int c = 0; c < kChannels; ++c)
+    if (!(total[c] > 0.0)) return false;
+  for (const PhaseLobe& lobe : layer.lobes) {
+    if (!all_equal(lobe.g)) return false;
+    for (int c = 1; c < kChannels; ++c)
+      if (lobe.sigma_s[c] * total[0] != lobe.sigma_s[0] * total[c]) return false;
+  }
+  return true;
+}
+
+// The sampling density of a new direction for the technique of channel k (see above).
+double phase_sampling_pdf(const Layer& layer, int k, double cos_theta) {
+  return layer.sigma_s()[k] > 0.0 ? layer.phase(k, cos_theta) : kInv4Pi;
+}
+
+struct PathWeight {
+  Spectrum a{1.0};    // f_c / p_c: the scalar walk's weight in channel c
+  Spectrum lr{0.0};   // log(p_k / p_h): the channels' path densities relative to the hero's
+  double scale = 1.0; // entry transmission and Russian roulette factors (common to all channels)
+
+  Spectrum value() const {
+    // Grey path (all densities equal): sum_k p_k/p_c = 3 exactly, W = a.
+    if (lr[0] == 0.0 && lr[1] == 0.0 && lr[2] == 0.0) return a * scale;
+    Spectrum w;
+    for (int c = 0; c < kChannels; ++c) {
+      if (a[c] == 0.0 || lr[c] == -kInf) continue;  // channel c cannot produce this path
+      double sum = 0.0;
+      for (int k = 0; k < kChannels; ++k) sum += std::exp(lr[k] - lr[c]);
+      w[c] = scale * a[c] * kChannels / sum;
+    }
+    return w;
+  }
+};
+
+// tau += sigma_t * length per channel, with 0 * inf = 0 (a clear channel over an infinite path).
+void add_optical_depth(Spectrum* tau, const Spectrum& sigma_t, double length) {
+  if (length <= 0.0) return;
+  for (int c = 0; c < kChannels; ++c)
+    if (sigma_t[c] > 0.0) (*tau)[c] += sigma_t[c] * length;
+}
+
+// lr_k += log(p_k / p_h) for a flight that left uncollided with optical depths tau.
+void flight_escaped(PathWeight* pw, const Spectrum& tau, int hero) {
+  for (int k = 0; k < kChannels; ++k)
+    if (k != hero) pw->lr[k] -= tau[k] - tau[hero];
+}
+
+// ---------------------------------------------------------------------------------------------
+// The path from a point inside the stack straight out to an outside direction w.
+//
+// Snell's law in a plane-parallel stack conserves n sin(theta), so the direction inside every
+// layer j is fixed by w: sin_j = (n_out / n_j) sin_out, mu_j = sqrt(1 - sin_j^2) (if sin_j >= 1
+// no propagating direction refracts out to w: the path does not exist).
+// ---------------------------------------------------------------------------------------------
+struct ExitPath {
+  bool exists = false;
+  glm::dvec3 inside{0.0};   // propagation direction in the starting layer
+  double mu_inside = 0.0;   // |cos| of it
+  double mu_out = 0.0;      // |w.z|
+  double n_ratio2 = 1.0;    // (n_out / n_layer)^2
+  double fresnel_t = 1.0;   // product of (1 - R) over the interfaces crossed
+  Spectrum tau;             // optical depth along the path, per channel
+};
+
+ExitPath exit_path(const LayerStack& stack, int l, double depth, const glm::dvec3& w) {
+  ExitPath path;
+  const int n_layers = static_cast<int>(stack.layers.size());
+  if (!(w.z != 0.0)) return path;
+  const bool up = w.z > 0.0;
+  if (!up && !stack.transmits()) return path;
+  const double n_out = up ? stack.above_ior : stack.below.ior;
+  const double mu_out = std::min(1.0, std::abs(w.z));
+  const double sin2_out = std::max(0.0, (1.0 - mu_out) * (1.0 + mu_out));
+  auto mu_in = [&](int j) {
+    const double r = n_out / stack.layers[j].ior;
+    const double sin2 = r * r * sin2_out;
+    return sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
+  };
+  const Layer& layer = stack.layers[l];
+  const double mu_l = mu_in(l);
+  if (mu_l <= 0.0) return path;
+
+  Spectrum tau;
+  double fresnel_t = 1.0;
+  // The rest of the scattering layer.
+  add_optical_depth(&tau, layer.sigma_t(), (up ? depth : layer.thickness - depth) / mu_l);
+  if (up) {
+    for (int k = l; k >= 0; --k) {  // interface k: top of layer k
+      const double mu_k = mu_in(k);
+      if (mu_k <= 0.0) return path;
+      fresnel_t *= 1.0 - fresnel_dielectric(mu_k, stack.layers[k].ior, stack.ior_above_interface(k));
+      if (k > 0) {
+        const double mu_above = mu_in(k - 1);
+        if (mu_above <= 0.0) return path;
+        add_optical_depth(&tau, stack.layers[k - 1].sigma_t(), stack.layers[k - 1].thickness / mu_above);
+      }
+    }
+  } else {
+    for (int k = l + 1; k <= n_layers; ++k) {  // interface k: bottom of layer k-1
+      const double mu_k = mu_in(k - 1);
+      if (mu_k <= 0.0) return path;
+      fresnel_t *= 1.0 - fresnel_dielectric(mu_k, stack.layers[k - 1].ior, stack.ior_below_interface(k));
+      if (k < n_layers) {
+        const double mu_below = mu_in(k);
+        if (mu_below <= 0.0) return path;
+        add_optical_depth(&tau, stack.layers[k].sigma_t(), stack.layers[k].thickness / mu_below);
+      }
+    }
+  }
+  const double r = n_out / layer.ior;
+  path.exists = true;
+  path.inside = {w.x * r, w.y * r, up ? mu_l : -mu_l};
+  path.mu_inside = mu_l;
+  path.mu_out = mu_out;
+  path.n_ratio2 = r * r;
+  path.fresnel_t = fresnel_t;
+  path.tau = tau;
+  return path;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// connection_weight: derivation.
+//
+// Let the incident beam deliver irradiance E (power per unit area of the surface plane). The
+// model is position free, so we may think of N photons spread over an area A, each carrying
+// power E A / N times its weight. A volume event with throughput W (scattered power, albedo
+// applied) re-emits the power (E A / N) W with angular density p(d -> d') per steradian (HG
+// mixture of the layer in that channel). Smeared over the area, the events in a slab dz form the
+// volume emission  eps(d') = (E / (N dz)) sum_e W_e p(d_e -> d')  [W / (m^3 sr)], the source
+// term of the transfer equation dL/ds = -sigma_t L + eps (Hanrahan and Krueger eq. 4). Along d'
+// the slab has path length dz / |mu'|, so it adds the radiance eps dz / |mu'|, which then
+//  * is attenuated by exp(-sum_j tau_j / |mu_j|) through the rest of its layer and the layers
+//    between it and the outside (Beer-Lambert along the refracted path, mu_j from Snell),
+//  * keeps the fraction (1 - R_k) at every interface it crosses (Fresnel transmission),
+//  * is multiplied by (n_{k+1}/n_k)^2 at each crossing (the n^2 law of radiance; Veach's thesis
+//    section 5.2; the slides' T^{12} = (n_t/n_i)^2 (1 - R)): the product telescopes to
+//    (n_out / n_layer)^2.
+// The BRDF/BTDF is f = L_o / E, so each event contributes
+//    f(wi -> w) += (1/N) W_e * p(d_e -> d') / |mu'| * exp(-sum tau_j/|mu_j|) * prod(1 - R_k)
+//                  * (n_out / n_layer)^2,
+// i.e. connection_weight = p(d_e -> d') / |mu'| * exp(-sum tau_j/|mu_j|) * prod(1 - R_k)
+//                          * (n_out / n_layer)^2,
+// and throughput = W_e (the 1/N is the caller's average over walks).
+// Substrate events: a Lambert surface of albedo a under the irradiance (E/N) sum W_e reflects the
+// radiance (a / pi) (E/N) sum W_e into every inside upward direction, so p/|mu'| is replaced by
+// a/pi (throughput = W_e arriving, before the albedo).
+// Check: the walk leaves straight from a grey event along w with exit weight W_e (the sampling
+// ratios are 1) and density connection_pdf(w); a power W per solid angle dw gives the radiance
+// W / (|mu_out| dw) per unit irradiance, so the exits estimate W_e connection_pdf / |mu_out|
+// = W_e p (n_out/n_l)^2 / |mu'| exp(-tau) prod(1-R): the same (tests/materials/test_random_walk).
+// ---------------------------------------------------------------------------------------------
+Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
+  const ExitPath path = exit_path(stack, event.layer, event.depth, w);
+  if (!path.exists) return Spectrum(0.0);
+  const Layer& layer = stack.layers[event.layer];
+  const double common = path.fresnel_t * path.n_ratio2;
+  Spectrum value;
+  if (event.kind == ScatterEvent::Kind::Substrate) {
+    if (stack.below.kind != Below::Kind::Lambert || w.z <= 0.0) return Spectrum(0.0);
+    for (int c = 0; c < kChannels; ++c)
+      value[c] = stack.below.albedo[c] * kInvPi * std::exp(-path.tau[c]) * common;
+    return value;
+  }
+  const double cos_theta = glm::dot(event.direction, path.inside);
+  for (int c = 0; c < kChannels; ++c)
+    value[c] = layer.phase(c, cos_theta) / path.mu_inside * std::exp(-path.tau[c]) * common;
+  return value;
+}
+
+// connection_weight_all_paths: with the notation of the derivation above, let the event sit in
+// layer k (thickness h, index n_k) at depth z, and let mu be the cosine in layer k of the
+// direction that refracts out to w (Snell). Inside layer k there are two such directions,
+// d_up = (w_t n_out/n_k, +mu) and d_dn = (w_t n_out/n_k, -mu), and the event emits into both:
+// S_up = p(d -> d_up)/mu and S_dn = p(d -> d_dn)/mu (the substrate: S_up = albedo/pi, S_dn = 0).
+// With A = exp(-sigma_t z/mu) (to the top of layer k), B = exp(-sigma_t (h - z)/mu) (to its
+// bottom), t = exp(-sigma_t h/mu) (one full pass), and the adding-method elements of
+// zeroth_order.h for everything above layer k (transmittance T_a out of the top, reflectance
+// R_a back down) and below it (T_b, R_b), the unscattered radiance bounces between the two
+// parts as a geometric series with ratio R_a R_b t^2, so (each path leaves the stack through the
+// same media sequence, so the n^2 law gives the same (n_out/n_k)^2 for all of them):
+//   f_up(w) += W (n_out/n_k)^2 T_a (S_up A + S_dn B R_b t) / (1 - R_a R_b t^2),
+//   f_dn(w) += W (n_out/n_k)^2 T_b (S_dn B + S_up A R_a t) / (1 - R_a R_b t^2).
+// (Hanrahan and Krueger's first-order formulas are the case of one layer and one event.)
+ConnectionTarget prepare_connection(const LayerStack& stack, const glm::dvec3& w) {
+  ConnectionTarget target;
+  target.w = w;
+  if (!(w.z != 0.0)) return target;
+  const bool up = w.z > 0.0;
+  if (!up && !stack.transmits()) return target;
+  target.valid = true;
+  target.mu_out = std::min(1.0, std::abs(w.z));
+  const std::size_t n = stack.layers.size();
+  for (int c = 0; c < kChannels; ++c) {
+    const StackTransport st = unscattered_transport(stack, c, target.mu_out, up ? Outside::Above : Outside::Below);
+    target.mu.resize(n);
+    target.t[c].resize(n);
+    target.t_out[c].resize(n);
+    target.r_above[c].resize(n);
+    target.r_below[c].resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const LayerTransport& L = st.layers[k];
+      target.mu[k] = L.mu;
+      target.t[c][k] = L.t;
+      target.t_out[c][k] = up ? L.above.T : L.below.T;
+      target.r_above[c][k] = L.above.R_bottom;
+      target.r_below[c][k] = L.below.R_top;
+    }
+  }
+  return target;
+}
+
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const glm::dvec3& w) {
+  return connection_weight_all_paths(stack, event, prepare_connection(stack, w));
+}
+
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const ConnectionTarget& target) {
+  if (!target.valid) return Spectrum(0.0);
+  const glm::dvec3& w = target.w;
+  const bool up = w.z > 0.0;
+  const bool substrate = event.kind == ScatterEvent::Kind::Substrate;
+  if (substrate && (!up || stack.below.kind != Below::Kind::Lambert)) return Spectrum(0.0);
+  const int k = event.layer;
+  const Layer& layer = stack.layers[k];
+  const double mu = target.mu[k];
+  if (!(mu > 0.0)) return Spectrum(0.0);
+  const double n_out = up ? stack.above_ior : stack.below.ior;
+  const double r = n_out / layer.ior;
+  const glm::dvec3 d_up{w.x * r, w.y * r, mu}, d_dn{w.x * r, w.y * r, -mu};
+  const double cos_up = glm::dot(event.direction, d_up), cos_dn = glm::dot(event.direction, d_dn);
+  const Spectrum sigma_t = layer.sigma_t();
+  Spectrum value;
+  for (int c = 0; c < kChannels; ++c) {
+    const double T_out = target.t_out[c][k];
+    if (T_out == 0.0) continue;
+    auto attenuation = [&](double distance) {
+      if (distance <= 0.0 || sigma_t[c] == 0.0) return 1.0;
+      return std::exp(-sigma_t[c] * distance / mu);
+    };
+    double s_up, s_dn;
+    if (substrate) {
+      s_up = stack.below.albedo[c] * kInvPi;
+      s_dn = 0.0;
+    } else {
+      s_up = layer.phase(c, cos_up) / mu;
+      s_dn = layer.phase(c, cos_dn) / mu;
+    }
+    const double a = attenuation(event.depth);
+    const double b = layer.semi_infinite() ? 0.0 : attenuation(layer.thickness - event.depth);
+    const double t = target.t[c][k], ra = target.r_above[c][k], rb = target.r_below[c][k];
+    const double cycle = 1.0 - ra * rb * t * t;
+    if (!(cycle > 0.0)) continue;
+    const double inner = up ? s_up * a + s_dn * b * rb * t : s_dn * b + s_up * a * ra * t;
+    value[c] = r * r * T_out * inner / cycle;
+  }
+  return value;
+}
+
+double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
+  const ExitPath path = exit_path(stack, event.layer, event.depth, w);
+  if (!path.exists) return 0.0;
+  // The walk flies in its hero channel h: the probability of no collision on the way out is
+  // exp(-tau_h); Fresnel transmissions are taken with probability (1 - R).
+  const int h = event.hero;
+  const double escape = std::exp(-path.tau[h]) * path.fresnel_t;
+  // Jacobian of the refraction: n_l^2 mu' d(omega') = n_out^2 mu_out d(omega) (from
+  // n_l sin' = n_out sin and n_l cos' dtheta' = n_out cos dtheta), so
+  // d(omega')/d(omega) = (n_out/n_l)^2 mu_out / mu'.
+  if (event.kind == ScatterEvent::Kind::Substrate) {
+    if (stack.below.kind != Below::Kind::Lambert || w.z <= 0.0) return 0.0;
+    // Cosine sampling mu'/pi times the Jacobian.
+    return kInvPi * path.n_ratio2 * path.mu_out * escape;
+  }
+  const Layer& layer = stack.layers[event.layer];
+  const double p = phase_sampling_pdf(layer, h, glm::dot(event.direction, path.inside));
+  return p * path.n_ratio2 * path.mu_out / path.mu_inside * escape;
+}
+
+WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
+                       const EventCallback& on_event, const WalkSettings& settings) {
+  WalkResult result;
+  const int n_layers = static_cast<int>(stack.layers.size());
+
+  // Entry: the light arrives along -wi; the walk carries the refracted part (1 - R).
+  const double n_top = stack.layers[0].ior;
+  const double r_entry = fresnel_dielectric(wi.z, stack.above_ior, n_top);
+  PathWeight pw;
+  pw.scale = 1.0 - r_entry;
+  glm::dvec3 d = -wi;
+  if (!(r_entry < 1.0) || !refract_through_plane(&d, stack.above_ior, n_top)) {
+    result.end = WalkResult::End::Absorbed;  // nothing enters (grazing or TIR from a denser above)
+    return result;
+  }
+  // The hero channel: every decision of this walk is sampled in its coefficients.
+  const int hero = std::min(kChannels - 1, static_cast<int>(rng.uniform() * kChannels));
+
+  int l = 0;          // current layer
+  double z = 0.0;     // depth below the top of layer l, mm
+  ScatterEvent last_event;
+  bool reflected_since_event = false;
+  Spectrum weight = pw.value();
+
+  // Russian roulette (unbiased: survivors divide by the survival probability). Returns false if
+  // the walk dies.
+  auto roulette = [&](bool at_scatter) {
+    double q = 1.0;
+    if (at_scatter && weight.max() < settings.roulette_threshold) q = settings.roulette_survival;
+    const int t = result.interactions;
+    if (t > settings.forced_exponential_after) {
+      q *= settings.forced_survival;
+    } else if (t > settings.forced_after) {
+      q *= std::sqrt((t - 1.0) / t);  // cumulative survival sqrt(forced_after / t), see WalkSettings
+    }
+    if (q >= 1.0) return true;
+    if (rng.uniform() >= q) {
+      result.end = WalkResult::End::Roulette;
+      return false;
+    }
+    pw.scale /= q;
+    weight /= q;
+    return true;
+  };
+  auto finish_exit = [&](WalkResult::Side side, const glm::dvec3& out) {
+    result.side = side;
+    result.end = side == WalkResult::Side::Top ? WalkResult::End::ExitTop : WalkResult::End::ExitBottom;
+    result.direction = out;
+    result.weight = pw.value();
+    if (result.scatter_count > 0 && !reflected_since_event) {
+      result.straight_from_last_event = true;
+      result.exit_pdf = connection_pdf(stack, last_event, out);
+    }
+    return result;
+  };
+  auto emit = [&](ScatterEvent::Kind kind, const Spectrum& throughput) {
+    ScatterEvent event;
+    event.kind = kind;
+    event.order = result.scatter_count;
+    event.layer = l;
+    event.depth = z;
+    event.direction = d;
+    event.throughput = throughput;
+    event.hero = hero;
+    if (on_event) on_event(event);
+    last_event = event;
+    reflected_since_event = false;
+  };
+
+  for (;;) {
+    // ---- one free flight in the hero's coefficients, possibly across several interfaces ----
+    double tau_left = -std::log(rng.uniform_open0());
+    Spectrum tau;  // optical depth of the flight so far, per channel
+    bool collided = false;
+    while (!collided) {
+      const Layer& layer = stack.layers[l];
+      const Spectrum sigma_t = layer.sigma_t();
+      const double to_boundary = d.z < 0.0 ? (layer.thickness - z) / -d.z
+                                 : d.z > 0.0 ? z / d.z
+                                             : kInf;
+      const double s = sigma_t[hero] > 0.0 ? tau_left / sigma_t[hero] : kInf;
+      if (s < to_boundary) {
+        add_optical_depth(&tau, sigma_t, s);
+        z = std::clamp(z - s * d.z, 0.0, layer.thickness);
+        collided = true;
+        break;
+      }
+      if (to_boundary == kInf) {
+        if (d.z < 0.0 && layer.semi_infinite()) {
+          // Lost into the depth of a semi-infinite layer that is clear in the hero channel:
+          // power transmitted downwards for good.
+          add_optical_depth(&tau, sigma_t, kInf);
+          flight_escaped(&pw, tau, hero);
+          return finish_exit(WalkResult::Side::Bottom, d);
+        }
+        result.end = WalkResult::End::Lost;  // parallel to the layers: never returns
+        return result;
+      }
+      add_optical_depth(&tau, sigma_t, to_boundary);
+      tau_left = std::max(0.0, tau_left - sigma_t[hero] * to_boundary);
+      ++result.interactions;
+      const bool down = d.z < 0.0;
+      z = down ? layer.thickness : 0.0;
+
+      if (!down && l == 0) {  // top interface
+        const double r = fresnel_dielectric(d.z, layer.ior, stack.above_ior);
+        glm::dvec3 out = d;
+        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.above_ior)) {
+          flight_escaped(&pw, tau, hero);
+          return finish_exit(WalkResult::Side::Top, out);
+        }
+        d = reflect_at_plane(d);
+        reflected_since_event = true;
+      } else if (down && l == n_layers - 1) {  // bottom of the stack
+        if (stack.below.kind == Below::Kind::Lambert) {
+          // The flight ends at the substrate: a scattering event of its own kind.
+          flight_escaped(&pw, tau, hero);
+          ++result.scatter_count;
+          weight = pw.value();
+          emit(ScatterEvent::Kind::Substrate, weight);
+          // Lambert reflection sampled by cosine: f cos / pdf = (a/pi) cos / (cos/pi) = a.
+          result.absorbed += weight * (Spectrum(1.0) - stack.below.albedo);
+          pw.a *= stack.below.albedo;
+          weight = pw.value();
+          if (weight.is_black()) {
+            result.end = WalkResult::End::Absorbed;
+            return result;
+          }
+          d = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+          if (!roulette(true)) return result;
+          break;  // a new flight
+        }
+        const double r = fresnel_dielectric(d.z, layer.ior, stack.below.ior);
+        glm::dvec3 out = d;
+        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.below.ior)) {
+          flight_escaped(&pw, tau, hero);
+          return finish_exit(WalkResult::Side::Bottom, out);
+        }
+        d = reflect_at_plane(d);
+        reflected_since_event = true;
+      } else {  // between two layers
+        const int next = down ? l + 1 : l - 1;
+        const double n_next = stack.layers[next].ior;
+        const double r = fresnel_dielectric(d.z, layer.ior, n_next);
+        glm::dvec3 out = d;
+        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, n_next)) {
+          d = out;
+          l = next;
+          z = down ? 0.0 : stack.layers[l].thickness;
+        } else {
+          d = reflect_at_plane(d);
+          reflected_since_event = true;
+        }
+      }
+      if (!roulette(false)) return result;
+    }
+    if (!collided) continue;  // the substrate started a new flight
+
+    // ---- collision in layer l (see the spectral MIS notes at the top of the file) ----
+    const Layer& layer = stack.layers[l];
+    const Spectrum sigma_t = layer.sigma_t();
+    const Spectrum sigma_s = layer.sigma_s();
+    // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
+    for (int k = 0; k < kChannels; ++k) {
+      if (k == hero) continue;
+      pw.lr[k] += sigma_t[k] > 0.0 ? std::log(sigma_t[k] / sigma_t[hero]) - (tau[k] - tau[hero]) : -kInf;
+    }
+    // What the collision absorbs (direct tally) and scatters: the albedo splits the weight.
+    {
+      PathWeight absorbed = pw;
+      for (int c = 0; c < kChannels; ++c) {
+        absorbed.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (layer.sigma_a[c] / sigma_t[c]) : 0.0;
+        pw.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (sigma_s[c] / sigma_t[c]) : 0.0;
+      }
+      result.absorbed += absorbed.value();
+    }
+    ++result.scatter_count;
+    ++result.interactions;
+    weight = pw.value();
+    if (weight.is_black()) {
+      result.end = WalkResult::End::Absorbed;
+      return result;
+    }
+    emit(ScatterEvent::Kind::Volume, weight);
+
+    // ---- phase sampling in the hero channel: lobe, then HG (isotropic if h does not scatter) ----
+    glm::dvec3 d_new;
+    const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    if (sigma_s[hero] > 0.0) {
+      const int lobe = layer.choose_lobe(hero, u0);
+      d_new = sample_henyey_greenstein(d, layer.lobes[lobe].g[hero], u1, u2);
+    } else {
+      d_new = sample_uniform_sphere({u1, u2});
+    }
+    if (!phase_is_grey(layer)) {
+      const double cos_theta = glm::dot(d, d_new);
+      const double ph = phase_sampling_pdf(layer, hero, cos_theta);
+      for (int k = 0; k < kChannels; ++k)
+        if (k != hero) pw.lr[k] += std::log(phase_sampling_pdf(layer, k, cos_theta) / ph);
+    }
+    d = d_new;
+    weight = pw.value();
+    if (!roulette(true)) return result;
+  }
+}
+
+}  // namespace lamina

@@ -1,0 +1,151 @@
+// The random walk of light inside a layer stack: THE one Monte Carlo transport of Lamina, driven
+// by `lamina brdf` (materials/brdf_table) and by the renderer's layered surface. It knows nothing
+// of rays, scenes or lights: it sees a LayerStack, an incident direction and an Rng.
+//
+// Conventions (contracts.md): local frame with +z the outward normal of the top layer; wi points
+// away from the surface towards the light (wi.z > 0). Inside the walk, `d` is the PROPAGATION
+// direction of the light (so the light enters along -wi, refracted). An exit direction is the
+// outside propagation direction, i.e. the `wo` of the BRDF (wo.z > 0) or BTDF (wo.z < 0).
+//
+// What the walk estimates (Hanrahan and Krueger 1993, section 5 "Monte Carlo"): a photon packet
+// of unit incident power per unit area enters with weight (1 - R(wi)) (the specular Fresnel
+// reflection R is the caller's delta lobe), flies, scatters, reflects and refracts at the smooth
+// interfaces, and ends by leaving the stack (top or bottom), on a zero weight (absorbed), or by
+// Russian roulette. Expected values over walks:
+//   E[exit weight, side and direction in a set A] = fraction of the incident power leaving in A,
+//   E[sum over events of throughput * connection_weight(w)] = f(wi, w) (BRDF or BTDF, 1/sr),
+// see connection_weight() for the derivation.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include "materials/sampling.h"
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+// One scattering event of a walk.
+struct ScatterEvent {
+  enum class Kind { Volume, Substrate };
+  Kind kind = Kind::Volume;
+  int order = 1;        // 1 for the first scattering event of the walk, 2 for the second, ...
+  int layer = 0;        // index into stack.layers (the last layer for a substrate event)
+  double depth = 0.0;   // mm below the top of that layer (= its thickness for the substrate)
+  glm::dvec3 direction{0.0, 0.0, -1.0};  // propagation direction inside the layer, before scattering
+  // Volume: the packet's weight after the collision, i.e. the scattered power (single-scattering
+  //   albedo already applied).  Substrate: the power arriving at the substrate (its albedo is
+  //   applied by connection_weight and, for the continuing walk, after the event).
+  // In both cases the event contributes throughput * connection_weight(stack, event, w) to
+  // f(wi -> w), per unit incident irradiance.
+  Spectrum throughput;
+  // The walk's hero channel (it samples every decision in this channel's coefficients; see the
+  // spectral MIS notes in random_walk.cpp). connection_pdf uses it.
+  int hero = 0;
+};
+
+struct WalkResult {
+  enum class Side { None, Top, Bottom };
+  enum class End {
+    ExitTop,       // refracted out through the top interface
+    ExitBottom,    // refracted out through the bottom (transmitting stacks), or lost into the
+                   // depth of a semi-infinite layer that does not attenuate some channel
+    Absorbed,      // the weight became exactly zero (albedo 0 in the volume or at the substrate)
+    Roulette,      // killed by Russian roulette (unbiased: survivors carry weight / q)
+    Lost,          // a flight parallel to the layers that never ends (measure zero; guarded)
+  };
+  Side side = Side::None;
+  End end = End::Absorbed;
+  glm::dvec3 direction{0.0};  // outside propagation direction on exit (= wo), else 0
+  Spectrum weight;            // exit weight (fraction of incident power), 0 if no exit
+  int scatter_count = 0;      // volume + substrate scattering events before the exit / end
+  int interactions = 0;       // all events: scatterings and interface reflections/refractions
+  // The walk left straight from its last scattering event (no interface reflection since then,
+  // and at least one event). Then exit_pdf is connection_pdf(stack, last event, direction): the
+  // solid-angle density (outside measure) of this exit, for MIS against light sampling.
+  bool straight_from_last_event = false;
+  double exit_pdf = 0.0;
+  // Direct estimate of the absorbed power (what collisions and the substrate removed), for
+  // energy-balance checks; its expectation equals 1 - R - T.
+  Spectrum absorbed;
+};
+
+// Tuning of Russian roulette (every value keeps the estimator unbiased; they only trade variance
+// for time).
+struct WalkSettings {
+  // Roulette once the largest channel of the weight is below this (at scattering events), with
+  // survival probability `roulette_survival`.
+  double roulette_threshold = 0.01;
+  double roulette_survival = 0.1;
+  // Guaranteed termination, unbiased, for walks that would not end by themselves (albedo 1 in a
+  // semi-infinite layer, light bouncing between a white substrate and a TIR top). After
+  // `forced_after` interactions (scatterings and interface events) every further interaction t
+  // applies roulette regardless of weight with survival sqrt((t-1)/t), so that the walk is still
+  // alive at t with probability s(t) = sqrt(forced_after / t) and then carries weight 1/s(t).
+  // Why this schedule: in a conservative half-space the number of events before escape has the
+  // tail P(T > t) ~ t^(-1/2); the second moment of the weight, sum_t t^(-3/2) / s(t), and the
+  // expected length, sum_t t^(-1/2) s(t), are then both only logarithmic in the longest walk,
+  // whereas a constant survival < 1 would give weights growing exponentially (infinite
+  // variance) and no roulette an infinite expected length. Past `forced_exponential_after`
+  // interactions the survival becomes the constant `forced_survival`, bounding the expected
+  // length for any stack.
+  int forced_after = 1000;
+  int forced_exponential_after = 1000000;
+  double forced_survival = 0.99;
+};
+
+using EventCallback = std::function<void(const ScatterEvent&)>;
+
+// Runs one walk. wi: unit, towards the light, wi.z > 0 (light arriving from above). on_event may
+// be empty. The result's weights are per unit incident power (the specular part R(wi) is not
+// included; see zeroth order / fresnel_dielectric).
+WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
+                       const EventCallback& on_event = {}, const WalkSettings& settings = {});
+
+// The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
+// towards the outside direction w (unit): f(wi -> w) += event.throughput * connection_weight.
+// Zero where no inside direction refracts out to w, or w points to a side that does not transmit.
+// Derivation: see random_walk.cpp, above its definition.
+Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+
+// Like connection_weight, but summed over ALL unscattered paths from the event out to w: the
+// direct one, and those that are specularly reflected (any number of times) by the interfaces
+// above and below before leaving, in closed form (the adding method of materials/zeroth_order).
+// Then sum over every event of throughput * connection_weight_all_paths(w) estimates the whole
+// f(wi -> w) by itself (every exit path is its last scattering event followed by unscattered
+// bounces), and its order-1 events the first order exactly. connection_weight (direct path only)
+// is what the renderer combines by MIS with the walk's straight exits; the walk's other exits
+// carry the bounced paths there. Equal to connection_weight for an index-matched stack.
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const glm::dvec3& w);
+
+// The part of connection_weight_all_paths that depends only on w (the adding-method elements of
+// every layer at w's Snell invariant, per channel), to evaluate many events towards one w.
+struct ConnectionTarget {
+  glm::dvec3 w{0.0, 0.0, 1.0};
+  bool valid = false;
+  double mu_out = 0.0;
+  std::vector<double> mu;                       // cosine in each layer (< 0: cannot propagate)
+  std::vector<double> t[kChannels];             // one-pass transmittance of each layer
+  std::vector<double> t_out[kChannels];         // transmittance from layer k out towards w
+  std::vector<double> r_above[kChannels];       // R back down from above layer k
+  std::vector<double> r_below[kChannels];       // R back up from below layer k
+};
+ConnectionTarget prepare_connection(const LayerStack& stack, const glm::dvec3& w);
+Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent& event,
+                                     const ConnectionTarget& target);
+
+// The solid-angle density (outside measure, 1/sr) with which the walk itself leaves along w
+// straight from `event` with no further interaction: phase (or cosine) sampling pdf of the inside
+// direction, times the Jacobian d(omega_inside)/d(omega_outside) = (n_out/n_layer)^2 |mu_out|/|mu|,
+// times the probability that the flight crosses to the boundary uncollided (in the walk's hero
+// channel event.hero, the one it samples with), times the Fresnel transmission probabilities of
+// the interfaces crossed. Conditional on the hero, this is the density of the walk's exits, the
+// one a renderer needs to weight light samples against exits by MIS.
+double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+
+}  // namespace lamina

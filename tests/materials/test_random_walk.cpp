@@ -1,0 +1,216 @@
+// The random walk itself: exactness of its bookkeeping (connection weight vs. the walk's own
+// straight exits, grey = scalar, energy balance per photon), termination, extremes.
+#include "materials/random_walk.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "materials/brdf_table.h"
+#include "materials/fresnel.h"
+
+namespace lamina {
+namespace {
+
+LayerStack one_layer(double n, double thickness, Spectrum sa, Spectrum ss, Spectrum g, double above = 1.0,
+                     double below = 1.0) {
+  LayerStack s;
+  s.above_ior = above;
+  s.layers.push_back(make_layer("slab", n, thickness, sa, ss, g));
+  s.below.ior = below;
+  return s;
+}
+
+// A coloured two-layer stack on a Lambert substrate, with a two-lobe layer.
+LayerStack coloured_stack() {
+  LayerStack s;
+  s.layers.push_back(make_layer("top", 1.4, 0.1, Spectrum(0.5, 1.0, 2.0), Spectrum(5.0, 10.0, 3.0),
+                                Spectrum(0.3, 0.5, -0.2)));
+  Layer mid = make_layer("mid", 1.3, 0.3, Spectrum(0.2, 0.1, 1.0), Spectrum(20.0, 10.0, 15.0), Spectrum(0.8));
+  mid.lobes.push_back({Spectrum(5.0, 1.0, 0.0), Spectrum(-0.5, 0.0, 0.9)});
+  s.layers.push_back(mid);
+  s.below.kind = Below::Kind::Lambert;
+  s.below.albedo = Spectrum(0.6, 0.4, 0.8);
+  return s;
+}
+
+// For a walk in a grey stack that leaves straight from its last event, the exit weight equals
+// the event's throughput (every sampling ratio is 1) and its density is connection_pdf; hence
+// (see the derivation above connection_weight) W_exit * pdf / |mu_out| = throughput *
+// connection_weight, to rounding. This ties the walk's sampling to the connection formulas:
+// direction inside, Snell, Jacobian, attenuation, Fresnel, n^2, phase lobes, substrate.
+// (In coloured stacks the MIS weight of the path changes between event and exit, so the identity
+// holds only in expectation: BinCountsAgreeWithConnectionEstimator tests that.)
+TEST(RandomWalk, StraightExitsMatchConnectionWeight) {
+  LayerStack two_lobes = one_layer(1.3, 0.4, Spectrum(0.2), Spectrum(3.0), Spectrum(0.8), 1.1, 1.6);
+  two_lobes.layers[0].lobes.push_back({Spectrum(2.0), Spectrum(-0.6)});
+  two_lobes.layers.push_back(make_layer("under", 1.6, 0.2, Spectrum(0.4), Spectrum(6.0), Spectrum(0.2)));
+  LayerStack lambert = one_layer(1.4, 0.3, Spectrum(0.3), Spectrum(2.0), Spectrum(0.5));
+  lambert.below.kind = Below::Kind::Lambert;
+  lambert.below.albedo = Spectrum(0.7);
+  std::vector<LayerStack> stacks = {
+      one_layer(1.0, 0.5, Spectrum(0.1), Spectrum(3.0), Spectrum(0.6)),
+      one_layer(1.5, 0.5, Spectrum(0.1), Spectrum(3.0), Spectrum(-0.4)),
+      one_layer(0.8, 0.5, Spectrum(0.1), Spectrum(3.0), Spectrum(0.2), 1.2, 1.7),
+      two_lobes, lambert};
+  WalkSettings no_roulette;
+  no_roulette.roulette_threshold = 0.0;  // roulette would scale the exit weight after the event
+  int checked = 0;
+  for (const LayerStack& stack : stacks) {
+    for (double theta : {0.0, 40.0, 80.0}) {
+      const glm::dvec3 wi = incident_direction(theta, 30.0);
+      for (std::uint64_t i = 0; i < 3000; ++i) {
+        Rng rng(7, i);
+        ScatterEvent last;
+        const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) { last = e; }, no_roulette);
+        if (!r.straight_from_last_event) continue;
+        const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
+        const Spectrum rhs = last.throughput * connection_weight(stack, last, r.direction);
+        for (int c = 0; c < kChannels; ++c) ASSERT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c])));
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+// A grey stack: every channel carries the same bits, as the scalar walk would.
+TEST(RandomWalk, GreyStackKeepsChannelsIdentical) {
+  LayerStack s = one_layer(1.33, 0.4, Spectrum(0.3), Spectrum(7.0), Spectrum(0.7), 1.0, 1.2);
+  s.layers.push_back(make_layer("under", 1.5, 0.2, Spectrum(2.0), Spectrum(1.0), Spectrum(-0.3)));
+  for (std::uint64_t i = 0; i < 5000; ++i) {
+    Rng rng(3, i);
+    const WalkResult r = random_walk(s, incident_direction(35.0, 0.0), rng, [&](const ScatterEvent& e) {
+      ASSERT_EQ(e.throughput[0], e.throughput[1]);
+      ASSERT_EQ(e.throughput[0], e.throughput[2]);
+    });
+    ASSERT_EQ(r.weight[0], r.weight[1]);
+    ASSERT_EQ(r.weight[0], r.weight[2]);
+  }
+}
+
+// Without roulette, each collision splits the weight w into w*albedo (scattered) and
+// w*(1-albedo) (absorbed), each substrate hit likewise, so for a grey stack every photon's exits
+// plus its direct absorption equal 1 - R_fresnel to rounding.
+TEST(RandomWalk, GreyPhotonConservesEnergyWithoutRoulette) {
+  LayerStack s = one_layer(1.4, 0.3, Spectrum(0.5), Spectrum(5.0), Spectrum(0.5));
+  s.layers.push_back(make_layer("under", 1.2, 0.5, Spectrum(0.1), Spectrum(4.0), Spectrum(0.0)));
+  s.below.kind = Below::Kind::Lambert;
+  s.below.albedo = Spectrum(0.7);
+  WalkSettings settings;
+  settings.roulette_threshold = 0.0;
+  settings.forced_after = 1 << 30;
+  settings.forced_exponential_after = 1 << 30;
+  const glm::dvec3 wi = incident_direction(20.0, 0.0);
+  const double r0 = fresnel_dielectric(wi.z, 1.0, 1.4);
+  for (std::uint64_t i = 0; i < 5000; ++i) {
+    Rng rng(11, i);
+    const WalkResult r = random_walk(s, wi, rng, {}, settings);
+    ASSERT_NE(r.end, WalkResult::End::Roulette);
+    ASSERT_NEAR(r.weight[0] + r.absorbed[0], 1.0 - r0, 1e-12);
+  }
+}
+
+// Albedo 1, semi-infinite, index-mismatched: nothing absorbs and a walk may wander for ever; the
+// forced roulette must end every walk, and do so without bias: the expected exit weight is still
+// 1 - R_fresnel (all entering power comes back out).
+TEST(RandomWalk, AlbedoOneSemiInfiniteEndsAndConserves) {
+  const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(0.0), Spectrum(10.0), Spectrum(0.0));
+  const glm::dvec3 wi = incident_direction(0.0, 0.0);
+  const int n = 10000;
+  double sum = 0.0, sum2 = 0.0;
+  int roulette = 0, exits = 0;
+  for (int i = 0; i < n; ++i) {
+    Rng rng(5, i);
+    const WalkResult r = random_walk(s, wi, rng);
+    ASSERT_TRUE(r.weight.is_finite());
+    if (r.end == WalkResult::End::Roulette) ++roulette;
+    if (r.end == WalkResult::End::ExitTop) ++exits;
+    ASSERT_TRUE(r.end == WalkResult::End::Roulette || r.end == WalkResult::End::ExitTop);
+    ASSERT_EQ(r.absorbed[0], 0.0);
+    sum += r.weight[0];
+    sum2 += r.weight[0] * r.weight[0];
+  }
+  EXPECT_GT(roulette, 0);  // the forced roulette was exercised
+  EXPECT_EQ(roulette + exits, n);
+  const double mean = sum / n;
+  const double se = std::sqrt((sum2 / n - mean * mean) / (n - 1));
+  EXPECT_NEAR(mean, 1.0 - 0.04, 4.0 * se) << "se " << se;
+}
+
+// Spectral MIS keeps weights bounded: W_c <= 3 a_c <= 3 (entry transmission and albedos <= 1),
+// without roulette, even for a strongly coloured stack with a multi-lobe layer and a substrate.
+TEST(RandomWalk, ColouredWeightsBounded) {
+  const LayerStack s = coloured_stack();
+  WalkSettings no_roulette;
+  no_roulette.roulette_threshold = 0.0;
+  int events = 0;
+  for (std::uint64_t i = 0; i < 5000; ++i) {
+    Rng rng(13, i);
+    const WalkResult r = random_walk(s, incident_direction(60.0, 10.0), rng, [&](const ScatterEvent& e) {
+      ASSERT_TRUE(e.throughput.is_finite());
+      ASSERT_LE(e.throughput.max(), 3.0);
+      ASSERT_GE(e.throughput.min(), 0.0);
+      ++events;
+    }, no_roulette);
+    ASSERT_TRUE(r.weight.is_finite());
+    ASSERT_LE(r.weight.max(), 3.0);
+    ASSERT_NE(r.end, WalkResult::End::Lost);
+  }
+  EXPECT_GT(events, 5000);
+}
+
+// The all-paths connection adds the specularly bounced paths to the direct one: equal to it where
+// no interface reflects (index-matched), larger otherwise.
+TEST(RandomWalk, AllPathsConnectionContainsTheDirectPath) {
+  LayerStack matched = one_layer(1.0, 0.4, Spectrum(0.2, 0.5, 1.0), Spectrum(4.0), Spectrum(0.5));
+  matched.layers.push_back(make_layer("b", 1.0, 0.3, Spectrum(0.1), Spectrum(2.0, 3.0, 4.0), Spectrum(-0.2)));
+  LayerStack mismatched = matched;
+  mismatched.layers[0].ior = 1.5;
+  mismatched.layers[1].ior = 1.3;
+  for (const glm::dvec3& w : {incident_direction(20.0, 30.0), incident_direction(80.0, 200.0),
+                              -incident_direction(40.0, 10.0)}) {
+    for (int layer : {0, 1}) {
+      ScatterEvent e;
+      e.layer = layer;
+      e.depth = 0.1;
+      e.direction = glm::normalize(glm::dvec3(0.3, -0.2, -0.9));
+      const Spectrum direct = connection_weight(matched, e, w), all = connection_weight_all_paths(matched, e, w);
+      const Spectrum direct_m = connection_weight(mismatched, e, w), all_m = connection_weight_all_paths(mismatched, e, w);
+      for (int c = 0; c < kChannels; ++c) {
+        EXPECT_NEAR(all[c], direct[c], 1e-14 * (1.0 + direct[c]));
+        EXPECT_GT(all_m[c], direct_m[c]);
+      }
+    }
+  }
+}
+
+// The connection weight vanishes where no inside direction exists and towards sides that do not
+// transmit; it is finite at grazing and normal directions.
+TEST(RandomWalk, ConnectionWeightDomain) {
+  const LayerStack semi = one_layer(1.5, kInfiniteThickness, Spectrum(1.0), Spectrum(9.0), Spectrum(0.0));
+  ScatterEvent e;
+  e.layer = 0;
+  e.depth = 0.0;
+  e.direction = {0.0, 0.0, -1.0};
+  e.throughput = Spectrum(1.0);
+  EXPECT_TRUE(connection_weight(semi, e, {0.0, 0.0, -1.0}).is_black());  // no transmission
+  for (double mu : {1.0, 0.5, 1e-6, 1e-12}) {
+    const glm::dvec3 w{std::sqrt(1 - mu * mu), 0.0, mu};
+    const Spectrum v = connection_weight(semi, e, w);
+    EXPECT_TRUE(v.is_finite());
+    EXPECT_GE(v[0], 0.0);
+    EXPECT_TRUE(std::isfinite(connection_pdf(semi, e, w)));
+  }
+  // A layer less dense than the outside (n = 1 under n = 1.5 above): outside directions beyond
+  // asin(1/1.5) from the normal have no inside direction.
+  const LayerStack rare = one_layer(1.0, 1.0, Spectrum(1.0), Spectrum(1.0), Spectrum(0.0), 1.5, 1.5);
+  e.depth = 0.5;
+  const double s = 0.9;  // sin > 1/1.5
+  EXPECT_TRUE(connection_weight(rare, e, {s, 0.0, std::sqrt(1 - s * s)}).is_black());
+  EXPECT_EQ(connection_pdf(rare, e, {s, 0.0, std::sqrt(1 - s * s)}), 0.0);
+  EXPECT_FALSE(connection_weight(rare, e, {0.5, 0.0, std::sqrt(0.75)}).is_black());
+}
+
+}  // namespace
+}  // namespace lamina

@@ -1,0 +1,67 @@
+// The statistical helpers against closed forms and tabulated quantiles.
+#include "tests/support/statistics.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "materials/sampling.h"
+
+namespace lamina::test {
+namespace {
+
+TEST(Statistics, GammaQClosedForms) {
+  // Q(1, x) = e^{-x};  Q(1/2, x) = erfc(sqrt(x));  Q(3, x) = e^{-x}(1 + x + x^2/2).
+  for (double x : {0.0, 1e-6, 0.3, 1.0, 2.5, 10.0, 60.0}) {
+    EXPECT_NEAR(regularized_gamma_q(1.0, x), std::exp(-x), 1e-14 * std::exp(-x) + 1e-300);
+    EXPECT_NEAR(regularized_gamma_q(0.5, x), std::erfc(std::sqrt(x)), 1e-13 * std::erfc(std::sqrt(x)) + 1e-300);
+    const double q3 = std::exp(-x) * (1 + x + x * x / 2);
+    EXPECT_NEAR(regularized_gamma_q(3.0, x), q3, 1e-13 * q3 + 1e-300);
+  }
+}
+
+TEST(Statistics, ChiSquareQuantiles) {
+  // Tabulated 95% and 99.9% points (Abramowitz and Stegun table 26.8).
+  EXPECT_NEAR(chi_square_p_value(3.841459, 1), 0.05, 1e-6);
+  EXPECT_NEAR(chi_square_p_value(18.307038, 10), 0.05, 1e-6);
+  EXPECT_NEAR(chi_square_p_value(29.588298, 10), 0.001, 1e-8);
+  EXPECT_NEAR(chi_square_p_value(124.342113, 100), 0.05, 1e-6);
+}
+
+TEST(Statistics, ChiSquareMergesSmallBins) {
+  // Expected 2+2+10 reaches 5 at the third bin (observed 1+2+10 = 13 vs 14); then 1+1+6 = 8
+  // (observed 0+1+5 = 6). chi2 = 1/14 + 4/8 with 2 - 1 = 1 dof.
+  const ChiSquareResult r = chi_square_test({1, 2, 10, 0, 1, 5}, {2, 2, 10, 1, 1, 6});
+  EXPECT_EQ(r.bins, 2);
+  EXPECT_EQ(r.dof, 1);
+  EXPECT_NEAR(r.chi2, 1.0 / 14 + 4.0 / 8, 1e-15);
+  // a trailing bin below the threshold joins the previous one
+  const ChiSquareResult t = chi_square_test({6, 6, 1}, {6, 6, 1});
+  EXPECT_EQ(t.bins, 2);
+  EXPECT_EQ(t.chi2, 0.0);
+}
+
+TEST(Statistics, UniformSamplesPassAndBiasedSamplesFail) {
+  const int bins = 50, n = 200000;
+  std::vector<double> fair(bins, 0.0), biased(bins, 0.0), expected(bins, double(n) / bins);
+  Rng rng(7, 0);
+  for (int i = 0; i < n; ++i) {
+    const double u = rng.uniform();
+    fair[static_cast<int>(u * bins)] += 1;
+    biased[static_cast<int>(std::pow(u, 1.02) * bins)] += 1;  // a 2% distortion
+  }
+  EXPECT_GT(chi_square_test(fair, expected).p_value, 1e-3);
+  EXPECT_LT(chi_square_test(biased, expected).p_value, 1e-6);
+}
+
+TEST(Statistics, RunningStatsMatchesClosedForm) {
+  RunningStats s;
+  for (int i = 1; i <= 100; ++i) s.add(i);
+  EXPECT_DOUBLE_EQ(s.mean(), 50.5);
+  EXPECT_NEAR(s.variance(), 100.0 * 101.0 / 12.0, 1e-10);  // sample variance of 1..n: n(n+1)/12
+  EXPECT_TRUE(WithinKSigma(1.0, 1.3, 0.1, 4.0));
+  EXPECT_FALSE(WithinKSigma(1.0, 1.5, 0.1, 4.0));
+}
+
+}  // namespace
+}  // namespace lamina::test
