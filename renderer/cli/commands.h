@@ -5,3 +5,4 @@
 
 int run_render(int argc, char** argv);
 int run_compare(int argc, char** argv);
+int run_brdf(int argc, char** argv);

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
     print_usage(stdout);
     return 0;
   }
+  if (command == "brdf") return run_brdf(argc - 1, argv + 1);
   if (command == "--version") {
     std::puts("lamina 0.1.0");
     return 0;

@@ -1,0 +1,190 @@
+// lamina brdf: the BRDF/BTDF table and energy totals of a layered material (contracts.md,
+// "lamina brdf"). One file per subcommand; the physics lives in materials/.
+//
+// Outputs:
+//   --out TABLE.csv      header side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple;
+//                        one row per bin and channel (channel r, g, b); theta_o_deg is the bin
+//                        centre measured from the normal on that side (0..90 for both reflect and
+//                        transmit), phi_o_deg from the light's azimuth. Not written if omitted.
+//   --summary TOTALS.json  R_specular, R_diffuse, T_ballistic, T_diffuse, absorbed (RGB triples)
+//                        and <key>_stderr; also "method", "theta_i_deg", "phi_i_deg", "samples",
+//                        "seed" for provenance. Printed to stdout if omitted.
+// Files are written atomically (a temporary file in the same folder, then rename).
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include "materials/brdf_table.h"
+#include "materials/stack_file.h"
+#include "renderer/cli/commands.h"
+
+namespace {
+
+using lamina::BrdfOptions;
+using lamina::BrdfSide;
+using lamina::BrdfTable;
+using lamina::Estimate;
+using lamina::kChannels;
+
+struct CliError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Writes text to path atomically: a temporary file beside it, then rename(2), so a reader never
+// sees a half-written file and a failure leaves any previous file intact.
+void write_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw CliError("cannot write '" + path + "': " + std::strerror(errno));
+    out << text;
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw CliError("cannot write '" + path + "': write failed");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(tmp.c_str());
+    throw CliError("cannot write '" + path + "': " + reason);
+  }
+}
+
+std::string format_number(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+std::string table_csv(const BrdfTable& t) {
+  static const char* kChannelNames[kChannels] = {"r", "g", "b"};
+  std::ostringstream os;
+  os << "side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple\n";
+  for (int side = 0; side < 2; ++side)
+    for (int k = 0; k < t.options.bins_theta; ++k)
+      for (int m = 0; m < t.options.bins_phi; ++m) {
+        const int b = t.bin_index(static_cast<BrdfSide>(side), k, m);
+        for (int c = 0; c < kChannels; ++c) {
+          os << (side == 0 ? "reflect" : "transmit") << ',' << kChannelNames[c] << ','
+             << format_number(t.theta_centre_deg(k)) << ',' << format_number(t.phi_centre_deg(m)) << ','
+             << format_number(t.value[b][c]) << ',' << format_number(t.stderr_[b][c]) << ','
+             << format_number(t.single[b][c]) << ',' << format_number(t.multiple[b][c]) << '\n';
+        }
+      }
+  return os.str();
+}
+
+std::string totals_json(const BrdfTable& t, const std::string& method) {
+  nlohmann::ordered_json j;
+  j["method"] = method;
+  j["theta_i_deg"] = t.options.theta_i_deg;
+  j["phi_i_deg"] = t.options.phi_i_deg;
+  if (method == "monte-carlo") {
+    j["samples"] = t.options.samples;
+    j["seed"] = t.options.seed;
+  }
+  auto put = [&](const char* key, const Estimate& e) {
+    j[key] = {e.value[0], e.value[1], e.value[2]};
+    j[std::string(key) + "_stderr"] = {e.stderr_[0], e.stderr_[1], e.stderr_[2]};
+  };
+  put("R_specular", t.totals.R_specular);
+  put("R_diffuse", t.totals.R_diffuse);
+  put("T_ballistic", t.totals.T_ballistic);
+  put("T_diffuse", t.totals.T_diffuse);
+  put("absorbed", t.totals.absorbed);
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+int run_brdf(int argc, char** argv) {
+  CLI::App app{
+      "BRDF/BTDF table and energy totals of a layered material for light from (theta_i, phi_i).\n"
+      "first-order: the analytic zeroth- and first-order solution (single scattering; 'absorbed'\n"
+      "then also holds the light of higher orders). monte-carlo: the random walk, all orders,\n"
+      "single and multiple scattering reported apart, with standard errors.",
+      "lamina brdf"};
+  std::string stack_path, method = "monte-carlo", out_path, summary_path;
+  double theta_i = std::nan(""), phi_i = 0.0;
+  long long samples = 100000, seed = 1;  // signed, so that "-3" is an error and not 2^64 - 3
+  int bins_theta = 18, bins_phi = 36;
+  app.add_option("STACK.json", stack_path, "material file (JSON, contracts.md)")->required();
+  app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")->required();
+  app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)");
+  app.add_option("--method", method, "first-order | monte-carlo (default monte-carlo)")
+      ->check(CLI::IsMember({"first-order", "monte-carlo"}));
+  app.add_option("--samples", samples, "Monte Carlo photons (default 100000)");
+  app.add_option("--bins-theta", bins_theta, "K bins uniform in cos(theta_o) per hemisphere (default 18)");
+  app.add_option("--bins-phi", bins_phi, "M bins uniform in phi_o (default 36)");
+  app.add_option("--seed", seed, "random seed >= 0 (default 1); results do not depend on threads");
+  app.add_option("--out", out_path, "write the table as CSV here");
+  app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string msg = e.what();
+    if (const auto nl = msg.find('\n'); nl != std::string::npos) msg.resize(nl);
+    std::fprintf(stderr, "lamina brdf: %s (try 'lamina brdf --help')\n", msg.c_str());
+    return 2;
+  }
+
+  try {
+    if (!std::isfinite(theta_i) || theta_i < 0.0 || theta_i >= 90.0)
+      throw CliError("--theta-i must be in [0, 90) degrees (got " + format_number(theta_i) + ")");
+    if (!std::isfinite(phi_i)) throw CliError("--phi-i must be finite");
+    if (samples < 2) throw CliError("--samples must be at least 2 (got " + std::to_string(samples) + ")");
+    if (method == "first-order" && app.count("--samples") + app.count("--seed") > 0)
+      std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method first-order\n");
+    if (seed < 0) throw CliError("--seed must be >= 0 (got " + std::to_string(seed) + ")");
+    if (bins_theta < 1 || bins_theta > 10000) throw CliError("--bins-theta must be in [1, 10000]");
+    if (bins_phi < 1 || bins_phi > 10000) throw CliError("--bins-phi must be in [1, 10000]");
+    if (static_cast<long long>(bins_theta) * bins_phi > 1000000)
+      throw CliError("--bins-theta x --bins-phi must be at most 1000000");
+
+    const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
+    // Fail before a long computation if an output cannot be written.
+    for (const std::string* path : {&out_path, &summary_path}) {
+      if (path->empty()) continue;
+      const auto slash = path->find_last_of('/');
+      const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path->substr(0, slash));
+      if (::access(dir.c_str(), W_OK) != 0)
+        throw CliError("cannot write '" + *path + "': " + std::strerror(errno));
+    }
+    BrdfOptions options;
+    options.theta_i_deg = theta_i;
+    options.phi_i_deg = phi_i;
+    options.samples = static_cast<std::uint64_t>(samples);
+    options.bins_theta = bins_theta;
+    options.bins_phi = bins_phi;
+    options.seed = static_cast<std::uint64_t>(seed);
+    const BrdfTable table = method == "first-order" ? lamina::brdf_table_first_order(stack, options)
+                                                    : lamina::brdf_table_monte_carlo(stack, options);
+    const std::string json = totals_json(table, method);
+    if (!out_path.empty()) write_atomically(out_path, table_csv(table));
+    if (!summary_path.empty()) {
+      write_atomically(summary_path, json);
+    } else {
+      std::fputs(json.c_str(), stdout);
+    }
+  } catch (const lamina::StackFileError& e) {
+    std::fprintf(stderr, "lamina brdf: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina brdf: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
