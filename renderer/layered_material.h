@@ -1,0 +1,104 @@
+// Layered (Hanrahan-Krueger) materials bound to a glTF scene, and how the renderer shades them.
+//
+// Binding (README, "Layered materials in the renderer"): a glTF material names its stack file in
+// its extras, {"lamina": {"stack": "skin.json"}} (Blender exports custom properties there), or a
+// material map given by `lamina render --materials MAP.json` maps glTF material names to stack
+// files: {"Skin": "materials/skin.json", ...}. A relative path resolves against the directory of
+// the file that names it (the glTF, or the map). The map wins over extras.
+//
+// One place gives the stack at a hit: LayeredMaterial::stack_at(). It returns the material's
+// base stack today; texture-driven parameters (blood, melanin, oil, freckles) are computed there
+// into the caller's per-thread scratch, so the integrator and every --subsurface mode see them.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+struct SceneDesc;
+
+// How layered materials are shaded (contracts.md, `lamina render --subsurface`).
+enum class SubsurfaceMode { RandomWalk, FirstOrder, Table, Lambert };
+// Parses "random-walk" | "first-order" | "table" | "lambert"; false if unknown.
+bool parse_subsurface_mode(const std::string& name, SubsurfaceMode* mode);
+const char* subsurface_mode_name(SubsurfaceMode mode);
+
+// What stack_at() may look at: the hit as the integrator sees it.
+struct ShadingPoint {
+  glm::dvec3 p{0.0};      // world position
+  glm::dvec2 uv{0.0};     // texture coordinates (TEXCOORD_0)
+  int mesh = -1;
+  int triangle = -1;
+  // The viewer is on the back side (against the triangle's wound normal) of a stack that
+  // transmits: the stack is seen from below and stack_at returns it flipped (a leaf lit from
+  // behind). For a stack that does not transmit (skin over flesh, a closed mesh) the side the
+  // ray comes from is always the top, and this is false.
+  bool from_below = false;
+};
+
+// Per-thread scratch in which stack_at() may build a stack for this hit (texture-driven
+// parameters), so that no allocation happens per hit once its vectors have grown.
+struct StackScratch {
+  LayerStack stack;
+  LayerStack flipped;
+};
+
+class LayeredMaterial {
+ public:
+  // `stack` must be valid (validate_stack() empty). `source` is the stack file, for messages.
+  LayeredMaterial(LayerStack stack, std::string source);
+
+  // The stack at this hit, seen from the viewer's side (flipped when sp.from_below). The result
+  // refers either to this material's own stacks or to `scratch`; valid until the next call with
+  // the same scratch.
+  const LayerStack& stack_at(const ShadingPoint& sp, StackScratch& scratch) const;
+
+  const LayerStack& base_stack() const { return stack_; }
+  const std::string& source() const { return source_; }
+  bool transmits() const { return stack_.transmits(); }
+
+  // The stack's diffuse bihemispherical reflectance (white-sky albedo of R_diffuse: the light
+  // that scattered at least once and left through the top, averaged over cosine-weighted
+  // incidence), estimated by the random walk when the material is made. The `lambert` mode's
+  // albedo. lambert_albedo_stderr is its standard error.
+  const Spectrum& lambert_albedo() const { return lambert_albedo_; }
+  const Spectrum& lambert_albedo_stderr() const { return lambert_albedo_stderr_; }
+
+ private:
+  LayerStack stack_;
+  LayerStack flipped_;  // flipped(stack_) if it transmits, else unused
+  std::string source_;
+  Spectrum lambert_albedo_, lambert_albedo_stderr_;
+};
+
+// The diffuse bihemispherical reflectance of a stack by `walks` random walks with cosine-weighted
+// incidence (mu_i = sqrt(u): density 2 mu_i on [0,1], so the walks' mean top exit weight after
+// >= 1 scattering is 2 int R_diffuse(mu) mu dmu). Deterministic: walk i uses Rng(seed, i).
+Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
+                                        Spectrum* standard_error = nullptr);
+
+// The layered materials of a scene, one slot per glTF material (null: not layered).
+struct LayeredBindings {
+  std::vector<std::shared_ptr<const LayeredMaterial>> by_material;
+  const LayeredMaterial* get(int material) const {
+    return material >= 0 && material < static_cast<int>(by_material.size()) ? by_material[material].get() : nullptr;
+  }
+  int count() const;
+};
+
+// Binds stacks to the scene's materials: the map file (if not empty) first, then each
+// material's extras["lamina.stack"]. Throws SceneError with one line naming the glTF (or map)
+// and the stack file: a missing stack file, a map naming no material of the scene, or the
+// StackFileError message of a bad stack file.
+LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path);
+
+}  // namespace lamina
