@@ -3,12 +3,17 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "materials/fresnel.h"
+#include "materials/random_walk.h"
+#include "renderer/layered_surface.h"
+#include "renderer/layered_table.h"
 #include "renderer/surface.h"
 
 namespace lamina {
@@ -38,6 +43,68 @@ double emission_weight(const LightSet& lights, const Light* light, bool unweight
   return power_heuristic(bsdf_pdf, light_pdf);
 }
 
+// Next-event estimation at the scattering events of a layered material's random walk
+// (random-walk mode; derivation in layered_surface.h and README "Layered materials").
+//
+// At an event e inside the stack (throughput W_e) a light is sampled from the surface point
+// (the model is position free: light leaves where it entered), and connected with
+//   contribution = beta / (1 - R(wo)) * W_e * connection_weight(e, wl) * [n factor]
+//                  * Li |cos theta_l| / (pmf pdf_l) * m_light,
+// where connection_weight = phase / |mu_inside| * exp(-tau) * prod(1 - R_k) * (n_out/n_layer)^2
+// (random_walk.cpp), the n factor is transmission_radiance_factor for lights on the far side,
+// 1 / (1 - R) undoes the walk's entry weight since the walk was chosen with probability 1 - R,
+// and m_light is the power heuristic against the walk leaving straight from e along wl.
+struct WalkConnector {
+  const Scene* scene;
+  const LightSet* lights;
+  const LayerStack* stack;
+  const glm::dvec3* p;
+  const glm::dvec3* ng;  // geometric normal on the viewer's side
+  const glm::dvec3 *t, *b, *n;
+  Rng* rng;
+  RayCounters* rays;
+  Spectrum prefix;       // beta / (1 - R(wo))
+  double t_factor = 1.0;
+  bool naive = false;
+  Spectrum* radiance;
+  ScatterEvent last;
+
+  void operator()(const ScatterEvent& e) {
+    ++rays->scatter_events;
+    last = e;
+    if (lights->empty()) return;
+    double pmf = 0.0;
+    const Light* light = lights->choose(rng->uniform(), &pmf);
+    const glm::dvec2 u(rng->uniform(), rng->uniform());
+    LightSample ls;
+    if (!(pmf > 0.0) || !light->sample_li(*p, u, &ls)) return;
+    const glm::dvec3 wl{glm::dot(ls.wi, *t), glm::dot(ls.wi, *b), glm::dot(ls.wi, *n)};
+    const double cos_g = glm::dot(ls.wi, *ng);
+    if (!(cos_g * wl.z > 0.0)) return;
+    Spectrum cw = connection_weight(*stack, e, wl);
+    if (cw.is_black()) return;
+    if (wl.z < 0.0) cw *= t_factor;
+    double mis = 1.0;
+    if (naive) {
+      const double ft = exit_fresnel_transmission(*stack, e.layer, wl);
+      if (e.kind == ScatterEvent::Kind::Volume && ft > 0.0) cw /= ft;  // the naive estimator drops Fresnel
+    } else if (!light->is_delta()) {
+      mis = power_heuristic(pmf * ls.pdf, exit_pdf_for_mis(*stack, e, wl));
+    }
+    Ray shadow{offset_ray_origin(*p, cos_g > 0.0 ? *ng : -*ng), ls.wi};
+    double tmax = 1e300;
+    if (!ls.infinite) {
+      const glm::dvec3 v = ls.target - shadow.origin;
+      const double dist = glm::length(v);
+      shadow.direction = v / dist;
+      tmax = dist * (1.0 - 1e-6);
+    }
+    ++rays->event_shadow;
+    if (scene->occluded(shadow, tmax, rays)) return;
+    *radiance += prefix * e.throughput * cw * ls.li * (std::abs(wl.z) * mis / (pmf * ls.pdf));
+  }
+};
+
 }  // namespace
 
 glm::dvec2 sample_tent_filter(glm::dvec2 u) {
@@ -48,8 +115,9 @@ glm::dvec2 sample_tent_filter(glm::dvec2 u) {
 }
 
 Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
-                       RayCounters* rays) {
+                       RayCounters* rays, const LayeredShading* layered) {
   const SceneDesc& desc = scene.desc();
+  thread_local StackScratch scratch;  // stack_at() may build a stack per hit here
   Spectrum radiance(0.0), beta(1.0);
   bool unweighted = true;  // camera ray, or the last bounce was a delta lobe
   double bsdf_pdf = 0.0;   // density of the last BSDF sample
@@ -71,7 +139,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
 
     // Shade both sides of every surface: turn the normals towards the viewer.
     glm::dvec3 ng = hit.ng, ns = hit.ns;
-    if (glm::dot(ng, wo_world) < 0.0) {
+    const bool back_side = glm::dot(ng, wo_world) < 0.0;
+    if (back_side) {
       ng = -ng;
       ns = -ns;
     }
@@ -80,11 +149,81 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const Frame frame(ns);
     const glm::dvec3 wo = frame.to_local(wo_world);
 
-    const Material& mat = desc.material(desc.meshes[hit.mesh].material);
+    const int material_index = desc.meshes[hit.mesh].material;
+    const Material& mat = desc.material(material_index);
+    const LayeredMaterial* lm = layered && layered->bindings ? layered->bindings->get(material_index) : nullptr;
     Spectrum albedo = mat.base_color;
-    if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
+    if (lm && layered->mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo();
+    else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
     const LambertSurface lambert(albedo);
-    const Surface& surface = lambert;
+    const Surface* surface_ptr = &lambert;
+    std::optional<FirstOrderSurface> first_order;
+    std::optional<TableSurface> table;
+    const LayerStack* stack = nullptr;
+    if (lm && layered->mode != SubsurfaceMode::Lambert) {
+      // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
+      // stack is seen from its top from either side (closed meshes).
+      ShadingPoint sp;
+      sp.p = hit.p;
+      sp.uv = hit.uv;
+      sp.mesh = hit.mesh;
+      sp.triangle = hit.triangle;
+      sp.from_below = back_side && lm->transmits();
+      stack = &lm->stack_at(sp, scratch);
+      if (layered->mode == SubsurfaceMode::FirstOrder) {
+        first_order.emplace(*stack, wo);
+        surface_ptr = &*first_order;
+      } else if (layered->mode == SubsurfaceMode::Table) {
+        table.emplace(layered->tables->get(lm, sp.from_below), wo);
+        surface_ptr = &*table;
+      }
+    }
+
+    if (stack && layered->mode == SubsurfaceMode::RandomWalk) {
+      // The top interface's specular reflection: a delta lobe chosen with probability R(wo)
+      // (weight R / R = 1); else the walk, whose weights carry (1 - R): divided out below.
+      const double r_top = fresnel_dielectric(wo.z, stack->above_ior, stack->layers[0].ior);
+      glm::dvec3 wi;
+      Spectrum weight(1.0);
+      bool delta = true;
+      double pdf = 0.0;
+      if (rng.uniform() < r_top) {
+        wi = {-wo.x, -wo.y, wo.z};
+      } else {
+        WalkConnector connect{&scene, &lights, stack, &hit.p, &ng, &frame.t, &frame.b, &frame.n, &rng, rays};
+        connect.prefix = beta / (1.0 - r_top);
+        connect.t_factor = transmission_radiance_factor(*stack);
+        connect.naive = layered->naive;
+        connect.radiance = &radiance;
+        const EventCallback on_event = [c = &connect](const ScatterEvent& e) { (*c)(e); };
+        const WalkResult walk = random_walk(*stack, wo, rng, on_event);
+        if (walk.side == WalkResult::Side::None) break;  // absorbed or killed by roulette
+        wi = walk.direction;
+        weight = walk.weight / (1.0 - r_top);
+        if (walk.side == WalkResult::Side::Bottom) weight *= connect.t_factor;
+        // An exit straight from the last event competes with that event's light sample (MIS);
+        // any other exit (unscattered, or reflected inside since) cannot be found by light
+        // sampling: full weight, as after a delta lobe.
+        if (walk.straight_from_last_event && !layered->naive) {
+          delta = false;
+          pdf = exit_pdf_for_mis(*stack, connect.last, wi);
+        }
+      }
+      const glm::dvec3 wi_world = frame.to_world(wi);
+      const double cos_g = glm::dot(wi_world, ng);
+      if (!(cos_g * wi.z > 0.0)) break;
+      beta *= weight;
+      unweighted = delta;
+      bsdf_pdf = pdf;
+      ray = Ray{offset_ray_origin(hit.p, cos_g > 0.0 ? ng : -ng), wi_world};
+      if (depth >= 2) {
+        const double q = std::max(0.0, 1.0 - beta.max());
+        if (rng.uniform() < q) break;
+        beta /= 1.0 - q;
+      }
+      continue;
+    }
+    const Surface& surface = *surface_ptr;
 
     // Next-event estimation: one light chosen by power, one point on it.
     if (!lights.empty() && !surface.is_delta()) {
@@ -141,7 +280,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
   Image image(s.width, s.height);
   constexpr int kTile = 16;
   const int tiles_x = (s.width + kTile - 1) / kTile, tiles_y = (s.height + kTile - 1) / kTile;
-  std::atomic<std::uint64_t> closest{0}, camera_rays{0}, shadow{0}, invalid{0};
+  std::atomic<std::uint64_t> closest{0}, camera_rays{0}, shadow{0}, invalid{0}, events{0}, event_shadow{0};
 
   auto render_tile = [&](int tile) {
     const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
@@ -158,7 +297,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
           const glm::dvec2 d = sample_tent_filter({rng.uniform(), rng.uniform()});
           const Ray ray = camera.generate_ray({x + 0.5 + d.x, y + 0.5 + d.y});
           ++rays.camera;
-          const Spectrum l = path_radiance(scene, lights, ray, rng, s.max_depth, &rays);
+          const Spectrum l = path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered);
           if (l.is_finite()) sum += l;
           else ++bad;
         }
@@ -168,6 +307,8 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     closest += rays.closest;
     camera_rays += rays.camera;
     shadow += rays.shadow;
+    events += rays.scatter_events;
+    event_shadow += rays.event_shadow;
     invalid += bad;
     if (on_progress) on_progress(static_cast<std::uint64_t>(x1 - x0) * (y1 - y0) * s.spp);
   };
@@ -182,6 +323,8 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     stats->rays.closest = closest;
     stats->rays.camera = camera_rays;
     stats->rays.shadow = shadow;
+    stats->rays.scatter_events = events;
+    stats->rays.event_shadow = event_shadow;
     stats->invalid_samples = invalid;
   }
   return image;

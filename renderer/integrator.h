@@ -13,10 +13,24 @@
 #include "materials/sampling.h"
 #include "renderer/camera.h"
 #include "renderer/image.h"
+#include "renderer/layered_material.h"
 #include "renderer/lights.h"
 #include "renderer/scene.h"
 
 namespace lamina {
+
+class LayeredTables;
+
+// How layered materials are shaded (renderer/layered_surface.h).
+struct LayeredShading {
+  const LayeredBindings* bindings = nullptr;
+  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
+  // Tests and the bias report only: the naive random-walk estimator of the seed's slides. Light
+  // samples at events without the Fresnel transmission of the way out and with weight 1, and
+  // the walk's exits that reach a light also with weight 1 (no MIS: counted twice).
+  bool naive = false;
+  const LayeredTables* tables = nullptr;  // SubsurfaceMode::Table
+};
 
 struct RenderSettings {
   int width = 640;
@@ -26,6 +40,7 @@ struct RenderSettings {
   int max_depth = 64;  // bounces: 0 shows emitters and the environment only
   int threads = 0;     // 0: all cores
   RayLog* ray_log = nullptr;  // benchmark only: records every ray (forces one thread)
+  const LayeredShading* layered = nullptr;  // null: no layered materials
 };
 
 struct RenderStats {
@@ -35,7 +50,7 @@ struct RenderStats {
 
 // Radiance arriving at ray.origin along -ray.direction, estimated by one path.
 Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
-                       RayCounters* rays);
+                       RayCounters* rays, const LayeredShading* layered = nullptr);
 
 // Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,

@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -13,6 +14,8 @@
 #include "renderer/environment.h"
 #include "renderer/image_io.h"
 #include "renderer/integrator.h"
+#include "renderer/layered_material.h"
+#include "renderer/layered_table.h"
 #include "renderer/lights.h"
 #include "renderer/progress.h"
 #include "renderer/scene.h"
@@ -70,18 +73,18 @@ int run_render(int argc, char** argv) {
   settings.height = 480;
   settings.spp = 16;
   std::string subsurface = "random-walk";
+  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
   app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
   app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str();
   app.add_option("--width", settings.width, "image width in pixels")->capture_default_str();
   app.add_option("--height", settings.height, "image height in pixels")->capture_default_str();
   app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
-  app.add_option("--materials", materials_path, "material map JSON (layered materials; not available yet)");
+  app.add_option("--materials", materials_path, "material map JSON: {\"glTF material name\": \"stack.json\", ...} (paths relative to the map)");
   app.add_option("--seed", settings.seed, "random seed")->capture_default_str();
   app.add_option("--threads", settings.threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_option("--subsurface", subsurface,
-                 "shading of layered materials: random-walk|first-order|table|lambert (no effect until layered "
-                 "materials exist)")
+                 "shading of layered materials: random-walk|first-order|table|lambert")
       ->capture_default_str();
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
@@ -105,10 +108,8 @@ int run_render(int argc, char** argv) {
       throw UsageError("--width x --height x --spp exceeds 1e12 paths");
     if (settings.max_depth < 0 || settings.max_depth > 100000) throw UsageError("--max-depth must be between 0 and 100000");
     if (settings.threads < 0 || settings.threads > 4096) throw UsageError("--threads must be between 0 and 4096");
-    if (subsurface != "random-walk" && subsurface != "first-order" && subsurface != "table" && subsurface != "lambert")
+    if (!parse_subsurface_mode(subsurface, &mode))
       throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table or lambert");
-    if (!materials_path.empty())
-      throw UsageError("--materials '" + materials_path + "': material maps are not supported yet (layered materials)");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     check_writable(out_path, "output");
     if (!png_path.empty()) check_writable(png_path, "--png");
@@ -125,6 +126,18 @@ int run_render(int argc, char** argv) {
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
+    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
+    std::unique_ptr<LayeredTables> tables;
+    if (bindings.count() > 0 && mode == SubsurfaceMode::Table) {
+      tables = std::make_unique<LayeredTables>(bindings, TableSettings{});
+      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
+                  bindings.count(), tables->build_seconds(), tables->bytes() / 1024.0);
+    }
+    LayeredShading layered;
+    layered.bindings = &bindings;
+    layered.mode = mode;
+    layered.tables = tables.get();
+    settings.layered = &layered;
     const Scene scene(std::move(desc));
     const LightSet lights(scene, env);
     if (lights.empty())
@@ -155,6 +168,9 @@ int run_render(int argc, char** argv) {
         {"lamina:rays_closest", std::to_string(stats.rays.closest)},
         {"lamina:rays_camera", std::to_string(stats.rays.camera)},
         {"lamina:rays_shadow", std::to_string(stats.rays.shadow)},
+        {"lamina:layered_materials", std::to_string(bindings.count())},
+        {"lamina:scatter_events", std::to_string(stats.rays.scatter_events)},
+        {"lamina:event_shadow_rays", std::to_string(stats.rays.event_shadow)},
     };
     write_exr(out_path, image, meta);
     if (!png_path.empty()) write_png(png_path, image);
@@ -166,6 +182,10 @@ int run_render(int argc, char** argv) {
         scene_path.c_str(), out_path.c_str(), settings.width, settings.height, settings.spp, seconds,
         static_cast<double>(stats.rays.closest), static_cast<double>(stats.rays.camera), stats.rays.closest / s,
         static_cast<double>(stats.rays.shadow), stats.rays.shadow / s, peak_memory_bytes() / 1048576.0);
+    if (bindings.count() > 0)
+      std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events, %.3g shadow rays from events\n",
+                  subsurface.c_str(), bindings.count(), static_cast<double>(stats.rays.scatter_events),
+                  static_cast<double>(stats.rays.event_shadow));
     if (stats.invalid_samples > 0)
       std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
                    static_cast<unsigned long long>(stats.invalid_samples));

@@ -1,0 +1,123 @@
+#include "renderer/layered_surface.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "materials/first_order.h"
+#include "materials/fresnel.h"
+#include "materials/sampling.h"
+
+namespace lamina {
+
+double transmission_radiance_factor(const LayerStack& stack) {
+  if (!stack.transmits()) return 1.0;
+  const double r = stack.above_ior / stack.below.ior;
+  return r * r;
+}
+
+double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
+  ScatterEvent e = event;
+  double sum = 0.0;
+  for (int k = 0; k < kChannels; ++k) {
+    e.hero = k;
+    sum += connection_pdf(stack, e, w);
+  }
+  return sum / kChannels;
+}
+
+double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w) {
+  // Snell keeps n sin(theta): the cosine in layer j follows from w (as in random_walk.cpp).
+  if (!(w.z != 0.0)) return 0.0;
+  const bool up = w.z > 0.0;
+  if (!up && !stack.transmits()) return 0.0;
+  const double n_out = up ? stack.above_ior : stack.below.ior;
+  const double sin2_out = std::max(0.0, 1.0 - w.z * w.z);
+  auto mu_in = [&](int j) {
+    const double r = n_out / stack.layers[j].ior;
+    const double s2 = r * r * sin2_out;
+    return s2 < 1.0 ? std::sqrt(1.0 - s2) : -1.0;
+  };
+  const int n = static_cast<int>(stack.layers.size());
+  double t = 1.0;
+  if (up) {
+    for (int k = layer; k >= 0; --k) {
+      const double mu = mu_in(k);
+      if (mu <= 0.0) return 0.0;
+      t *= 1.0 - fresnel_dielectric(mu, stack.layers[k].ior, stack.ior_above_interface(k));
+    }
+  } else {
+    for (int k = layer + 1; k <= n; ++k) {
+      const double mu = mu_in(k - 1);
+      if (mu <= 0.0) return 0.0;
+      t *= 1.0 - fresnel_dielectric(mu, stack.layers[k - 1].ior, stack.ior_below_interface(k));
+    }
+  }
+  return t;
+}
+
+FirstOrderSurface::FirstOrderSurface(const LayerStack& stack, const glm::dvec3& wo)
+    : stack_(stack), zeroth_(zeroth_order(stack, std::clamp(wo.z, 0.0, 1.0))),
+      t_factor_(transmission_radiance_factor(stack)), transmits_(stack.transmits()) {
+  // Lobe choice by the channels' mean of each part of the energy (contracts.md: R_specular +
+  // T_ballistic + collided = 1), so that a lobe of weight w is chosen with probability ~ w.
+  p_specular_ = std::clamp(zeroth_.R_specular.average(), 0.0, 1.0);
+  p_ballistic_ = transmits_ && zeroth_.cos_below > 0.0 ? std::clamp(zeroth_.T_ballistic.average(), 0.0, 1.0) : 0.0;
+  p_diffuse_ = std::max(0.0, 1.0 - p_specular_ - p_ballistic_);
+}
+
+Spectrum FirstOrderSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0) return Spectrum(0.0);
+  // Reflection is reciprocal: f_r(wi -> wo) = first_order_brdf(light at wi, viewer at wo).
+  if (wi.z > 0.0) return first_order_brdf(stack_, wi, wo);
+  // Transmission: the library gives f_t(wo -> wi) (light from above at wo); reciprocity with
+  // indices (layered_surface.h) turns it into f_t(wi -> wo).
+  if (wi.z < 0.0 && transmits_) return first_order_btdf(stack_, wo, wi) * t_factor_;
+  return Spectrum(0.0);
+}
+
+double FirstOrderSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
+  if (wi.z < 0.0 && !transmits_) return 0.0;
+  return p_diffuse_ * std::abs(wi.z) * kInvPi * (transmits_ ? 0.5 : 1.0);
+}
+
+bool FirstOrderSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
+  if (wo.z <= 0.0) return false;
+  if (u.x < p_specular_) {
+    // Mirror delta lobe: f |cos| / pdf = R_specular / p_specular (per delta).
+    s->wi = {-wo.x, -wo.y, wo.z};
+    s->pdf = p_specular_;
+    s->f = zeroth_.R_specular / std::max(wo.z, 1e-300);
+    s->delta = true;
+    return wo.z > 0.0;
+  }
+  if (u.x < p_specular_ + p_ballistic_) {
+    // Ballistic delta lobe: the unscattered light from below that leaves towards wo; Snell
+    // between the outside media: n_above sin(theta_o) = n_below sin(theta_b).
+    const double r = stack_.above_ior / stack_.below.ior;
+    s->wi = {-wo.x * r, -wo.y * r, -zeroth_.cos_below};
+    s->pdf = p_ballistic_;
+    s->f = zeroth_.T_ballistic * t_factor_ / zeroth_.cos_below;
+    s->delta = true;
+    return true;
+  }
+  if (p_diffuse_ <= 0.0) return false;
+  const double v = std::min((u.x - p_specular_ - p_ballistic_) / p_diffuse_, 1.0 - 1e-16);
+  glm::dvec3 w;
+  if (transmits_) {
+    // Both sides with probability 1/2: reuse v.
+    const bool down = v < 0.5;
+    w = sample_cosine_hemisphere({down ? 2.0 * v : 2.0 * v - 1.0, u.y});
+    if (down) w.z = -w.z;
+  } else {
+    w = sample_cosine_hemisphere({v, u.y});
+  }
+  if (w.z == 0.0) return false;
+  s->wi = w;
+  s->pdf = pdf(wo, w);
+  s->f = eval(wo, w);
+  s->delta = false;
+  return s->pdf > 0.0;
+}
+
+}  // namespace lamina
