@@ -76,7 +76,11 @@ double ParameterMap::lookup(glm::dvec2 uv, int channel) const {
 }
 
 ParameterMap read_parameter_map(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
+  // Unassociated alpha: a data map's channels are independent values, so OpenImageIO must not
+  // premultiply the colour channels by alpha on reading (its default for PNG).
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
   if (!in) throw SceneError(path + ": cannot read the parameter map (" + OIIO::geterror() + ")");
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
