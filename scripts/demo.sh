@@ -14,4 +14,17 @@ echo "demo: built $("$LAMINA" --version)"
   --width 512 --height 512 --spp "$SPP"
 "$LAMINA" render scenes/lee_perry_smith_head/head_lit.gltf -o out/head.exr --png out/head.png \
   --width 400 --height 500 --spp "$SPP" --env 0.1
-echo "demo: wrote out/cornell_box.{exr,png} and out/head.{exr,png}"
+# Layered materials (random walk per shading point: slower per sample, so fewer samples).
+# LAMINA_DEMO_SPP, if set, overrides these too.
+LAYERED_SPP=${LAMINA_DEMO_SPP:-8}
+LEAF_SPP=${LAMINA_DEMO_SPP:-16}
+# The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light.
+"$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
+  --width 300 --height 375 --spp "$LAYERED_SPP" --env 0.05
+# Leaves lit from the front and from behind, then side by side.
+for side in front back; do
+  "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
+    --width 320 --height 240 --spp "$LEAF_SPP"
+done
+oiiotool out/leaves_front.png out/leaves_back.png --mosaic 2x1 -o out/leaves.png
+echo "demo: wrote out/cornell_box, out/head, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png) and out/leaves.png"
