@@ -16,11 +16,11 @@ echo "demo: built $("$LAMINA" --version)"
   --width 400 --height 500 --spp "$SPP" --env 0.1
 # Layered materials (random walk per shading point: slower per sample, so fewer samples).
 # LAMINA_DEMO_SPP, if set, overrides these too.
-LAYERED_SPP=${LAMINA_DEMO_SPP:-8}
+LAYERED_SPP=${LAMINA_DEMO_SPP:-12}
 LEAF_SPP=${LAMINA_DEMO_SPP:-16}
 # The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light.
 "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
-  --width 300 --height 375 --spp "$LAYERED_SPP" --env 0.05
+  --width 240 --height 300 --spp "$LAYERED_SPP" --env 0.05
 # Leaves lit from the front and from behind, then side by side.
 for side in front back; do
   "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \

@@ -39,15 +39,20 @@ def leaf_mesh(nx=40, ny=8):
         z = 0.06 * (y / wmax) ** 2 - 0.12 * x * x  # cupped, and bent back towards the tip
         return [x, y, z]
 
+    # x runs over [0.005, 0.995], not [0, 1]: at the base and the tip the blade has zero width,
+    # and a row of coincident vertices would only make degenerate triangles.
+    def row_x(i):
+        return 0.005 + 0.99 * i / nx
+
     for i in range(nx + 1):
-        x = i / nx
+        x = row_x(i)
         for j in range(ny + 1):
             s = -1 + 2 * j / ny
             pos.append(surface(x, s))
             uv.append([x, 0.5 + 0.5 * s])
     # Normals by central differences of the parametric surface (+z side is the upper face).
     for i in range(nx + 1):
-        x = i / nx
+        x = row_x(i)
         for j in range(ny + 1):
             s = -1 + 2 * j / ny
             e = 1e-4
@@ -150,7 +155,7 @@ def main():
             q = [w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
                  w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2]
             nodes.append({'name': 'leaf%d' % k, 'mesh': 0, 'rotation': q, 'translation': [0.0, -0.45, 0.02 * k]})
-        nodes.append({'name': 'view', 'camera': 0, 'translation': [0.0, 0.05, 3.0]})
+        nodes.append({'name': 'view', 'camera': 0, 'translation': [0.0, 0.05, 2.7]})
         nodes.append({'name': 'sun', 'translation': light_pos, 'extensions': {'KHR_lights_punctual': {'light': 0}}})
         j['scenes'][0]['nodes'] = list(range(len(nodes)))
         with open(os.path.join(OUT, name + '.gltf'), 'w') as f:

@@ -300,5 +300,35 @@ TEST(DemoScenes, LeavesBindTheirPigmentMap) {
   check_scene("scenes/leaves/leaves_back.gltf", 1, {{"layers[1].components[0].fraction", {0.5, 0.5}, {0.2, 0.8}}});
 }
 
+TEST(DemoScenes, MaterialMapEntriesMayCarryBindings) {
+  // A --materials map entry given as an object overrides the glTF extras, with its own maps
+  // (resolved against the map's directory).
+  const fs::path dir = temp_dir("map");
+  const std::string ramp = write_ramp_png(dir);
+  const std::string map = (dir / "materials.json").string();
+  std::ofstream(map) << json{{"leaf", {{"stack", source("scenes/materials/leaf.json")},
+                                       {"bind", json::array({{{"parameter", "layers[0].thickness"},
+                                                              {"texture", "ramp.png"},
+                                                              {"range", {0.0, 0.05}}}})}}}}
+                            .dump();
+  const SceneDesc desc = load_gltf(source("scenes/leaves/leaves_front.gltf"));
+  const LayeredBindings bound = bind_layered_materials(desc, map);
+  const LayeredMaterial* m = bound.get(0);
+  ASSERT_NE(m, nullptr);
+  ASSERT_NE(m->bindings(), nullptr);
+  ASSERT_EQ(m->bindings()->map_files().size(), 1u);
+  EXPECT_EQ(fs::path(m->bindings()->map_files()[0]), fs::path(ramp).lexically_normal());
+  ASSERT_EQ(m->bindings()->parameters().size(), 1u);
+  EXPECT_EQ(m->bindings()->parameters()[0].path, "layers[0].thickness");
+  // An unknown key in an object entry is an error naming the map.
+  std::ofstream(map) << R"({"leaf": {"stack": "x.json", "bnd": []}})";
+  try {
+    bind_layered_materials(desc, map);
+    ADD_FAILURE() << "accepted an unknown key";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("leaf.bnd: unknown key"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace lamina
