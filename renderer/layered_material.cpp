@@ -192,6 +192,11 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
       if (!m.extras_json.empty()) {
         const nlohmann::json extras = nlohmann::json::parse(m.extras_json, nullptr, false);
         if (extras.is_object() && extras.contains("lamina") && extras["lamina"].is_object()) spec = extras["lamina"];
+        // A misspelt key ("frekles") must not be silently ignored.
+        for (auto k = spec.begin(); spec.is_object() && k != spec.end(); ++k)
+          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
+            throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + k.key() +
+                             ": unknown key (allowed: stack, bind, freckles)");
       }
       out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve(e->second, scene.path), &cache, spec, &scene);
     }

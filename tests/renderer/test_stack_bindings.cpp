@@ -330,5 +330,29 @@ TEST(DemoScenes, MaterialMapEntriesMayCarryBindings) {
   }
 }
 
+TEST(DemoScenes, MisspeltExtrasKeysAreRejected) {
+  // One triangle whose material's extras misspell "freckles".
+  const fs::path dir = temp_dir("extras");
+  const std::string gltf = (dir / "t.gltf").string();
+  std::ofstream(gltf) << R"({"asset": {"version": "2.0"},
+    "buffers": [{"uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA",
+                 "byteLength": 36}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}],
+    "materials": [{"name": "skin", "extras": {"lamina": {"stack": ")" +
+                             source("scenes/materials/skin.json") + R"(", "frekles": {"density": 10}}}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})";
+  const SceneDesc desc = load_gltf(gltf);
+  try {
+    bind_layered_materials(desc, "");
+    ADD_FAILURE() << "accepted extras.lamina.frekles; extras_json: " << desc.materials[0].extras_json;
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("material 'skin': extras.lamina.frekles: unknown key"), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace lamina
