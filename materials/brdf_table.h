@@ -81,8 +81,8 @@ struct BrdfTable {
 BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& options);
 
 // The analytic table (`--method first-order`): value = single = the first-order BRDF/BTDF
-// (materials/first_order) averaged over each bin by quadrature weighted by projected solid angle
-// (n x n points per bin: Gauss-Legendre in |cos|^2... see the .cpp), stderr 0, multiple 0.
+// (materials/first_order) averaged over each bin weighted by projected solid angle (n x n points
+// per bin: Gauss-Legendre in |cos|^2, midpoint rule in phi), stderr 0, multiple 0.
 // Totals: R_specular and T_ballistic from zeroth_order; R_diffuse and T_diffuse the first-order
 // albedos; absorbed = 1 - the others, i.e. the absorbed light PLUS the light of two and more
 // scattering events that first order leaves out (so that the five still sum to 1).

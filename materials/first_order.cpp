@@ -107,9 +107,11 @@ Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const 
   const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
   const Outside out_side = exit == Exit::Top ? Outside::Above : Outside::Below;
   const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
+  const auto ti_rgb = unscattered_transport_rgb(stack, wi.z, Outside::Above);
+  const auto to_rgb = unscattered_transport_rgb(stack, wo.z, out_side);
   for (int c = 0; c < kChannels; ++c) {
-    const StackTransport ti = unscattered_transport(stack, c, wi.z, Outside::Above);
-    const StackTransport to = unscattered_transport(stack, c, wo.z, out_side);
+    const StackTransport& ti = ti_rgb[c];
+    const StackTransport& to = to_rgb[c];
     double sum = 0.0;
     for (int k = 0; k < n; ++k) {
       const Layer& layer = stack.layers[k];

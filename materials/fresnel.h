@@ -16,7 +16,8 @@ namespace lamina {
 double fresnel_dielectric(double cos_theta_i, double n_i, double n_t);
 
 // |cos(theta_t)| of the refracted direction by Snell's law, or a negative value under total
-// internal reflection. Computed from sin^2 to keep precision at grazing angles.
+// internal reflection (also exactly at the critical angle). Computed as (1 - eta^2) + eta^2 cos^2
+// to keep relative precision at grazing incidence; exact when n_i == n_t.
 double refracted_cos(double cos_theta_i, double n_i, double n_t);
 
 // The propagation direction d (unit) crossing a plane z = const from index n_i into n_t: the

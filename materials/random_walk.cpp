@@ -351,6 +351,15 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     result.end = WalkResult::End::Absorbed;  // nothing enters (grazing or TIR from a denser above)
     return result;
   }
+  // Per-layer coefficients, summed over the lobes once per walk instead of at every step.
+  struct LayerCache {
+    Spectrum sigma_t, sigma_s;
+    bool grey_phase;
+  };
+  std::vector<LayerCache> cache(n_layers);
+  for (int k = 0; k < n_layers; ++k)
+    cache[k] = {stack.layers[k].sigma_t(), stack.layers[k].sigma_s(), phase_is_grey(stack.layers[k])};
+
   // The hero channel: every decision of this walk is sampled in its coefficients.
   const int hero = std::min(kChannels - 1, static_cast<int>(rng.uniform() * kChannels));
 
@@ -364,7 +373,10 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   // the walk dies.
   auto roulette = [&](bool at_scatter) {
     double q = 1.0;
-    if (at_scatter && weight.max() < settings.roulette_threshold) q = settings.roulette_survival;
+    // Relative to the entering weight 1 - R: at grazing incidence that is tiny, and an absolute
+    // threshold would kill almost every walk at once (large relative variance for no gain).
+    if (at_scatter && weight.max() < settings.roulette_threshold * (1.0 - r_entry))
+      q = settings.roulette_survival;
     const int t = result.interactions;
     if (t > settings.forced_exponential_after) {
       q *= settings.forced_survival;
@@ -412,7 +424,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     bool collided = false;
     while (!collided) {
       const Layer& layer = stack.layers[l];
-      const Spectrum sigma_t = layer.sigma_t();
+      const Spectrum& sigma_t = cache[l].sigma_t;
       const double to_boundary = d.z < 0.0 ? (layer.thickness - z) / -d.z
                                  : d.z > 0.0 ? z / d.z
                                              : kInf;
@@ -496,8 +508,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
 
     // ---- collision in layer l (see the spectral MIS notes at the top of the file) ----
     const Layer& layer = stack.layers[l];
-    const Spectrum sigma_t = layer.sigma_t();
-    const Spectrum sigma_s = layer.sigma_s();
+    const Spectrum& sigma_t = cache[l].sigma_t;
+    const Spectrum& sigma_s = cache[l].sigma_s;
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
     for (int k = 0; k < kChannels; ++k) {
       if (k == hero) continue;
@@ -530,7 +542,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     } else {
       d_new = sample_uniform_sphere({u1, u2});
     }
-    if (!phase_is_grey(layer)) {
+    if (!cache[l].grey_phase) {
       const double cos_theta = glm::dot(d, d_new);
       const double ph = phase_sampling_pdf(layer, hero, cos_theta);
       for (int k = 0; k < kChannels; ++k)

@@ -77,8 +77,8 @@ struct WalkResult {
 // Tuning of Russian roulette (every value keeps the estimator unbiased; they only trade variance
 // for time).
 struct WalkSettings {
-  // Roulette once the largest channel of the weight is below this (at scattering events), with
-  // survival probability `roulette_survival`.
+  // Roulette once the largest channel of the weight is below this fraction of the weight the
+  // walk entered with (1 - R(wi)), at scattering events, with survival `roulette_survival`.
   double roulette_threshold = 0.01;
   double roulette_survival = 0.1;
   // Guaranteed termination, unbiased, for walks that would not end by themselves (albedo 1 in a

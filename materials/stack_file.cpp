@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <sstream>
@@ -255,6 +256,9 @@ StackTemplate parse_stack_template_json(const std::string& text, const std::stri
 }
 
 StackTemplate load_stack_template(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw StackFileError(path + ": is a directory, not a material file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw StackFileError(path + ": cannot open material file (" + std::strerror(errno) + ")");
   std::ostringstream text;

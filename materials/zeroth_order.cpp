@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "materials/fresnel.h"
 
@@ -44,68 +45,67 @@ SpecularElement interface_element(double mu_a, double n_a, double mu_b, double n
 
 }  // namespace
 
-StackTransport unscattered_transport(const LayerStack& stack, int channel, double cos_theta,
-                                     Outside side) {
+std::array<StackTransport, kChannels> unscattered_transport_rgb(const LayerStack& stack, double cos_theta,
+                                                                Outside side) {
   const int n = static_cast<int>(stack.layers.size());
   const bool lambert = stack.below.kind == Below::Kind::Lambert;
   if (side == Outside::Below && lambert)
     throw std::invalid_argument("unscattered_transport: no light comes from below a Lambert substrate");
   const double n_src = side == Outside::Above ? stack.above_ior : stack.below.ior;
   const double mu_src = std::min(1.0, std::abs(cos_theta));
-  // Cosine in a medium of index n_j: Snell from the source medium (refracted_cos keeps the
-  // precision of sin^2 = (1 - mu)(1 + mu)); -1 where n_src sin(theta) > n_j.
-  auto mu_in = [&](double n_j) { return n_j == n_src ? mu_src : refracted_cos(mu_src, n_src, n_j); };
+  // Cosine in a medium of index n_j by Snell from the source medium (refracted_cos is exact for
+  // equal indices and keeps relative precision at grazing angles); -1 where n_src sin > n_j.
+  auto mu_in = [&](double n_j) { return refracted_cos(mu_src, n_src, n_j); };
 
-  StackTransport st;
-  st.layers.resize(n);
-  for (int k = 0; k < n; ++k) {
-    LayerTransport& L = st.layers[k];
-    const Layer& layer = stack.layers[k];
-    L.mu = mu_in(layer.ior);
-    L.tau = layer.optical_depth(channel);
-    if (L.mu < 0.0) {
-      L.t = 0.0;
-      L.one_minus_t = 1.0;
-    } else {
-      // x = tau / mu: tau = 0 is exactly transparent even at mu = 0; mu = 0 with tau > 0 gives
-      // x = inf and t = 0; a semi-infinite layer has tau = inf and t = 0.
-      const double x = L.tau == 0.0 ? 0.0 : L.tau / L.mu;
-      L.t = std::exp(-x);
-      L.one_minus_t = -std::expm1(-x);
+  // Channel-independent: the cosines and the interfaces. iface[k] lies above layer k;
+  // iface[n] is the bottom (what lies under the last layer).
+  std::vector<double> mu(n);
+  for (int k = 0; k < n; ++k) mu[k] = mu_in(stack.layers[k].ior);
+  std::vector<SpecularElement> iface(n + 1);
+  iface[0] = interface_element(mu_in(stack.above_ior), stack.above_ior, mu[0], stack.layers[0].ior);
+  for (int k = 1; k < n; ++k)
+    iface[k] = interface_element(mu[k - 1], stack.layers[k - 1].ior, mu[k], stack.layers[k].ior);
+  if (stack.layers[n - 1].semi_infinite())
+    iface[n] = {0.0, 0.0, 0.0};  // nothing comes back from infinity, nothing passes (t = 0 anyway)
+  else if (lambert)
+    iface[n] = {0.0, 0.0, 1.0};  // no interface: every unscattered beam reaches the substrate
+  else
+    iface[n] = interface_element(mu[n - 1], stack.layers[n - 1].ior, mu_in(stack.below.ior), stack.below.ior);
+
+  std::array<StackTransport, kChannels> out;
+  for (int c = 0; c < kChannels; ++c) {
+    StackTransport& st = out[c];
+    st.layers.resize(n);
+    for (int k = 0; k < n; ++k) {
+      LayerTransport& L = st.layers[k];
+      L.mu = mu[k];
+      L.tau = stack.layers[k].optical_depth(c);
+      if (L.mu < 0.0) {
+        L.t = 0.0;
+        L.one_minus_t = 1.0;
+      } else {
+        // x = tau / mu: tau = 0 is exactly transparent even at mu = 0; mu = 0 with tau > 0
+        // gives x = inf and t = 0; a semi-infinite layer has tau = inf and t = 0.
+        const double x = L.tau == 0.0 ? 0.0 : L.tau / L.mu;
+        L.t = std::exp(-x);
+        L.one_minus_t = -std::expm1(-x);
+      }
     }
+    // Top-down: above[k] = interface 0 (+) layer 0 (+) interface 1 ... (+) interface k.
+    st.layers[0].above = iface[0];
+    for (int k = 1; k < n; ++k)
+      st.layers[k].above = add_elements(add_elements(st.layers[k - 1].above, {0.0, 0.0, st.layers[k - 1].t}), iface[k]);
+    // Bottom-up: below[k] = interface k+1 (+) layer k+1 (+) ... (+) the bottom.
+    st.layers[n - 1].below = iface[n];
+    for (int k = n - 2; k >= 0; --k)
+      st.layers[k].below = add_elements(iface[k + 1], add_elements({0.0, 0.0, st.layers[k + 1].t}, st.layers[k + 1].below));
+    st.whole = add_elements(add_elements(st.layers[n - 1].above, {0.0, 0.0, st.layers[n - 1].t}), iface[n]);
   }
-  const double mu_above = mu_in(stack.above_ior);
+  return out;
+}
 
-  // Top-down: above[k] = interface 0 (+) layer 0 (+) interface 1 ... (+) interface k.
-  st.layers[0].above = interface_element(mu_above, stack.above_ior, st.layers[0].mu, stack.layers[0].ior);
-  for (int k = 1; k < n; ++k) {
-    SpecularElement layer_el{0.0, 0.0, st.layers[k - 1].t};
-    const SpecularElement iface = interface_element(st.layers[k - 1].mu, stack.layers[k - 1].ior,
-                                                    st.layers[k].mu, stack.layers[k].ior);
-    st.layers[k].above = add_elements(add_elements(st.layers[k - 1].above, layer_el), iface);
-  }
-
-  // Bottom-up: below[N-1] is what lies under the last layer.
-  SpecularElement bottom;
-  if (stack.layers[n - 1].semi_infinite()) {
-    bottom = {0.0, 0.0, 0.0};  // nothing comes back from infinity, nothing passes (t = 0 anyway)
-  } else if (lambert) {
-    bottom = {0.0, 0.0, 1.0};  // no interface: every unscattered beam reaches the substrate
-  } else {
-    bottom = interface_element(st.layers[n - 1].mu, stack.layers[n - 1].ior, mu_in(stack.below.ior),
-                               stack.below.ior);
-  }
-  st.layers[n - 1].below = bottom;
-  for (int k = n - 2; k >= 0; --k) {
-    const SpecularElement iface = interface_element(st.layers[k].mu, stack.layers[k].ior,
-                                                    st.layers[k + 1].mu, stack.layers[k + 1].ior);
-    SpecularElement layer_el{0.0, 0.0, st.layers[k + 1].t};
-    st.layers[k].below = add_elements(iface, add_elements(layer_el, st.layers[k + 1].below));
-  }
-
-  st.whole = add_elements(add_elements(st.layers[n - 1].above, {0.0, 0.0, st.layers[n - 1].t}),
-                          st.layers[n - 1].below);
-  return st;
+StackTransport unscattered_transport(const LayerStack& stack, int channel, double cos_theta, Outside side) {
+  return std::move(unscattered_transport_rgb(stack, cos_theta, side)[channel]);
 }
 
 ZerothOrder zeroth_order(const LayerStack& stack, double cos_theta_i) {
@@ -114,8 +114,9 @@ ZerothOrder zeroth_order(const LayerStack& stack, double cos_theta_i) {
   ZerothOrder z;
   z.collided_in_layer.assign(n, Spectrum());
   z.cos_layer.assign(n, -1.0);
+  const auto rgb = unscattered_transport_rgb(stack, cos_theta_i, Outside::Above);
   for (int c = 0; c < kChannels; ++c) {
-    const StackTransport st = unscattered_transport(stack, c, cos_theta_i, Outside::Above);
+    const StackTransport& st = rgb[c];
     z.R_specular[c] = st.whole.R_top;
     const bool transmits = stack.transmits();
     z.T_ballistic[c] = transmits ? st.whole.T : 0.0;
@@ -136,10 +137,7 @@ ZerothOrder zeroth_order(const LayerStack& stack, double cos_theta_i) {
     }
     z.collided[c] = collided;
   }
-  if (stack.transmits()) {
-    const double mu_b = refracted_cos(cos_theta_i, stack.above_ior, stack.below.ior);
-    z.cos_below = stack.below.ior == stack.above_ior ? std::min(1.0, std::abs(cos_theta_i)) : mu_b;
-  }
+  if (stack.transmits()) z.cos_below = refracted_cos(cos_theta_i, stack.above_ior, stack.below.ior);
   return z;
 }
 

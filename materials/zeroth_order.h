@@ -22,6 +22,7 @@
 // are fractions of the incident power per RGB channel.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "materials/spectrum.h"
@@ -69,6 +70,9 @@ enum class Outside { Above, Below };
 // Below requires a dielectric below). Every layer's cosine follows Snell from there.
 StackTransport unscattered_transport(const LayerStack& stack, int channel, double cos_theta,
                                      Outside side = Outside::Above);
+// All channels at once (the cosines and Fresnel terms are shared): what the hot paths use.
+std::array<StackTransport, kChannels> unscattered_transport_rgb(const LayerStack& stack, double cos_theta,
+                                                                Outside side = Outside::Above);
 
 struct ZerothOrder {
   // All unscattered light that leaves through the top: the Fresnel reflection at the top plus

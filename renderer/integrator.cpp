@@ -66,6 +66,7 @@ struct WalkConnector {
   Spectrum prefix;       // beta / (1 - R(wo))
   double t_factor = 1.0;
   bool naive = false;
+  bool connections_only = false;
   Spectrum* radiance;
   ScatterEvent last;
 
@@ -88,7 +89,7 @@ struct WalkConnector {
     if (naive) {
       const double ft = exit_fresnel_transmission(*stack, e.layer, wl);
       if (e.kind == ScatterEvent::Kind::Volume && ft > 0.0) cw /= ft;  // the naive estimator drops Fresnel
-    } else if (!light->is_delta()) {
+    } else if (!light->is_delta() && !connections_only) {
       mis = power_heuristic(pmf * ls.pdf, exit_pdf_for_mis(*stack, e, wl));
     }
     Ray shadow{offset_ray_origin(*p, cos_g > 0.0 ? *ng : -*ng), ls.wi};
@@ -194,6 +195,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
         connect.prefix = beta / (1.0 - r_top);
         connect.t_factor = transmission_radiance_factor(*stack);
         connect.naive = layered->naive;
+        connect.connections_only = layered->connections_only;
         connect.radiance = &radiance;
         const EventCallback on_event = [c = &connect](const ScatterEvent& e) { (*c)(e); };
         const WalkResult walk = random_walk(*stack, wo, rng, on_event);
@@ -206,7 +208,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
         // sampling: full weight, as after a delta lobe.
         if (walk.straight_from_last_event && !layered->naive) {
           delta = false;
-          pdf = exit_pdf_for_mis(*stack, connect.last, wi);
+          // connections_only: pdf 0 gives such an exit weight 0 on an emitter (emission_weight).
+          pdf = layered->connections_only ? 0.0 : exit_pdf_for_mis(*stack, connect.last, wi);
         }
       }
       const glm::dvec3 wi_world = frame.to_world(wi);

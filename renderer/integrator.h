@@ -29,6 +29,9 @@ struct LayeredShading {
   // samples at events without the Fresnel transmission of the way out and with weight 1, and
   // the walk's exits that reach a light also with weight 1 (no MIS: counted twice).
   bool naive = false;
+  // Measurements only: light samples at events with weight 1 and the walk's straight exits
+  // ignored when they reach a light (unbiased, no MIS), to show what MIS buys at g -> 1.
+  bool connections_only = false;
   const LayeredTables* tables = nullptr;  // SubsurfaceMode::Table
 };
 

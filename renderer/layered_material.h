@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -75,15 +76,17 @@ class LayeredMaterial {
   // that scattered at least once and left through the top, averaged over cosine-weighted
   // incidence), estimated by the random walk when the material is made. The `lambert` mode's
   // albedo. lambert_albedo_stderr is its standard error.
-  const Spectrum& lambert_albedo() const { return lambert_albedo_; }
-  const Spectrum& lambert_albedo_stderr() const { return lambert_albedo_stderr_; }
+  // Computed on first use (thread-safe), so that modes that do not need it do not pay for it.
+  const Spectrum& lambert_albedo() const;
+  const Spectrum& lambert_albedo_stderr() const;
 
  private:
   LayerStack stack_;
   LayerStack flipped_;  // flipped(stack_) if it transmits, else unused
   std::shared_ptr<const StackBindings> bindings_;  // null: the base stack everywhere
   std::string source_;
-  Spectrum lambert_albedo_, lambert_albedo_stderr_;
+  mutable std::once_flag albedo_once_;
+  mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
 };
 
 // The diffuse bihemispherical reflectance of a stack by `walks` random walks with cosine-weighted

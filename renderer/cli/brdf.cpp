@@ -8,7 +8,9 @@
 //                        transmit), phi_o_deg from the light's azimuth. Not written if omitted.
 //   --summary TOTALS.json  R_specular, R_diffuse, T_ballistic, T_diffuse, absorbed (RGB triples)
 //                        and <key>_stderr; also "method", "theta_i_deg", "phi_i_deg", "samples",
-//                        "seed" for provenance. Printed to stdout if omitted.
+//                        "seed" for provenance, and "walk_ends" (monte-carlo: how many walks
+//                        left through the top or bottom, were absorbed, ended by roulette or
+//                        were lost). Printed to stdout if omitted.
 // Files are written atomically (a temporary file in the same folder, then rename).
 #include <cerrno>
 #include <cmath>
@@ -102,6 +104,13 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
   put("T_ballistic", t.totals.T_ballistic);
   put("T_diffuse", t.totals.T_diffuse);
   put("absorbed", t.totals.absorbed);
+  if (method == "monte-carlo") {
+    // How the walks ended (WalkResult::End), for diagnosis: many roulette ends mean long walks.
+    static const char* kEnds[] = {"exit_top", "exit_bottom", "absorbed", "roulette", "lost"};
+    nlohmann::ordered_json ends;
+    for (std::size_t e = 0; e < t.ends.size() && e < 5; ++e) ends[kEnds[e]] = t.ends[e];
+    j["walk_ends"] = ends;
+  }
   return j.dump(2) + "\n";
 }
 

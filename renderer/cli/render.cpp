@@ -1,6 +1,7 @@
 // lamina render: a glTF scene to a linear EXR (contracts.md, "lamina render").
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -122,16 +123,29 @@ int run_render(int argc, char** argv) {
     EnvironmentMap env;
     if (!env_value.empty()) env = EnvironmentMap::from_argument(env_value);
     SceneDesc desc = load_gltf(scene_path);
+    // Bound before the loader's warnings are printed, so that a binding error is one line.
+    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
     for (const std::string& w : desc.warnings) std::fprintf(stderr, "lamina render: warning: %s: %s\n", scene_path.c_str(), w.c_str());
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
-    const LayeredBindings bindings = bind_layered_materials(desc, materials_path);
     std::unique_ptr<LayeredTables> tables;
     if (bindings.count() > 0 && mode == SubsurfaceMode::Table) {
       tables = std::make_unique<LayeredTables>(bindings, TableSettings{});
       std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
                   bindings.count(), tables->build_seconds(), tables->bytes() / 1024.0);
+    }
+    if (bindings.count() > 0 && mode == SubsurfaceMode::Lambert) {
+      // Computed before rendering so that the render's time is the render's.
+      const auto t0 = std::chrono::steady_clock::now();
+      for (const auto& m : bindings.by_material)
+        if (m) {
+          const Spectrum a = m->lambert_albedo(), se = m->lambert_albedo_stderr();
+          std::printf("lamina render: lambert mode: %s: diffuse bihemispherical albedo %.4f %.4f %.4f (+- %.4f %.4f %.4f)\n",
+                      m->source().c_str(), a[0], a[1], a[2], se[0], se[1], se[2]);
+        }
+      std::printf("lamina render: lambert mode: albedos by the walk in %.2f s\n",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     LayeredShading layered;
     layered.bindings = &bindings;

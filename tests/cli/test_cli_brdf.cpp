@@ -89,6 +89,9 @@ TEST_F(CliBrdf, MonteCarloWritesTableAndTotals) {
     }
     EXPECT_NEAR(sum, 1.0, 1e-12);
   }
+  std::uint64_t walks = 0;
+  for (const auto& [name, count] : j["walk_ends"].items()) walks += count.get<std::uint64_t>();
+  EXPECT_EQ(walks, 4000u);
   // No temporary files left behind (atomic write by rename).
   EXPECT_EQ(std::system(("ls '" + dir_ + "' | grep -q '\\.tmp\\.'").c_str()) != 0, true);
 }

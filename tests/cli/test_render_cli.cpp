@@ -188,3 +188,40 @@ TEST(RenderCli, BadOptionsFailCleanly) {
 
 }  // namespace
 }  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// A quad whose material "leaf" is bound to a stack by --materials (path relative to the map),
+// rendered in every --subsurface mode; the EXR records the layered counters. A map naming a
+// missing stack file fails with one line naming the map, the material and the file.
+TEST(RenderCliLayered, MaterialsMapAndModes) {
+  TempDir dir("cli-layered");
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "leaf"}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(dir / "leaf.gltf");
+  std::filesystem::create_directories(dir.path / "m");
+  std::ofstream(dir / "m/leaf.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": [0.5, 0.1, 0.8], "sigma_s": 20, "g": 0.3}], "below": {"ior": 1.0}})";
+  std::ofstream(dir / "map.json") << R"({"leaf": "m/leaf.json"})";
+  // (table mode builds its tables from 4e5 walks: tested in tests/renderer, not here, for time)
+  for (const char* mode : {"random-walk", "first-order", "lambert"}) {
+    const std::string out = dir / (std::string(mode) + ".exr");
+    const Result r = run(dir, dir / "leaf.gltf -o " + out + " --materials " + dir / "map.json" +
+                                  " --width 6 --height 4 --spp 2 --env 1 --subsurface " + mode);
+    ASSERT_EQ(r.exit_code, 0) << mode << ": " << r.err;
+    bool bound = false, events = false;
+    for (const auto& [k, v] : read_metadata(out)) {
+      bound |= k == "lamina:layered_materials" && v == "1";
+      events |= k == "lamina:scatter_events" && (std::string(mode) != "random-walk" || std::stod(v) > 0);
+    }
+    EXPECT_TRUE(bound && events) << mode;
+    for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f) << mode;
+  }
+  std::ofstream(dir / "bad_map.json") << R"({"leaf": "m/nothere.json"})";
+  expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + " --materials " + dir / "bad_map.json"),
+                 dir / "bad_map.json", "nothere.json", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina

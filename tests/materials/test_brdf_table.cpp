@@ -63,7 +63,7 @@ TEST(BrdfMonteCarlo, McmlSlabMatchesVanDeHulst) {
 // paper). Published to 4 digits: tolerance max(4 sigma, 5e-5).
 TEST(BrdfMonteCarlo, SemiInfiniteMatchesGiovanelli) {
   const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(1.0), Spectrum(9.0), Spectrum(0.0));
-  const BrdfTable t = brdf_table_monte_carlo(s, options(0.0, 300000));
+  const BrdfTable t = brdf_table_monte_carlo(s, options(0.0, 200000));
   const double r = t.totals.R_specular.value[0] + t.totals.R_diffuse.value[0];
   const double se = hypot3(t.totals.R_specular.stderr_[0], t.totals.R_diffuse.stderr_[0]);
   EXPECT_NEAR(r, 0.2600, std::max(4.0 * se, 5e-5)) << "se " << se;
@@ -92,7 +92,7 @@ TEST(BrdfMonteCarlo, EnergyBalanceRandomStacks) {
       s.below.ior = 1.0 + u(gen);
     }
     const double theta = 80.0 * u(gen);
-    const BrdfTable t = brdf_table_monte_carlo(s, options(theta, 20000, 4, 4, trial));
+    const BrdfTable t = brdf_table_monte_carlo(s, options(theta, 10000, 4, 4, trial));
     const Spectrum total = sum_of_totals(t.totals);
     for (int c = 0; c < kChannels; ++c) {
       EXPECT_NEAR(total[c], 1.0, 1e-12);
@@ -105,7 +105,7 @@ TEST(BrdfMonteCarlo, EnergyBalanceRandomStacks) {
       // deviation is unreliable (0 if none was seen); a per-photon value x in [0, B] has
       // Var(x) <= B E[x], so sqrt(B V / N) with the analytic V bounds the true standard error.
       // B = 3: an unscattered walk keeps weight (1 - R) times a spectral MIS factor <= 3.
-      const double n = 20000.0;
+      const double n = 10000.0;
       const double extra_r = t.totals.R_specular.value[c] - fresnel_dielectric(std::cos(theta * kPi / 180.0), s.above_ior, s.layers[0].ior);
       const double se_r = std::max(t.totals.R_specular_walk.stderr_[c], std::sqrt(3.0 * std::max(0.0, extra_r) / n));
       const double se_t = std::max(t.totals.T_ballistic_walk.stderr_[c], std::sqrt(3.0 * t.totals.T_ballistic.value[c] / n));
@@ -188,10 +188,34 @@ TEST(BrdfMonteCarlo, ReciprocityOfBrdf) {
   const double pairs[][3] = {{10.0, 60.0, 0.0}, {30.0, 75.0, 130.0}, {0.0, 45.0, 0.0}};
   for (const auto& p : pairs) {
     const glm::dvec3 a = incident_direction(p[0], 0.0), b = incident_direction(p[1], p[2]);
-    const PointEstimate ab = brdf_connection_estimate(s, a, {b}, 20000, 1)[0];
-    const PointEstimate ba = brdf_connection_estimate(s, b, {a}, 20000, 2)[0];
+    const PointEstimate ab = brdf_connection_estimate(s, a, {b}, 8000, 1)[0];
+    const PointEstimate ba = brdf_connection_estimate(s, b, {a}, 8000, 2)[0];
     for (int c = 0; c < kChannels; ++c)
       EXPECT_NEAR(ab.total.value[c], ba.total.value[c], 3.5 * hypot3(ab.total.stderr_[c], ba.total.stderr_[c]))
+          << p[0] << " " << p[1];
+  }
+}
+
+// Generalised reciprocity of the BTDF (Veach's thesis eq. 5.20): with wi in the medium above
+// (index n_a) and wo in the medium below (n_b), f_t(wi -> wo) / n_b^2 = f_t'(wo -> wi) / n_a^2,
+// where f_t' is the BTDF for light from below, i.e. of flipped(stack) with z negated. Tests the
+// n^2 law in the transmitted connection weights (a missing or inverted factor fails by
+// (n_b/n_a)^2 = 2.25 here).
+TEST(BrdfMonteCarlo, GeneralisedReciprocityOfBtdf) {
+  LayerStack s = one_layer(1.4, 0.3, Spectrum(0.3), Spectrum(5.0), Spectrum(0.6), 1.0, 1.5);
+  s.layers.push_back(make_layer("under", 1.2, 0.2, Spectrum(0.5), Spectrum(3.0), Spectrum(-0.2)));
+  const LayerStack f = flipped(s);
+  const double n_a = 1.0, n_b = 1.5;
+  const double pairs[][3] = {{10.0, 40.0, 30.0}, {50.0, 20.0, 170.0}};
+  for (const auto& p : pairs) {
+    const glm::dvec3 wi = incident_direction(p[0], 0.0);
+    const glm::dvec3 wo = -incident_direction(p[1], p[2]);  // below
+    const glm::dvec3 wi_f{wo.x, wo.y, -wo.z}, wo_f{wi.x, wi.y, -wi.z};  // flipped frame
+    const PointEstimate forward = brdf_connection_estimate(s, wi, {wo}, 8000, 3)[0];
+    const PointEstimate backward = brdf_connection_estimate(f, wi_f, {wo_f}, 8000, 4)[0];
+    for (int c = 0; c < kChannels; ++c)
+      EXPECT_NEAR(forward.total.value[c] / (n_b * n_b), backward.total.value[c] / (n_a * n_a),
+                  3.5 * hypot3(forward.total.stderr_[c] / (n_b * n_b), backward.total.stderr_[c] / (n_a * n_a)))
           << p[0] << " " << p[1];
   }
 }

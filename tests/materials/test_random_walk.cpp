@@ -2,7 +2,9 @@
 // straight exits, grey = scalar, energy balance per photon), termination, extremes.
 #include "materials/random_walk.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -117,12 +119,16 @@ TEST(RandomWalk, GreyPhotonConservesEnergyWithoutRoulette) {
 TEST(RandomWalk, AlbedoOneSemiInfiniteEndsAndConserves) {
   const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(0.0), Spectrum(10.0), Spectrum(0.0));
   const glm::dvec3 wi = incident_direction(0.0, 0.0);
+  // Earlier forced roulette than the default (same schedule), to keep the test short.
+  WalkSettings settings;
+  settings.forced_after = 100;
+  settings.forced_exponential_after = 100000;
   const int n = 10000;
   double sum = 0.0, sum2 = 0.0;
   int roulette = 0, exits = 0;
   for (int i = 0; i < n; ++i) {
     Rng rng(5, i);
-    const WalkResult r = random_walk(s, wi, rng);
+    const WalkResult r = random_walk(s, wi, rng, {}, settings);
     ASSERT_TRUE(r.weight.is_finite());
     if (r.end == WalkResult::End::Roulette) ++roulette;
     if (r.end == WalkResult::End::ExitTop) ++exits;
@@ -183,6 +189,82 @@ TEST(RandomWalk, AllPathsConnectionContainsTheDirectPath) {
       }
     }
   }
+}
+
+// The direct connection_weight against the walk's own straight exits, statistically, in a
+// coloured, index-mismatched, transmitting stack (where the exact identity of
+// StraightExitsMatchConnectionWeight does not hold): binned exits flagged
+// straight_from_last_event estimate, per bin, the same thing as sum over events of
+// throughput * connection_weight(w) with w uniform in projected solid angle over the bin.
+TEST(RandomWalk, StraightExitsAgreeWithDirectConnectionInColour) {
+  LayerStack s = one_layer(2.4, 0.3, Spectrum(0.2, 0.6, 1.5), Spectrum(6.0, 3.0, 8.0), Spectrum(0.6, 0.0, -0.4), 1.0, 1.2);
+  s.layers.push_back(make_layer("b", 1.3, 0.3, Spectrum(0.5), Spectrum(4.0, 8.0, 2.0), Spectrum(0.3)));
+  const int K = 3, M = 4, nb = 2 * K * M;
+  const std::uint64_t n = 10000;
+  const glm::dvec3 wi = incident_direction(35.0, 0.0);
+  auto omega = [&](int k) {
+    const double lo = double(k) / K, hi = double(k + 1) / K;
+    return 0.5 * (hi * hi - lo * lo) * 2.0 * kPi / M;
+  };
+  std::vector<double> a_sum(nb * 3), a_sum2(nb * 3), b_sum(nb * 3), b_sum2(nb * 3);
+  Spectrum w_sum;
+  double w_count = 0.0;
+  for (std::uint64_t i = 0; i < n; ++i) {
+    // A: the walk's straight exits.
+    Rng rng(41, i);
+    const WalkResult r = random_walk(s, wi, rng);
+    if (r.straight_from_last_event) {
+      w_sum += r.weight;
+      ++w_count;
+      const int side = r.direction.z > 0 ? 0 : 1;
+      const int k = std::min(K - 1, int(std::abs(r.direction.z) * K));
+      double phi = std::atan2(r.direction.y, r.direction.x);
+      if (phi < 0) phi += 2 * kPi;
+      const int m = std::min(M - 1, int(phi / (2 * kPi) * M));
+      const int b = (side * K + k) * M + m;
+      for (int c = 0; c < 3; ++c) {
+        const double v = r.weight[c] / omega(k);
+        a_sum[b * 3 + c] += v;
+        a_sum2[b * 3 + c] += v * v;
+      }
+    }
+    // B: the direct connections of an independent walk's events.
+    Rng rng2(43, i), dirs(43, i, 1);
+    std::vector<glm::dvec3> w(nb);
+    for (int side = 0; side < 2; ++side)
+      for (int k = 0; k < K; ++k)
+        for (int m = 0; m < M; ++m) {
+          const double lo = double(k) / K, hi = double(k + 1) / K;
+          const double mu = std::sqrt(lo * lo + dirs.uniform() * (hi * hi - lo * lo));
+          const double phi = 2 * kPi * (m + dirs.uniform()) / M;
+          const double st = std::sqrt(std::max(0.0, 1 - mu * mu));
+          w[(side * K + k) * M + m] = {st * std::cos(phi), st * std::sin(phi), side == 0 ? mu : -mu};
+        }
+    std::vector<Spectrum> v(nb);
+    random_walk(s, wi, rng2, [&](const ScatterEvent& e) {
+      for (int b = 0; b < nb; ++b) v[b] += e.throughput * connection_weight(s, e, w[b]);
+    });
+    for (int b = 0; b < nb; ++b)
+      for (int c = 0; c < 3; ++c) {
+        b_sum[b * 3 + c] += v[b][c];
+        b_sum2[b * 3 + c] += v[b][c] * v[b][c];
+      }
+  }
+  const double nn = double(n);
+  int compared = 0;
+  for (int j = 0; j < nb * 3; ++j) {
+    const double a = a_sum[j] / nn, b = b_sum[j] / nn;
+    const double va = std::max(0.0, a_sum2[j] / nn - a * a) / (nn - 1), vb = std::max(0.0, b_sum2[j] / nn - b * b) / (nn - 1);
+    const int k = (j / 3 / M) % K;
+    // Rare-bin floor for the exit counts (the sample variance of a few hits is unreliable): the
+    // Poisson noise of the expected number of hits V Omega N / w_mean, each worth
+    // w_mean / (Omega N), is Var = w_mean V / (Omega N), with w_mean the mean straight-exit weight.
+    const double w_mean = w_sum[j % 3] / w_count;
+    const double floor_a = w_mean * b / (omega(k) * nn);
+    EXPECT_NEAR(a, b, 4.0 * std::sqrt(std::max(va, floor_a) + vb) + 1e-12) << "bin " << j / 3 << " channel " << j % 3;
+    if (b > 0) ++compared;
+  }
+  EXPECT_GT(compared, 40);
 }
 
 // The connection weight vanishes where no inside direction exists and towards sides that do not

@@ -138,6 +138,26 @@ TEST(StackFileErrors, MissingFile) {
     EXPECT_NE(msg.find("cannot open"), std::string::npos) << msg;
   }
 }
+TEST(StackFileErrors, DirectoryInsteadOfFile) {
+  try {
+    load_stack_file(LAMINA_SOURCE_DIR);
+    ADD_FAILURE() << "accepted a directory";
+  } catch (const StackFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos) << e.what();
+  }
+}
+TEST(StackFileErrors, EmptyFileText) { expect_error("", "(document)", "malformed JSON"); }
+TEST(StackValidation, NamesThePathOfTheBadValue) {
+  LayerStack s = parse_stack_json(kGood, "skin.json");
+  s.layers[1].lobes[1].g[2] = 1.0;
+  EXPECT_EQ(validate_stack(s), "layers[1].components[1].g[2]: must satisfy |g| < 1");
+  s = parse_stack_json(kGood, "skin.json");
+  s.layers[0].sigma_a[1] = -1.0;
+  EXPECT_EQ(validate_stack(s).rfind("layers[0].sigma_a[1]: must be finite and >= 0", 0), 0u);
+  s = parse_stack_json(kGood, "skin.json");
+  s.layers[0].thickness = kInfiniteThickness;
+  EXPECT_EQ(validate_stack(s).rfind("layers[0].thickness: only the last layer", 0), 0u);
+}
 TEST(StackFileErrors, MissingVersion) {
   expect_error(replaced(kGood, "\"lamina_material\": 1,", ""), "lamina_material", "missing required key");
 }
