@@ -27,8 +27,8 @@ for angle in 0 45; do
 done
 # Layered materials (random walk per shading point: slower per sample, so fewer samples).
 # LAMINA_DEMO_SPP, if set, overrides these too.
-LAYERED_SPP=${LAMINA_DEMO_SPP:-12}
-LEAF_SPP=${LAMINA_DEMO_SPP:-16}
+LAYERED_SPP=${LAMINA_DEMO_SPP:-24}
+LEAF_SPP=${LAMINA_DEMO_SPP:-32}
 # The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light.
 "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
   --width 240 --height 300 --spp "$LAYERED_SPP" --env 0.05
