@@ -124,7 +124,7 @@ class Reader {
     return j.get<std::string>();
   }
 
-  Layer layer(const json& j, const std::string& path, bool last) const {
+  Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc) const {
     require_object(j, path);
     check_keys(j, path, {"name", "ior", "thickness", "sigma_a", "sigma_s", "g", "components"});
     Layer layer;
@@ -147,6 +147,7 @@ class Reader {
     if (j.contains("components")) {
       if (direct)
         fail(path, "give either sigma_a, sigma_s and g, or components, not both");
+      desc->composite = true;
       const json& comps = j["components"];
       const std::string cp = join(path, "components");
       if (!comps.is_array()) fail(cp, "expected an array of components, got " + type_name(comps));
@@ -167,6 +168,7 @@ class Reader {
         const Spectrum g = asymmetry(member(c, p, "g"), join(p, "g"));
         layer.sigma_a += w * sa;
         layer.lobes.push_back({w * ss, g});
+        desc->components.push_back({w, sa, ss, g});
         sum += w;
       }
       if (std::abs(sum - 1.0) > 1e-6) {
@@ -180,6 +182,7 @@ class Reader {
       const Spectrum g = asymmetry(member(j, path, "g"), join(path, "g"));
       layer.sigma_a = sa;
       layer.lobes.push_back({ss, g});
+      desc->components.push_back({1.0, sa, ss, g});
     }
     return layer;
   }
@@ -204,27 +207,29 @@ class Reader {
     return b;
   }
 
-  LayerStack stack(const json& root) const {
+  StackTemplate stack(const json& root) const {
     require_object(root, "");
     check_keys(root, "", {"lamina_material", "name", "above_ior", "layers", "below"});
     const json& version = member(root, "", "lamina_material");
     if (!version.is_number() || version.get<double>() != 1.0)
       fail("lamina_material", "unsupported version " + version.dump() + " (this build reads version 1)");
 
-    LayerStack s;
+    StackTemplate t;
+    LayerStack& s = t.stack;
     if (root.contains("name")) s.name = string(root["name"], "name");
     if (root.contains("above_ior")) s.above_ior = ior(root["above_ior"], "above_ior");
     const json& layers = member(root, "", "layers");
     if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));
     if (layers.empty()) fail("layers", "a stack needs at least one layer");
+    t.layers.resize(layers.size());
     for (std::size_t i = 0; i < layers.size(); ++i)
-      s.layers.push_back(layer(layers[i], "layers[" + std::to_string(i) + "]", i + 1 == layers.size()));
+      s.layers.push_back(layer(layers[i], "layers[" + std::to_string(i) + "]", i + 1 == layers.size(), &t.layers[i]));
     if (root.contains("below")) s.below = below(root["below"], "below");
 
     // The model's own invariants, in case the checks above and validate_stack() ever diverge.
     const std::string problem = validate_stack(s);
     if (!problem.empty()) throw StackFileError(source_ + ": " + problem);
-    return s;
+    return t;
   }
 
  private:
@@ -233,7 +238,7 @@ class Reader {
 
 }  // namespace
 
-LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {
+StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name) {
   Reader reader(source_name);
   json root;
   try {
@@ -250,7 +255,7 @@ LayerStack parse_stack_json(const std::string& text, const std::string& source_n
   return reader.stack(root);
 }
 
-LayerStack load_stack_file(const std::string& path) {
+StackTemplate load_stack_template(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw StackFileError(path + ": is a directory, not a material file");
@@ -259,7 +264,13 @@ LayerStack load_stack_file(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw StackFileError(path + ": error while reading the material file");
-  return parse_stack_json(text.str(), path);
+  return parse_stack_template_json(text.str(), path);
 }
+
+LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {
+  return parse_stack_template_json(text, source_name).stack;
+}
+
+LayerStack load_stack_file(const std::string& path) { return load_stack_template(path).stack; }
 
 }  // namespace lamina

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "materials/stack.h"
+#include "materials/stack_parameters.h"
 
 namespace lamina {
 
@@ -28,5 +29,10 @@ LayerStack parse_stack_json(const std::string& text, const std::string& source_n
 
 // Reads and parses the file at path; errors name the path as given. Throws StackFileError.
 LayerStack load_stack_file(const std::string& path);
+
+// The same, keeping the description the stack was mixed from (each layer's components with
+// their fractions), so that parameters can be changed per shading point (stack_parameters.h).
+StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name);
+StackTemplate load_stack_template(const std::string& path);
 
 }  // namespace lamina

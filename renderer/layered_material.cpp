@@ -1,5 +1,6 @@
 #include "renderer/layered_material.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include "materials/sampling.h"
 #include "materials/stack_file.h"
 #include "renderer/scene_gltf.h"
+#include "renderer/stack_bindings.h"
 
 namespace lamina {
 
@@ -79,8 +81,26 @@ const Spectrum& LayeredMaterial::lambert_albedo_stderr() const {
   return lambert_albedo_stderr_;
 }
 
+LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, std::shared_ptr<const StackBindings> bindings)
+    : LayeredMaterial(std::move(stack), std::move(source)) {
+  if (bindings && !bindings->empty()) bindings_ = std::move(bindings);
+}
+
 const LayerStack& LayeredMaterial::stack_at(const ShadingPoint& sp, StackScratch& scratch) const {
-  (void)scratch;  // texture-driven stacks are built here (into scratch) by the skin/leaf work
+  if (bindings_) {
+    // Texture-driven parameters: the stack at this uv, built in the caller's scratch (no
+    // allocation once its vectors have grown; stack_bindings.h).
+    bindings_->evaluate(sp.uv, &scratch.stack);
+    if (!(sp.from_below && stack_.transmits())) return scratch.stack;
+    // Seen from below: the same as flipped() (materials/stack.h), by copy-assignment so the
+    // scratch's storage is reused.
+    LayerStack& f = scratch.flipped;
+    f = scratch.stack;
+    std::reverse(f.layers.begin(), f.layers.end());
+    f.above_ior = scratch.stack.below.ior;
+    f.below.ior = scratch.stack.above_ior;
+    return f;
+  }
   if (sp.from_below && stack_.transmits()) return flipped_;
   return stack_;
 }
@@ -100,21 +120,33 @@ std::string resolve(const std::string& path, const std::string& relative_to_file
   return (fs::path(relative_to_file).parent_path() / p).lexically_normal().string();
 }
 
+// `spec` (may be null) holds "bind" / "freckles" (renderer/stack_bindings.h); `scene` resolves
+// glTF texture indices. Materials with the same stack and the same bindings share one object.
 std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, const std::string& material,
                                                   const std::string& stack_path, const std::string& resolved,
-                                                  std::map<std::string, std::shared_ptr<const LayeredMaterial>>* cache) {
-  if (auto it = cache->find(resolved); it != cache->end()) return it->second;
+                                                  std::map<std::string, std::shared_ptr<const LayeredMaterial>>* cache,
+                                                  const nlohmann::json& spec = nullptr, const SceneDesc* scene = nullptr) {
+  const bool bound = spec.is_object() && (spec.contains("bind") || spec.contains("freckles"));
+  const std::string key = bound ? resolved + "\n" + named_in + "\n" + spec.dump() : resolved;
+  if (auto it = cache->find(key); it != cache->end()) return it->second;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(resolved, ec))
     throw SceneError(named_in + ": material '" + material + "': stack file '" + stack_path + "' not found (" + resolved + ")");
-  LayerStack stack;
+  StackTemplate stack;
   try {
-    stack = load_stack_file(resolved);
+    stack = load_stack_template(resolved);
   } catch (const StackFileError& e) {
     throw SceneError(e.what());
   }
-  auto m = std::make_shared<const LayeredMaterial>(std::move(stack), resolved);
-  (*cache)[resolved] = m;
+  std::shared_ptr<const LayeredMaterial> m;
+  if (bound) {
+    auto t = std::make_shared<const StackTemplate>(stack);
+    auto b = std::make_shared<const StackBindings>(spec, t, *scene, named_in, material, named_in);
+    m = std::make_shared<const LayeredMaterial>(std::move(stack.stack), resolved, std::move(b));
+  } else {
+    m = std::make_shared<const LayeredMaterial>(std::move(stack.stack), resolved);
+  }
+  (*cache)[key] = m;
   return m;
 }
 
@@ -126,6 +158,7 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
   std::map<std::string, std::shared_ptr<const LayeredMaterial>> cache;  // one material per file
 
   std::map<std::string, std::string> map;  // glTF material name -> stack path as written
+  std::map<std::string, nlohmann::json> map_specs;  // entries given as objects (with bindings)
   if (!map_path.empty()) {
     std::ifstream in(map_path);
     if (!in) throw SceneError(map_path + ": cannot read the material map");
@@ -139,8 +172,18 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
     }
     if (!j.is_object()) throw SceneError(map_path + ": expected an object {\"glTF material name\": \"stack.json\", ...}");
     for (auto it = j.begin(); it != j.end(); ++it) {
+      if (it.value().is_object()) {
+        if (!it.value().contains("stack") || !it.value()["stack"].is_string())
+          throw SceneError(map_path + ": " + it.key() + ".stack: expected the path of a stack file (a string)");
+        for (auto k = it.value().begin(); k != it.value().end(); ++k)
+          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
+            throw SceneError(map_path + ": " + it.key() + "." + k.key() + ": unknown key (allowed: stack, bind, freckles)");
+        map[it.key()] = it.value()["stack"].get<std::string>();
+        map_specs[it.key()] = it.value();
+        continue;
+      }
       if (!it.value().is_string())
-        throw SceneError(map_path + ": " + it.key() + ": expected the path of a stack file (a string)");
+        throw SceneError(map_path + ": " + it.key() + ": expected the path of a stack file (a string) or an object {\"stack\": ...}");
       map[it.key()] = it.value().get<std::string>();
     }
     for (const auto& [name, path] : map) {
@@ -153,9 +196,21 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
   for (std::size_t i = 0; i < scene.materials.size(); ++i) {
     const Material& m = scene.materials[i];
     if (auto it = map.find(m.name); it != map.end()) {
-      out.by_material[i] = load_bound(map_path, m.name, it->second, resolve(it->second, map_path), &cache);
+      const auto spec = map_specs.find(m.name);
+      out.by_material[i] = load_bound(map_path, m.name, it->second, resolve(it->second, map_path), &cache,
+                                      spec == map_specs.end() ? nlohmann::json(nullptr) : spec->second, &scene);
     } else if (auto e = m.extras.find("lamina.stack"); e != m.extras.end()) {
-      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve(e->second, scene.path), &cache);
+      nlohmann::json spec = nullptr;
+      if (!m.extras_json.empty()) {
+        const nlohmann::json extras = nlohmann::json::parse(m.extras_json, nullptr, false);
+        if (extras.is_object() && extras.contains("lamina") && extras["lamina"].is_object()) spec = extras["lamina"];
+        // A misspelt key ("frekles") must not be silently ignored.
+        for (auto k = spec.begin(); spec.is_object() && k != spec.end(); ++k)
+          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
+            throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + k.key() +
+                             ": unknown key (allowed: stack, bind, freckles)");
+      }
+      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve(e->second, scene.path), &cache, spec, &scene);
     }
   }
   return out;

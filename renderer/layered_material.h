@@ -26,6 +26,7 @@
 namespace lamina {
 
 struct SceneDesc;
+class StackBindings;
 
 // How layered materials are shaded (contracts.md, `lamina render --subsurface`).
 enum class SubsurfaceMode { RandomWalk, FirstOrder, Table, Lambert };
@@ -57,6 +58,9 @@ class LayeredMaterial {
  public:
   // `stack` must be valid (validate_stack() empty). `source` is the stack file, for messages.
   LayeredMaterial(LayerStack stack, std::string source);
+  // With texture-driven parameters (renderer/stack_bindings.h): stack_at() evaluates them at
+  // the hit's uv. The Lambert albedo stays that of the base stack.
+  LayeredMaterial(LayerStack stack, std::string source, std::shared_ptr<const StackBindings> bindings);
 
   // The stack at this hit, seen from the viewer's side (flipped when sp.from_below). The result
   // refers either to this material's own stacks or to `scratch`; valid until the next call with
@@ -65,6 +69,7 @@ class LayeredMaterial {
 
   const LayerStack& base_stack() const { return stack_; }
   const std::string& source() const { return source_; }
+  const StackBindings* bindings() const { return bindings_.get(); }
   bool transmits() const { return stack_.transmits(); }
 
   // The stack's diffuse bihemispherical reflectance (white-sky albedo of R_diffuse: the light
@@ -78,6 +83,7 @@ class LayeredMaterial {
  private:
   LayerStack stack_;
   LayerStack flipped_;  // flipped(stack_) if it transmits, else unused
+  std::shared_ptr<const StackBindings> bindings_;  // null: the base stack everywhere
   std::string source_;
   mutable std::once_flag albedo_once_;
   mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
@@ -99,7 +105,9 @@ struct LayeredBindings {
 };
 
 // Binds stacks to the scene's materials: the map file (if not empty) first, then each
-// material's extras["lamina.stack"]. Throws SceneError with one line naming the glTF (or map)
+// material's extras["lamina.stack"]. A map entry may also be an object {"stack": ..., "bind":
+// [...], "freckles": {...}}, and the extras' "lamina" object may hold "bind" and "freckles":
+// texture-driven parameters (renderer/stack_bindings.h). Throws SceneError with one line naming the glTF (or map)
 // and the stack file: a missing stack file, a map naming no material of the scene, or the
 // StackFileError message of a bad stack file.
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <set>
@@ -185,6 +186,46 @@ void flatten_extras(const tinygltf::Value& v, const std::string& prefix, std::ma
   }
 }
 
+// tinygltf's Value as JSON text (numbers with 17 digits, so doubles round-trip).
+void write_json(const tinygltf::Value& v, std::ostringstream* out) {
+  if (v.IsObject()) {
+    *out << '{';
+    bool first = true;
+    for (const std::string& k : v.Keys()) {
+      if (!first) *out << ',';
+      first = false;
+      write_json(tinygltf::Value(k), out);
+      *out << ':';
+      write_json(v.Get(k), out);
+    }
+    *out << '}';
+  } else if (v.IsArray()) {
+    *out << '[';
+    for (std::size_t i = 0; i < v.ArrayLen(); ++i) {
+      if (i) *out << ',';
+      write_json(v.Get(static_cast<int>(i)), out);
+    }
+    *out << ']';
+  } else if (v.IsString()) {
+    *out << '"';
+    for (char c : v.Get<std::string>()) {
+      if (c == '"' || c == '\\') *out << '\\' << c;
+      else if (static_cast<unsigned char>(c) < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", c);
+        *out << buf;
+      } else *out << c;
+    }
+    *out << '"';
+  } else if (v.IsNumber()) {
+    *out << v.GetNumberAsDouble();
+  } else if (v.IsBool()) {
+    *out << (v.Get<bool>() ? "true" : "false");
+  } else {
+    *out << "null";
+  }
+}
+
 void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world) {
   if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
     warn("primitives that are not TRIANGLES (points, lines, strips, fans) are skipped");
@@ -357,8 +398,16 @@ void Loader::run() {
     if (!mat.base_color.is_finite() || mat.base_color.min() < 0.0 || !mat.emission.is_finite() || mat.emission.min() < 0.0)
       fail(path_, "material '" + gm.name + "' has a negative or non-finite colour");
     flatten_extras(gm.extras, "", &mat.extras);
+    if (gm.extras.IsObject()) {
+      std::ostringstream js;
+      js.precision(17);
+      write_json(gm.extras, &js);
+      mat.extras_json = js.str();
+    }
     out_->materials.push_back(std::move(mat));
   }
+
+  for (int t = 0; t < static_cast<int>(m_.textures.size()); ++t) out_->gltf_textures[t] = texture(t);
 
   int scene = m_.defaultScene >= 0 ? m_.defaultScene : 0;
   if (m_.scenes.empty()) fail(path_, "has no scene");

@@ -49,6 +49,9 @@ struct Material {
   // Material `extras`, flattened to dotted keys: {"lamina": {"stack": "skin.json"}} gives
   // extras["lamina.stack"] = "skin.json". Non-string leaves are stored as their JSON text.
   std::map<std::string, std::string> extras;
+  // The same extras as JSON text ("" if the material has none), for structured values such as
+  // the parameter bindings of a layered material ({"lamina": {"bind": [...]}}).
+  std::string extras_json;
 };
 
 // A triangle mesh in world space (node transforms applied).
@@ -88,6 +91,9 @@ struct SceneDesc {
   std::vector<Mesh> meshes;
   std::vector<Material> materials;
   std::vector<Texture> textures;
+  // glTF texture index -> index in `textures` (every texture of the file is decoded, also those
+  // no material uses, so that parameter bindings can name them by glTF index).
+  std::map<int, int> gltf_textures;
   std::vector<CameraDesc> cameras;
   std::vector<LightDesc> lights;
   glm::dvec3 bounds_min{0.0};

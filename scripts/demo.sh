@@ -25,4 +25,17 @@ for angle in 0 45; do
   "$LAMINA" compare out/spheres_${angle}_lambert.exr out/spheres_${angle}_random-walk.exr \
     -o out/spheres_${angle}_difference.exr --png out/spheres_${angle}_difference.png
 done
-echo "demo: wrote out/cornell_box.{exr,png}, out/head.{exr,png} and out/spheres_{0,45}_*.{exr,png}"
+# Layered materials (random walk per shading point: slower per sample, so fewer samples).
+# LAMINA_DEMO_SPP, if set, overrides these too.
+LAYERED_SPP=${LAMINA_DEMO_SPP:-24}
+LEAF_SPP=${LAMINA_DEMO_SPP:-32}
+# The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light.
+"$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
+  --width 240 --height 300 --spp "$LAYERED_SPP" --env 0.05
+# Leaves lit from the front and from behind, then side by side.
+for side in front back; do
+  "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
+    --width 320 --height 240 --spp "$LEAF_SPP"
+done
+oiiotool out/leaves_front.png out/leaves_back.png --mosaic 2x1 -o out/leaves.png
+echo "demo: wrote out/cornell_box, out/head, out/spheres_{0,45}_*, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png) and out/leaves.png"
