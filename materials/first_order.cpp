@@ -167,34 +167,37 @@ Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const g
   return wo.z >= 0.0 ? first_order_brdf(stack, wi, wo) : first_order_btdf(stack, wi, wo);
 }
 
+namespace {
+
+// P_n(x) by the three-term recurrence j P_j = (2j - 1) x P_{j-1} - (j - 1) P_{j-2}, and its
+// derivative P_n'(x) = n (x P_n - P_{n-1})/(x^2 - 1) (|x| < 1; Abramowitz & Stegun 22.7.10, 22.8.5).
+double legendre_p(int n, double x, double* derivative) {
+  double p0 = 1.0, p1 = x;
+  for (int j = 2; j <= n; ++j) {
+    const double p2 = ((2.0 * j - 1.0) * x * p1 - (j - 1.0) * p0) / j;
+    p0 = p1;
+    p1 = p2;
+  }
+  *derivative = n * (x * p1 - p0) / (x * x - 1.0);
+  return p1;
+}
+
+}  // namespace
+
 void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
-  // Roots of P_n (three-term recurrence) by Newton from the usual initial guess
-  // cos(pi (i + 3/4)/(n + 1/2)); P_n'(x) = n (x P_n - P_{n-1})/(x^2 - 1); weight
+  // Roots of P_n by Newton from the usual initial guess cos(pi (i + 3/4)/(n + 1/2)); weight
   // 2/((1 - x^2) P_n'(x)^2). The roots are symmetric, so pairs are filled together.
   const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
   for (int i = 0; i < (n + 1) / 2; ++i) {
     double x = std::cos(kPi * (i + 0.75) / (n + 0.5));
     double dp = 1.0;
     for (int iter = 0; iter < 100; ++iter) {
-      double p0 = 1.0, p1 = x;
-      for (int j = 2; j <= n; ++j) {
-        const double p2 = ((2.0 * j - 1.0) * x * p1 - (j - 1.0) * p0) / j;
-        p0 = p1;
-        p1 = p2;
-      }
-      dp = n * (x * p1 - p0) / (x * x - 1.0);
-      const double dx = p1 / dp;
+      const double p = legendre_p(n, x, &dp);
+      const double dx = p / dp;
       x -= dx;
       if (std::abs(dx) < 1e-16) break;
     }
-    // recompute the derivative at the converged root
-    double p0 = 1.0, p1 = x;
-    for (int j = 2; j <= n; ++j) {
-      const double p2 = ((2.0 * j - 1.0) * x * p1 - (j - 1.0) * p0) / j;
-      p0 = p1;
-      p1 = p2;
-    }
-    dp = n * (x * p1 - p0) / (x * x - 1.0);
+    legendre_p(n, x, &dp);  // the derivative at the converged root
     const double w = 2.0 / ((1.0 - x * x) * dp * dp);
     nodes[i] = mid - half * x;
     nodes[n - 1 - i] = mid + half * x;

@@ -81,26 +81,32 @@ double FirstOrderSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const 
   return p_diffuse_ * std::abs(wi.z) * kInvPi * (transmits_ ? 0.5 : 1.0);
 }
 
-bool FirstOrderSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
-  if (wo.z <= 0.0) return false;
-  if (u.x < p_specular_) {
+bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zeroth, double p_specular,
+                               double p_ballistic, double t_factor, const glm::dvec3& wo, double u_x, BsdfSample* s) {
+  if (u_x < p_specular) {
     // Mirror delta lobe: f |cos| / pdf = R_specular / p_specular (per delta).
     s->wi = {-wo.x, -wo.y, wo.z};
-    s->pdf = p_specular_;
-    s->f = zeroth_.R_specular / std::max(wo.z, 1e-300);
-    s->delta = true;
-    return wo.z > 0.0;
-  }
-  if (u.x < p_specular_ + p_ballistic_) {
-    // Ballistic delta lobe: the unscattered light from below that leaves towards wo; Snell
-    // between the outside media: n_above sin(theta_o) = n_below sin(theta_b).
-    const double r = stack_.above_ior / stack_.below.ior;
-    s->wi = {-wo.x * r, -wo.y * r, -zeroth_.cos_below};
-    s->pdf = p_ballistic_;
-    s->f = zeroth_.T_ballistic * t_factor_ / zeroth_.cos_below;
+    s->pdf = p_specular;
+    s->f = zeroth.R_specular / std::max(wo.z, 1e-300);
     s->delta = true;
     return true;
   }
+  if (u_x < p_specular + p_ballistic) {
+    // Ballistic delta lobe: the unscattered light from below that leaves towards wo; Snell
+    // between the outside media: n_above sin(theta_o) = n_below sin(theta_b).
+    const double r = stack.above_ior / stack.below.ior;
+    s->wi = {-wo.x * r, -wo.y * r, -zeroth.cos_below};
+    s->pdf = p_ballistic;
+    s->f = zeroth.T_ballistic * t_factor / zeroth.cos_below;
+    s->delta = true;
+    return true;
+  }
+  return false;
+}
+
+bool FirstOrderSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
+  if (wo.z <= 0.0) return false;
+  if (sample_zeroth_order_lobes(stack_, zeroth_, p_specular_, p_ballistic_, t_factor_, wo, u.x, s)) return true;
   if (p_diffuse_ <= 0.0) return false;
   const double v = std::min((u.x - p_specular_ - p_ballistic_) / p_diffuse_, 1.0 - 1e-16);
   glm::dvec3 w;
@@ -112,12 +118,7 @@ bool FirstOrderSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s
   } else {
     w = sample_cosine_hemisphere({v, u.y});
   }
-  if (w.z == 0.0) return false;
-  s->wi = w;
-  s->pdf = pdf(wo, w);
-  s->f = eval(wo, w);
-  s->delta = false;
-  return s->pdf > 0.0;
+  return complete_sample(*this, wo, w, s);
 }
 
 }  // namespace lamina

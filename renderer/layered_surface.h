@@ -45,6 +45,13 @@ double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, cons
 // estimator uses it, to remove the Fresnel factor from connection_weight.
 double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w);
 
+// The zeroth-order delta lobes of FirstOrderSurface and TableSurface, chosen by u_x: the mirror
+// reflection R_specular(wo) with probability p_specular, then the ballistic transmission
+// T_ballistic(wo) (times t_factor, above) with probability p_ballistic. True, with s filled, if
+// u_x chose one of them; false to sample the other lobes. Requires wo.z > 0.
+bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zeroth, double p_specular,
+                               double p_ballistic, double t_factor, const glm::dvec3& wo, double u_x, BsdfSample* s);
+
 // first-order mode: f = zeroth order (delta lobes) + first_order_brdf / first_order_btdf.
 // Built per hit for the viewer direction wo (local frame, wo.z > 0; +z the stack's top).
 // Sampling: the specular reflection R_specular(wo) and the ballistic transmission

@@ -129,21 +129,7 @@ double TableSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
 
 bool TableSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
   if (wo.z <= 0.0) return false;
-  if (u.x < p_specular_) {
-    s->wi = {-wo.x, -wo.y, wo.z};
-    s->pdf = p_specular_;
-    s->f = zeroth_.R_specular / wo.z;
-    s->delta = true;
-    return true;
-  }
-  if (u.x < p_specular_ + p_ballistic_) {
-    const double r = table_.stack->above_ior / table_.stack->below.ior;
-    s->wi = {-wo.x * r, -wo.y * r, -zeroth_.cos_below};
-    s->pdf = p_ballistic_;
-    s->f = zeroth_.T_ballistic * t_factor_ / zeroth_.cos_below;
-    s->delta = true;
-    return true;
-  }
+  if (sample_zeroth_order_lobes(*table_.stack, zeroth_, p_specular_, p_ballistic_, t_factor_, wo, u.x, s)) return true;
   if (p_diffuse_ <= 0.0) return false;
   double v = std::min((u.x - p_specular_ - p_ballistic_) / p_diffuse_, 1.0 - 1e-16);
   // Node by its interpolation weight (reusing v), then a bin by that node's CDF.
@@ -171,12 +157,7 @@ bool TableSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) con
   const double phi = std::atan2(wo.y, wo.x) + 2.0 * kPi * (m + residual) / M;
   const double st = std::sqrt(std::max(0.0, 1.0 - mu * mu));
   glm::dvec3 w{st * std::cos(phi), st * std::sin(phi), side == 0 ? mu : -mu};
-  if (w.z == 0.0) return false;
-  s->wi = w;
-  s->pdf = pdf(wo, w);
-  s->f = eval(wo, w);
-  s->delta = false;
-  return s->pdf > 0.0;
+  return complete_sample(*this, wo, w, s);
 }
 
 }  // namespace lamina

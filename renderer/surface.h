@@ -34,6 +34,19 @@ class Surface {
   virtual bool is_layered() const { return false; }
 };
 
+// Completes the sample of a non-delta lobe that drew the direction wi: f and pdf come from the
+// surface's own eval and pdf, so sample() agrees with them exactly. False for a grazing wi
+// (wi.z == 0) or a zero pdf. A template so that a final surface's calls stay direct.
+template <class SurfaceT>
+bool complete_sample(const SurfaceT& surface, const glm::dvec3& wo, const glm::dvec3& wi, BsdfSample* s) {
+  if (wi.z == 0.0) return false;
+  s->wi = wi;
+  s->pdf = surface.pdf(wo, wi);
+  s->f = surface.eval(wo, wi);
+  s->delta = false;
+  return s->pdf > 0.0;
+}
+
 // Lambert: f = albedo / pi on the reflection side, sampled by the cosine (pbrt-v4 9.2).
 class LambertSurface final : public Surface {
  public:

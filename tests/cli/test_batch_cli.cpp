@@ -22,6 +22,7 @@
 #include "renderer/batch_manifest.h"
 #include "renderer/contact_sheet.h"
 #include "renderer/image_io.h"
+#include "tests/cli/cli_runner.h"
 #include "tests/renderer/batch_fixture.h"
 
 namespace lamina {
@@ -31,27 +32,11 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::TempDir;
 
-struct Result {
-  int exit_code = -1;
-  std::string out, err;
-};
+using Result = test::CliResult;
+using test::slurp;
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-Result batch(const TempDir& dir, const std::string& args) {
-  const std::string cmd = std::string(LAMINA_EXE) + " batch " + args + " >" + (dir / "stdout.txt") + " 2>" + (dir / "stderr.txt");
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = slurp(dir / "stdout.txt");
-  r.err = slurp(dir / "stderr.txt");
-  return r;
-}
+// `lamina batch ARGS`.
+Result batch(const TempDir& dir, const std::string& args) { return test::run_lamina(dir.path, "batch " + args); }
 
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> v;

@@ -14,19 +14,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/cli/cli_runner.h"
+
 namespace {
 
-struct CommandResult {
-  int code = -1;
-  std::string out, err;
-};
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using CommandResult = lamina::test::CliResult;
+using lamina::test::slurp;
 
 // Runs `lamina ARGS` through the shell, capturing stdout and stderr in files of the test's own
 // temporary folder.
@@ -42,19 +35,11 @@ class CliBrdf : public ::testing::Test {
   }
   void TearDown() override { std::system(("rm -rf '" + dir_ + "'").c_str()); }
 
-  CommandResult run(const std::string& args) {
-    const std::string cmd = std::string(LAMINA_EXE) + " " + args + " >'" + dir_ + "/stdout' 2>'" + dir_ + "/stderr'";
-    CommandResult r;
-    const int status = std::system(cmd.c_str());
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_file(dir_ + "/stdout");
-    r.err = read_file(dir_ + "/stderr");
-    return r;
-  }
+  CommandResult run(const std::string& args) { return lamina::test::run_lamina(dir_, args); }
   // A failing run: non-zero exit and exactly one line on stderr that says what is wrong.
   void expect_one_line_error(const std::string& args, const std::string& must_contain) {
     const CommandResult r = run(args);
-    EXPECT_NE(r.code, 0) << args;
+    EXPECT_NE(r.exit_code, 0) << args;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
     EXPECT_NE(r.err.find(must_contain), std::string::npos) << args << ": " << r.err;
   }
@@ -64,7 +49,7 @@ class CliBrdf : public ::testing::Test {
 
 TEST_F(CliBrdf, HelpExitsZero) {
   const CommandResult r = run("brdf --help");
-  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("--theta-i"), std::string::npos);
 }
 
@@ -72,15 +57,15 @@ TEST_F(CliBrdf, MonteCarloWritesTableAndTotals) {
   const std::string csv = dir_ + "/t.csv", json = dir_ + "/t.json";
   const CommandResult r = run("brdf " + stack_ + " --theta-i 30 --samples 4000 --bins-theta 3 --bins-phi 5 --out " + csv +
                     " --summary " + json);
-  ASSERT_EQ(r.code, 0) << r.err;
-  std::istringstream lines(read_file(csv));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(slurp(csv));
   std::string header;
   std::getline(lines, header);
   EXPECT_EQ(header, "side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple");
   int rows = 0;
   for (std::string line; std::getline(lines, line);) ++rows;
   EXPECT_EQ(rows, 2 * 3 * 5 * 3);
-  const nlohmann::json j = nlohmann::json::parse(read_file(json));
+  const nlohmann::json j = nlohmann::json::parse(slurp(json));
   for (int c = 0; c < 3; ++c) {
     double sum = 0.0;
     for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed"}) {
@@ -98,7 +83,7 @@ TEST_F(CliBrdf, MonteCarloWritesTableAndTotals) {
 
 TEST_F(CliBrdf, FirstOrderTotalsSumToOne) {
   const CommandResult r = run("brdf " + stack_ + " --theta-i 60 --method first-order --bins-theta 2 --bins-phi 2");
-  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   for (int c = 0; c < 3; ++c) {
     const double sum = j["R_specular"][c].get<double>() + j["R_diffuse"][c].get<double>() +
@@ -111,9 +96,9 @@ TEST_F(CliBrdf, FirstOrderTotalsSumToOne) {
 
 TEST_F(CliBrdf, SameSeedSameBytes) {
   const std::string a = dir_ + "/a.csv", b = dir_ + "/b.csv";
-  ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + a).code, 0);
-  ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + b).code, 0);
-  EXPECT_EQ(read_file(a), read_file(b));
+  ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + a).exit_code, 0);
+  ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + b).exit_code, 0);
+  EXPECT_EQ(slurp(a), slurp(b));
 }
 
 TEST_F(CliBrdf, BadInputGivesOneLineErrors) {

@@ -14,15 +14,11 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/image_io.h"
+#include "tests/cli/cli_runner.h"
 
 namespace fs = std::filesystem;
 namespace lamina {
 namespace {
-
-struct CommandResult {
-  int status;
-  std::string out, err;
-};
 
 // A fresh directory per test, so tests may run in parallel (ctest -j) without sharing files.
 fs::path dir() {
@@ -36,19 +32,11 @@ fs::path dir() {
   return d;
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using CommandResult = test::CliResult;
+using test::slurp;
 
-CommandResult lamina(const std::string& args) {
-  const fs::path out = dir() / "stdout.txt", err = dir() / "stderr.txt";
-  const std::string cmd = std::string(LAMINA_EXE) + " " + args + " >" + out.string() + " 2>" + err.string();
-  const int raw = std::system(cmd.c_str());
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(out), slurp(err)};
-}
+// `lamina ARGS`, run in this test's directory.
+CommandResult lamina(const std::string& args) { return test::run_lamina(dir(), args); }
 
 std::string grey_exr(const std::string& name, int w, int h, std::initializer_list<float> values) {
   Image image(w, h);
@@ -64,7 +52,7 @@ std::string grey_exr(const std::string& name, int w, int h, std::initializer_lis
 
 TEST(CliCompare, HelpExitsZero) {
   const CommandResult r = lamina("compare --help");
-  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("--fail-above"), std::string::npos);
 }
 
@@ -76,7 +64,7 @@ TEST(CliCompare, MetricsDiffAndSign) {
   const fs::path exr = dir() / "diff.exr", png = dir() / "diff.png", json = dir() / "m.json";
   const CommandResult r = lamina("compare " + ref + " " + test + " -o " + exr.string() + " --png " + png.string() +
                        " --json " + json.string());
-  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("RMS relative difference"), std::string::npos);
 
   const nlohmann::json m = nlohmann::json::parse(slurp(json));
@@ -109,7 +97,7 @@ TEST(CliCompare, MetricsDiffAndSign) {
 
   // --range 1: +0.5 is half way to red: (1, 0.5, 0.5) in display values -> bytes 255, 128, 128.
   const CommandResult r2 = lamina("compare " + ref + " " + test + " --png " + png.string() + " --range 1");
-  ASSERT_EQ(r2.status, 0) << r2.err;
+  ASSERT_EQ(r2.exit_code, 0) << r2.err;
   EXPECT_EQ(read_image(png.string()).width, spec.width);
   auto in2 = OIIO::ImageInput::open(png.string());
   ASSERT_TRUE(in2->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, bytes.data()));
@@ -123,7 +111,7 @@ TEST(CliCompare, GuardNearZeroReference) {
   const std::string ref = grey_exr("gref.exr", 2, 1, {0.0f, 2.0f});
   const std::string test = grey_exr("gtest.exr", 2, 1, {0.005f, 2.0f});
   const fs::path exr = dir() / "gdiff.exr";
-  ASSERT_EQ(lamina("compare " + ref + " " + test + " -o " + exr.string()).status, 0);
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " -o " + exr.string()).exit_code, 0);
   const Image diff = read_image(exr.string());
   EXPECT_NEAR(diff.pixel(0, 0)[1], 0.5, 1e-6);
   EXPECT_EQ(diff.pixel(1, 0)[1], 0.0f);
@@ -132,9 +120,9 @@ TEST(CliCompare, GuardNearZeroReference) {
 TEST(CliCompare, FailAboveSetsTheExitStatus) {
   const std::string ref = grey_exr("fref.exr", 2, 1, {1, 1});
   const std::string test = grey_exr("ftest.exr", 2, 1, {1.2f, 0.8f});  // RMS relative 0.2
-  EXPECT_EQ(lamina("compare " + ref + " " + test + " --fail-above 0.25").status, 0);
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --fail-above 0.25").exit_code, 0);
   const CommandResult r = lamina("compare " + ref + " " + test + " --fail-above 0.15");
-  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("exceeds"), std::string::npos);
 }
 
@@ -142,10 +130,10 @@ TEST(CliCompare, CropRestrictsTheMetrics) {
   const std::string ref = grey_exr("cref.exr", 3, 1, {1, 1, 1});
   const std::string test = grey_exr("ctest.exr", 3, 1, {1, 1, 3});
   const fs::path json = dir() / "c.json";
-  ASSERT_EQ(lamina("compare " + ref + " " + test + " --crop 0,0,2,1 --json " + json.string()).status, 0);
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " --crop 0,0,2,1 --json " + json.string()).exit_code, 0);
   EXPECT_EQ(nlohmann::json::parse(slurp(json))["rms_relative"].get<double>(), 0.0);
-  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 2,0,2,1").status, 2);
-  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 1,2").status, 2);
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 2,0,2,1").exit_code, 2);
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 1,2").exit_code, 2);
 }
 
 TEST(CliCompare, BadInputGivesOneLineErrors) {
@@ -154,12 +142,12 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
   const std::string missing = (dir() / "missing.exr").string();
 
   CommandResult r = lamina("compare " + ref + " " + missing);
-  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(missing), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 
   r = lamina("compare " + ref + " " + small);
-  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("2x2"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("1x1"), std::string::npos) << r.err;
 
@@ -174,17 +162,17 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
     out->close();
   }
   r = lamina("compare " + ref + " " + one);
-  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("channel"), std::string::npos) << r.err;
 
   r = lamina("compare " + ref);  // missing TEST
-  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_EQ(lamina("compare " + ref + " " + ref + " --range 0").status, 2);  // range must be > 0
+  EXPECT_EQ(lamina("compare " + ref + " " + ref + " --range 0").exit_code, 2);  // range must be > 0
   // An unwritable output names the file.
   const std::string bad_out = (dir() / "no_dir" / "d.exr").string();
   r = lamina("compare " + ref + " " + ref + " -o " + bad_out);
-  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(bad_out), std::string::npos) << r.err;
 }
 

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "renderer/image_io.h"
+#include "tests/cli/cli_runner.h"
 #include "tests/renderer/gltf_fixture.h"
 
 namespace lamina {
@@ -20,27 +21,11 @@ namespace {
 using testing::GltfBuilder;
 using testing::TempDir;
 
-struct Result {
-  int exit_code = -1;
-  std::string out, err;
-};
+using Result = test::CliResult;
+using test::slurp;
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-Result run(const TempDir& dir, const std::string& args) {
-  const std::string cmd = std::string(LAMINA_EXE) + " render " + args + " >" + (dir / "stdout.txt") + " 2>" + (dir / "stderr.txt");
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = slurp(dir / "stdout.txt");
-  r.err = slurp(dir / "stderr.txt");
-  return r;
-}
+// `lamina render ARGS`.
+Result run(const TempDir& dir, const std::string& args) { return test::run_lamina(dir.path, "render " + args); }
 
 // A unit quad facing +Z, in front of the default framing camera.
 void write_quad(const std::string& path, bool glb = false) {

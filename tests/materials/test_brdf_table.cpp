@@ -10,18 +10,12 @@
 #include <tbb/global_control.h>
 
 #include "materials/fresnel.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
 
-LayerStack one_layer(double n, double thickness, Spectrum sa, Spectrum ss, Spectrum g, double above = 1.0,
-                     double below = 1.0) {
-  LayerStack s;
-  s.above_ior = above;
-  s.layers.push_back(make_layer("slab", n, thickness, sa, ss, g));
-  s.below.ior = below;
-  return s;
-}
+using test::one_layer;
 
 BrdfOptions options(double theta, std::uint64_t n, int k = 4, int m = 4, std::uint64_t seed = 1) {
   BrdfOptions o;

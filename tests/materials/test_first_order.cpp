@@ -15,6 +15,7 @@
 #include "materials/henyey_greenstein.h"
 #include "materials/sampling.h"
 #include "materials/zeroth_order.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
@@ -23,14 +24,7 @@ Layer layer(double ior, double d, Spectrum sa, Spectrum ss, Spectrum g) {
   return make_layer("l", ior, d, sa, ss, g);
 }
 
-LayerStack stack_of(std::vector<Layer> layers, double above = 1.0, double below = 1.0) {
-  LayerStack s;
-  s.above_ior = above;
-  s.layers = std::move(layers);
-  s.below.ior = below;
-  EXPECT_EQ(validate_stack(s), "");
-  return s;
-}
+using test::stack_of;
 
 glm::dvec3 dir(double theta_deg, double phi_deg, double sign = 1.0) {
   const double t = theta_deg * kPi / 180, p = phi_deg * kPi / 180;

@@ -10,18 +10,12 @@
 
 #include "materials/brdf_table.h"
 #include "materials/fresnel.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
 
-LayerStack one_layer(double n, double thickness, Spectrum sa, Spectrum ss, Spectrum g, double above = 1.0,
-                     double below = 1.0) {
-  LayerStack s;
-  s.above_ior = above;
-  s.layers.push_back(make_layer("slab", n, thickness, sa, ss, g));
-  s.below.ior = below;
-  return s;
-}
+using test::one_layer;
 
 // A coloured two-layer stack on a Lambert substrate, with a two-lobe layer.
 LayerStack coloured_stack() {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "materials/fresnel.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
@@ -16,14 +17,7 @@ Layer slab(double ior, double thickness, Spectrum sigma_a, Spectrum sigma_s = Sp
   return make_layer("slab", ior, thickness, sigma_a, sigma_s, Spectrum(0.3));
 }
 
-LayerStack stack_of(std::vector<Layer> layers, double above = 1.0, double below = 1.0) {
-  LayerStack s;
-  s.above_ior = above;
-  s.layers = std::move(layers);
-  s.below.ior = below;
-  EXPECT_EQ(validate_stack(s), "");
-  return s;
-}
+using test::stack_of;
 
 std::vector<LayerStack> assorted_stacks() {
   std::vector<LayerStack> v;

@@ -10,25 +10,10 @@
 #include <gtest/gtest.h>
 
 #include "materials/sampling.h"
-#include "tests/renderer/chi_square_local.h"
+#include "tests/support/statistics.h"
 
 namespace lamina {
 namespace {
-
-TEST(ChiSquareLocal, MatchesKnownQuantiles) {
-  // Tabulated chi-square quantiles: P(chi2_1 > 3.841) = 0.05, P(chi2_10 > 23.209) = 0.01,
-  // P(chi2_2 > x) = exp(-x/2) exactly.
-  EXPECT_NEAR(test::gamma_q(0.5, 3.841459 / 2), 0.05, 1e-6);
-  EXPECT_NEAR(test::gamma_q(5.0, 23.209251 / 2), 0.01, 1e-6);
-  EXPECT_NEAR(test::gamma_q(1.0, 7.3 / 2), std::exp(-7.3 / 2), 1e-12);
-  // Integer a: Q(n, x) = exp(-x) sum_{k<n} x^k / k! (the Poisson tail), far from the mean in
-  // both directions so both branches (series and continued fraction) are exercised.
-  for (const auto& [n, x] : {std::pair{50, 20.0}, std::pair{5, 30.0}, std::pair{12, 12.5}}) {
-    double term = std::exp(-x), sum = 0.0;
-    for (int k = 0; k < n; ++k) sum += term, term *= x / (k + 1);
-    EXPECT_NEAR(test::gamma_q(n, x), sum, 1e-12 + 1e-10 * sum) << n << " " << x;
-  }
-}
 
 TEST(Distribution1D, PmfAndPdfAreTheNormalisedValues) {
   const Distribution1D d({1.0, 0.0, 3.0, 4.0});
@@ -85,7 +70,10 @@ TEST(Distribution1D, ContinuousSamplesFitTheDensity) {
     const double x = d.sample_continuous(rng.uniform(), &pdf);
     observed[std::min(static_cast<int>(x * kCells), kCells - 1)] += 1.0;
   }
-  EXPECT_GT(test::chi_square_p_value(observed, expected), 1e-3);
+  {
+    const test::ChiSquareResult r = test::chi_square_test(observed, expected);
+    EXPECT_GT(r.p_value, 1e-3) << r.describe();
+  }
 }
 
 TEST(Distribution2D, SamplesFitAndPdfMatches) {
@@ -109,7 +97,10 @@ TEST(Distribution2D, SamplesFitAndPdfMatches) {
     ASSERT_DOUBLE_EQ(pdf, f[iv * 4 + iu] / d.integral());
     observed[iv * 4 + iu] += 1.0;
   }
-  EXPECT_GT(test::chi_square_p_value(observed, expected), 1e-3);
+  {
+    const test::ChiSquareResult r = test::chi_square_test(observed, expected);
+    EXPECT_GT(r.p_value, 1e-3) << r.describe();
+  }
 }
 
 }  // namespace

@@ -13,7 +13,7 @@
 
 #include "materials/sampling.h"
 #include "renderer/image_io.h"
-#include "tests/renderer/chi_square_local.h"
+#include "tests/support/statistics.h"
 
 namespace fs = std::filesystem;
 namespace lamina {
@@ -94,9 +94,8 @@ TEST(Environment, SamplerFitsItsPdf) {
     direction_to_pixel(d, NU, NV, &x, &y, &u, &v);
     observed[y * NU + x] += 1.0;
   }
-  int dof = 0;
-  const double p = test::chi_square_p_value(observed, expected, &dof);
-  EXPECT_GT(p, 1e-3) << "dof " << dof;
+  const test::ChiSquareResult chi = test::chi_square_test(observed, expected);
+  EXPECT_GT(chi.p_value, 1e-3) << chi.describe();
   // The black pixel (1, 1) is never chosen.
   for (int b = 0; b < kSub; ++b)
     for (int a = 0; a < kSub; ++a) EXPECT_EQ(observed[(kSub + b) * NU + kSub + a], 0.0);

@@ -10,62 +10,17 @@
 
 #include "materials/sampling.h"
 #include "renderer/integrator.h"
+#include "tests/renderer/render_fixtures.h"
 
 namespace lamina {
 namespace {
 
-void add_quad(Mesh* m, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
-  const auto base = static_cast<std::uint32_t>(m->positions.size());
-  m->positions.insert(m->positions.end(), {a, b, c, d});
-  m->indices.insert(m->indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
-}
-
-// The cube [-1, 1]^3 (outward winding).
-Mesh cube(int material) {
-  Mesh m;
-  m.material = material;
-  const float s = 1.0f;
-  add_quad(&m, {-s, -s, s}, {s, -s, s}, {s, s, s}, {-s, s, s});
-  add_quad(&m, {s, -s, -s}, {-s, -s, -s}, {-s, s, -s}, {s, s, -s});
-  add_quad(&m, {s, -s, s}, {s, -s, -s}, {s, s, -s}, {s, s, s});
-  add_quad(&m, {-s, -s, -s}, {-s, -s, s}, {-s, s, s}, {-s, s, -s});
-  add_quad(&m, {-s, s, s}, {s, s, s}, {s, s, -s}, {-s, s, -s});
-  add_quad(&m, {-s, -s, -s}, {s, -s, -s}, {s, -s, s}, {-s, -s, s});
-  return m;
-}
-
-// A UV sphere of radius 1 with vertices on the sphere (triangles at the poles, no degenerate ones).
-Mesh sphere(int material, int rings, int segments) {
-  Mesh m;
-  m.material = material;
-  m.positions.push_back({0.0f, 1.0f, 0.0f});
-  for (int i = 1; i < rings; ++i) {
-    const double theta = kPi * i / rings;
-    for (int j = 0; j < segments; ++j) {
-      const double phi = 2.0 * kPi * j / segments;
-      m.positions.push_back(glm::vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)));
-    }
-  }
-  m.positions.push_back({0.0f, -1.0f, 0.0f});
-  const auto south = static_cast<std::uint32_t>(m.positions.size() - 1);
-  auto v = [&](int ring, int j) { return static_cast<std::uint32_t>(1 + (ring - 1) * segments + (j % segments)); };
-  for (int j = 0; j < segments; ++j) {
-    m.indices.insert(m.indices.end(), {0u, v(1, j + 1), v(1, j)});
-    m.indices.insert(m.indices.end(), {south, v(rings - 1, j), v(rings - 1, j + 1)});
-    for (int i = 1; i + 1 < rings; ++i)
-      m.indices.insert(m.indices.end(), {v(i, j), v(i, j + 1), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i + 1, j)});
-  }
-  return m;
-}
-
-SceneDesc make_scene(std::vector<Mesh> meshes, std::vector<Material> materials) {
-  SceneDesc d;
-  d.path = "test";
-  d.meshes = std::move(meshes);
-  d.materials = std::move(materials);
-  d.compute_bounds();
-  return d;
-}
+using test::add_quad;
+using test::cube;
+using test::ImageStats;
+using test::make_scene;
+using test::sphere;
+using test::stats_of;
 
 CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
   CameraDesc c;
@@ -74,29 +29,6 @@ CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
   c.up = std::abs(forward.y) > 0.9 ? glm::dvec3(0.0, 0.0, -1.0) : glm::dvec3(0.0, 1.0, 0.0);
   c.yfov = yfov_deg * kPi / 180.0;
   return c;
-}
-
-struct ImageStats {
-  double mean[3];
-  double stderr_[3];
-};
-
-ImageStats stats_of(const Image& im) {
-  ImageStats s{};
-  const double n = static_cast<double>(im.width) * im.height;
-  for (int c = 0; c < 3; ++c) {
-    double sum = 0.0, sum2 = 0.0;
-    for (int y = 0; y < im.height; ++y)
-      for (int x = 0; x < im.width; ++x) {
-        const double v = im.pixel(x, y)[c];
-        sum += v;
-        sum2 += v * v;
-      }
-    s.mean[c] = sum / n;
-    const double var = std::max(0.0, (sum2 - n * s.mean[c] * s.mean[c]) / (n - 1.0));
-    s.stderr_[c] = std::sqrt(var / n);
-  }
-  return s;
 }
 
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp,

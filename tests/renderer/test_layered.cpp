@@ -27,17 +27,18 @@
 #include "renderer/integrator.h"
 #include "renderer/scene_gltf.h"
 #include "tests/renderer/gltf_fixture.h"
+#include "tests/renderer/render_fixtures.h"
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
 
 namespace lamina {
 namespace {
 
-void add_quad(Mesh* m, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
-  const auto base = static_cast<std::uint32_t>(m->positions.size());
-  m->positions.insert(m->positions.end(), {a, b, c, d});
-  m->indices.insert(m->indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
-}
+using test::add_quad;
+using test::ImageStats;
+using test::make_scene;
+using test::sphere;
+using test::stats_of;
 
 // The plane y = 0, wound so that its normal (the stack's top) is +y.
 Mesh plane(int material) {
@@ -45,38 +46,6 @@ Mesh plane(int material) {
   m.material = material;
   add_quad(&m, {-1000, 0, 1000}, {1000, 0, 1000}, {1000, 0, -1000}, {-1000, 0, -1000});
   return m;
-}
-
-Mesh sphere(int material, int rings, int segments) {
-  Mesh m;
-  m.material = material;
-  m.positions.push_back({0.0f, 1.0f, 0.0f});
-  for (int i = 1; i < rings; ++i) {
-    const double theta = kPi * i / rings;
-    for (int j = 0; j < segments; ++j) {
-      const double phi = 2.0 * kPi * j / segments;
-      m.positions.push_back(glm::vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)));
-    }
-  }
-  m.positions.push_back({0.0f, -1.0f, 0.0f});
-  const auto south = static_cast<std::uint32_t>(m.positions.size() - 1);
-  auto v = [&](int ring, int j) { return static_cast<std::uint32_t>(1 + (ring - 1) * segments + (j % segments)); };
-  for (int j = 0; j < segments; ++j) {
-    m.indices.insert(m.indices.end(), {0u, v(1, j + 1), v(1, j)});
-    m.indices.insert(m.indices.end(), {south, v(rings - 1, j), v(rings - 1, j + 1)});
-    for (int i = 1; i + 1 < rings; ++i)
-      m.indices.insert(m.indices.end(), {v(i, j), v(i, j + 1), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i + 1, j)});
-  }
-  return m;
-}
-
-SceneDesc make_scene(std::vector<Mesh> meshes, int materials = 1) {
-  SceneDesc d;
-  d.path = "test";
-  d.meshes = std::move(meshes);
-  d.materials.resize(materials);
-  d.compute_bounds();
-  return d;
 }
 
 // A camera at distance 5 looking at the origin from the unit direction `from` (towards the
@@ -99,27 +68,6 @@ glm::dvec3 world_dir(double theta_deg, double phi_deg, bool below = false) {
 }
 // The same direction in the stack's local frame (+z = +y of the world).
 glm::dvec3 local_dir(const glm::dvec3& w) { return {w.x, w.z, w.y}; }
-
-struct ImageStats {
-  Spectrum mean, stderr_;
-};
-
-ImageStats stats_of(const Image& im) {
-  ImageStats s;
-  const double n = static_cast<double>(im.width) * im.height;
-  for (int c = 0; c < 3; ++c) {
-    double sum = 0.0, sum2 = 0.0;
-    for (int y = 0; y < im.height; ++y)
-      for (int x = 0; x < im.width; ++x) {
-        const double v = im.pixel(x, y)[c];
-        sum += v;
-        sum2 += v * v;
-      }
-    s.mean[c] = sum / n;
-    s.stderr_[c] = std::sqrt(std::max(0.0, (sum2 - n * s.mean[c] * s.mean[c]) / (n - 1.0)) / n);
-  }
-  return s;
-}
 
 struct RenderSetup {
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;

@@ -2,6 +2,7 @@
 #include "tests/support/statistics.h"
 
 #include <cmath>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,21 @@ TEST(Statistics, GammaQClosedForms) {
     EXPECT_NEAR(regularized_gamma_q(0.5, x), std::erfc(std::sqrt(x)), 1e-13 * std::erfc(std::sqrt(x)) + 1e-300);
     const double q3 = std::exp(-x) * (1 + x + x * x / 2);
     EXPECT_NEAR(regularized_gamma_q(3.0, x), q3, 1e-13 * q3 + 1e-300);
+  }
+}
+
+TEST(Statistics, GammaQKnownQuantilesAndPoissonTail) {
+  // Tabulated chi-square quantiles: P(chi2_1 > 3.841) = 0.05, P(chi2_10 > 23.209) = 0.01,
+  // P(chi2_2 > x) = exp(-x/2) exactly.
+  EXPECT_NEAR(regularized_gamma_q(0.5, 3.841459 / 2), 0.05, 1e-6);
+  EXPECT_NEAR(regularized_gamma_q(5.0, 23.209251 / 2), 0.01, 1e-6);
+  EXPECT_NEAR(regularized_gamma_q(1.0, 7.3 / 2), std::exp(-7.3 / 2), 1e-12);
+  // Integer a: Q(n, x) = exp(-x) sum_{k<n} x^k / k! (the Poisson tail), far from the mean in
+  // both directions so both branches (series and continued fraction) are exercised.
+  for (const auto& [n, x] : {std::pair{50, 20.0}, std::pair{5, 30.0}, std::pair{12, 12.5}}) {
+    double term = std::exp(-x), sum = 0.0;
+    for (int k = 0; k < n; ++k) sum += term, term *= x / (k + 1);
+    EXPECT_NEAR(regularized_gamma_q(n, x), sum, 1e-12 + 1e-10 * sum) << n << " " << x;
   }
 }
 

@@ -1,0 +1,103 @@
+// Scene-building fixtures shared by the renderer tests: meshes built in code (the glTF loader
+// has its own tests), a SceneDesc around them, and the mean and standard error of an image.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "materials/sampling.h"
+#include "materials/spectrum.h"
+#include "renderer/integrator.h"
+
+namespace lamina::test {
+
+// Appends the quad a b c d as two triangles (a b c, a c d); its normal follows the winding.
+inline void add_quad(Mesh* m, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
+  const auto base = static_cast<std::uint32_t>(m->positions.size());
+  m->positions.insert(m->positions.end(), {a, b, c, d});
+  m->indices.insert(m->indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+}
+
+// The cube [-1, 1]^3 (outward winding).
+inline Mesh cube(int material) {
+  Mesh m;
+  m.material = material;
+  const float s = 1.0f;
+  add_quad(&m, {-s, -s, s}, {s, -s, s}, {s, s, s}, {-s, s, s});
+  add_quad(&m, {s, -s, -s}, {-s, -s, -s}, {-s, s, -s}, {s, s, -s});
+  add_quad(&m, {s, -s, s}, {s, -s, -s}, {s, s, -s}, {s, s, s});
+  add_quad(&m, {-s, -s, -s}, {-s, -s, s}, {-s, s, s}, {-s, s, -s});
+  add_quad(&m, {-s, s, s}, {s, s, s}, {s, s, -s}, {-s, s, -s});
+  add_quad(&m, {-s, -s, -s}, {s, -s, -s}, {s, -s, s}, {-s, -s, s});
+  return m;
+}
+
+// A UV sphere of radius 1 with vertices on the sphere (triangles at the poles, no degenerate
+// ones), outward winding.
+inline Mesh sphere(int material, int rings, int segments) {
+  Mesh m;
+  m.material = material;
+  m.positions.push_back({0.0f, 1.0f, 0.0f});
+  for (int i = 1; i < rings; ++i) {
+    const double theta = kPi * i / rings;
+    for (int j = 0; j < segments; ++j) {
+      const double phi = 2.0 * kPi * j / segments;
+      m.positions.push_back(glm::vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)));
+    }
+  }
+  m.positions.push_back({0.0f, -1.0f, 0.0f});
+  const auto south = static_cast<std::uint32_t>(m.positions.size() - 1);
+  auto v = [&](int ring, int j) { return static_cast<std::uint32_t>(1 + (ring - 1) * segments + (j % segments)); };
+  for (int j = 0; j < segments; ++j) {
+    m.indices.insert(m.indices.end(), {0u, v(1, j + 1), v(1, j)});
+    m.indices.insert(m.indices.end(), {south, v(rings - 1, j), v(rings - 1, j + 1)});
+    for (int i = 1; i + 1 < rings; ++i)
+      m.indices.insert(m.indices.end(), {v(i, j), v(i, j + 1), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i + 1, j)});
+  }
+  return m;
+}
+
+// A scene description of the given meshes and materials (bounds computed).
+inline SceneDesc make_scene(std::vector<Mesh> meshes, std::vector<Material> materials) {
+  SceneDesc d;
+  d.path = "test";
+  d.meshes = std::move(meshes);
+  d.materials = std::move(materials);
+  d.compute_bounds();
+  return d;
+}
+
+// The same with `material_count` default materials (for scenes whose shading is bound elsewhere).
+inline SceneDesc make_scene(std::vector<Mesh> meshes, int material_count = 1) {
+  return make_scene(std::move(meshes), std::vector<Material>(static_cast<std::size_t>(material_count)));
+}
+
+// Per channel, the mean of an image's pixels and its standard error s / sqrt(N), s the pixels'
+// sample standard deviation (each pixel an independent estimate of the same expected value).
+struct ImageStats {
+  Spectrum mean, stderr_;
+};
+
+inline ImageStats stats_of(const Image& im) {
+  ImageStats s;
+  const double n = static_cast<double>(im.width) * im.height;
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0.0, sum2 = 0.0;
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 0; x < im.width; ++x) {
+        const double v = im.pixel(x, y)[c];
+        sum += v;
+        sum2 += v * v;
+      }
+    s.mean[c] = sum / n;
+    s.stderr_[c] = std::sqrt(std::max(0.0, (sum2 - n * s.mean[c] * s.mean[c]) / (n - 1.0)) / n);
+  }
+  return s;
+}
+
+}  // namespace lamina::test
