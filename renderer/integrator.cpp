@@ -63,12 +63,12 @@ struct WalkConnector {
   const glm::dvec3 *t, *b, *n;
   Rng* rng;
   RayCounters* rays;
-  Spectrum prefix;       // beta / (1 - R(wo))
+  Spectrum prefix{};     // beta / (1 - R(wo))
   double t_factor = 1.0;
   bool naive = false;
   bool connections_only = false;
-  Spectrum* radiance;
-  ScatterEvent last;
+  Spectrum* radiance = nullptr;
+  ScatterEvent last{};
 
   void operator()(const ScatterEvent& e) {
     ++rays->scatter_events;

@@ -19,7 +19,8 @@ namespace lamina::test {
 // Appends the quad a b c d as two triangles (a b c, a c d); its normal follows the winding.
 inline void add_quad(Mesh* m, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
   const auto base = static_cast<std::uint32_t>(m->positions.size());
-  m->positions.insert(m->positions.end(), {a, b, c, d});
+  // push_back rather than insert of a brace list: GCC 12 gives a false -Wstringop-overflow there.
+  for (const glm::vec3& v : {a, b, c, d}) m->positions.push_back(v);
   m->indices.insert(m->indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
 }
 

@@ -505,7 +505,9 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
                   st[0].mean[0], st[0].stderr_[0], st[0].stderr_[0] * std::sqrt(n), st[1].mean[0], st[1].stderr_[0],
                   st[1].stderr_[0] * std::sqrt(n));
     EXPECT_NEAR(st[0].mean[0], st[1].mean[0], 4.0 * std::hypot(st[0].stderr_[0], st[1].stderr_[0])) << "g " << g;
-    if (g >= 0.9) EXPECT_LT(st[0].stderr_[0], st[1].stderr_[0]) << "g " << g;
+    if (g >= 0.9) {
+      EXPECT_LT(st[0].stderr_[0], st[1].stderr_[0]) << "g " << g;
+    }
   }
 }
 
