@@ -136,6 +136,8 @@ def main():
                     help="spp of table (each run rebuilds the tables, ~50-100 s)")
     ap.add_argument("--ref-spp", type=int, default=512)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--replot", action="store_true",
+                    help="no rendering: the summary and plot from OUT/tradeoff.csv")
     ap.add_argument("--targets", default="0.05,0.02", help="RMSE targets for the log's table")
     args = ap.parse_args()
     args.lamina = os.path.abspath(args.lamina)
@@ -157,7 +159,7 @@ def main():
     if not os.access(args.lamina, os.X_OK):
         fail(f"{args.lamina}: no lamina executable (build it, or pass --lamina)")
     os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
-    log = open(os.path.join(args.out, "tradeoff.log"), "w")
+    log = open(os.path.join(args.out, "tradeoff.log"), "a" if args.replot else "w")
 
     def say(text):
         print(text)
@@ -166,7 +168,16 @@ def main():
 
     rows = []
     refs = {}
-    for scene in scenes:
+    if args.replot:
+        with open(os.path.join(args.out, "tradeoff.csv")) as f:
+            head = f.readline().strip().split(",")
+            for line in f:
+                v = dict(zip(head, line.strip().split(",")))
+                rows.append({k: (v[k] if k in ("scene", "mode") else
+                                 int(v[k]) if k == "spp" else float(v[k])) for k in head})
+        scenes = [s for s in scenes if any(r["scene"] == s for r in rows)]
+        spps = {m: sorted({r["spp"] for r in rows if r["mode"] == m}) for m in MODES}
+    for scene in ([] if args.replot else scenes):
         _, _, w, h = SCENES[scene]
         ref = os.path.join(args.out, f"ref-{scene}-{w}x{h}-{args.ref_spp}spp.exr")
         if not os.path.exists(ref):
@@ -214,14 +225,22 @@ def main():
 
     # Summary: reference noise, floors, time to the targets.
     targets = [float(x) for x in args.targets.split(",")]
+    ref_noise = {}
     for scene in scenes:
         rw = [r for r in rows if r["scene"] == scene and r["mode"] == "random-walk"]
         last = rw[-1]
         # E[RMSE^2] of an s-spp walk against an N-spp walk = sigma^2 (1/s + 1/N), sigma^2 the
         # per-sample pixel variance averaged over pixels; the reference's own noise is sigma/sqrt(N).
         sigma2 = last["rmse"] ** 2 / (1.0 / last["spp"] + 1.0 / args.ref_spp)
+        ref_noise[scene] = math.sqrt(sigma2 / args.ref_spp)
         say(f"{scene}: reference noise (RMSE of the {args.ref_spp}-spp reference itself, from the "
-            f"{last['spp']}-spp walk) ~ {math.sqrt(sigma2 / args.ref_spp):.4f}")
+            f"{last['spp']}-spp walk) ~ {ref_noise[scene]:.4f}")
+        for t in targets:
+            # Against a noiseless reference the walk reaches RMSE t at spp = sigma^2 / t^2; its
+            # time scales with spp (the measured seconds per sample of the largest run).
+            n = sigma2 / t ** 2
+            say(f"  random-walk extrapolated (1/sqrt(spp), noiseless reference): RMSE {t} at "
+                f"~{n:.0f} spp, ~{last['seconds'] / last['spp'] * n:.3g} s")
         for mode in MODES:
             mr = sorted([r for r in rows if r["scene"] == scene and r["mode"] == mode],
                         key=lambda r: r["spp"])
@@ -251,6 +270,8 @@ def main():
             for r, x in zip(mr, xs):
                 ax.annotate(str(r["spp"]), (x, r["rmse"]), fontsize=6, xytext=(2, 2),
                             textcoords="offset points")
+        ax.axhline(ref_noise[scene], color="grey", ls="--", lw=0.8,
+                   label=f"reference's own noise ~{ref_noise[scene]:.3f}")
         ax.set_title(f"{scene} ({w}x{h}, ref. random-walk {args.ref_spp} spp)", fontsize=9)
         ax.set_xlabel("seconds (render + precompute; 0 s drawn at 1 ms)", fontsize=8)
         ax.set_ylabel("RMSE vs reference", fontsize=8)
