@@ -262,9 +262,12 @@ def main():
                         key=lambda r: r["spp"])
             label = mode
             if mode in ("table", "lambert"):
-                label += f" (incl. {mr[0]['precompute_seconds']:.0f} s precompute)" \
-                    if mr[0]["precompute_seconds"] >= 1 else \
-                    f" (incl. {mr[0]['precompute_seconds']:.2f} s precompute)"
+                # Every run does its own precompute; on a shared machine its time varies.
+                lo = min(r["precompute_seconds"] for r in mr)
+                hi = max(r["precompute_seconds"] for r in mr)
+                fmt = (lambda x: f"{x:.0f}") if lo >= 1 else (lambda x: f"{x:.2f}")
+                span = fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)}-{fmt(hi)}"
+                label += f" (incl. {span} s precompute per run)"
             xs = [max(r["seconds"], 1e-3) for r in mr]
             ax.loglog(xs, [r["rmse"] for r in mr], "o-", color=COLOURS[mode], label=label, ms=4)
             for r, x in zip(mr, xs):
