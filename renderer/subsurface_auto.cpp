@@ -165,10 +165,35 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   return ch;
 }
 
-std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings) {
+std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid) {
+  const SceneDesc& desc = scene.desc();
+  std::vector<bool> seen(desc.materials.size(), false);
+  const int nx = std::min(width, grid), ny = std::min(height, grid);
+  RayCounters rays;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      // The centre of cell (i, j) of an nx x ny grid over the film, in pixels.
+      const glm::dvec2 film((i + 0.5) * width / nx, (j + 0.5) * height / ny);
+      SurfaceHit hit;
+      if (!scene.intersect(camera.generate_ray(film), &hit, &rays)) continue;
+      const int m = desc.meshes[hit.mesh].material;
+      if (m >= 0 && m < static_cast<int>(seen.size())) seen[m] = true;
+    }
+  return seen;
+}
+
+std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings,
+                                                const std::vector<bool>* visible) {
   std::vector<AutoChoice> out(bindings.by_material.size());
-  for (std::size_t i = 0; i < bindings.by_material.size(); ++i)
-    if (bindings.by_material[i]) out[i] = choose_subsurface_mode(*bindings.by_material[i], settings);
+  for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
+    if (!bindings.by_material[i]) continue;
+    if (visible && (i >= visible->size() || !(*visible)[i])) {
+      out[i].mode = SubsurfaceMode::Lambert;
+      out[i].reason = "not visible to camera rays: lambert, no prediction";
+      continue;
+    }
+    out[i] = choose_subsurface_mode(*bindings.by_material[i], settings);
+  }
   return out;
 }
 

@@ -31,7 +31,9 @@
 #include <string>
 #include <vector>
 
+#include "renderer/camera.h"
 #include "renderer/layered_material.h"
+#include "renderer/scene.h"
 
 namespace lamina {
 
@@ -62,7 +64,16 @@ struct AutoChoice {
 // The prediction for one material (its base stack: texture-driven parameters are not varied).
 AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSettings& settings);
 
-// One choice per glTF material slot (default-constructed for non-layered slots).
-std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings);
+// Which glTF material slots the camera sees directly: camera rays through a grid of at most
+// grid x grid film positions over the whole image (pixel centres of a coarse grid; all pixels
+// if the image is smaller). Materials seen only indirectly (through a transmitting stack, in
+// reflections, by their light on other surfaces) are NOT found.
+std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid = 64);
+
+// One choice per glTF material slot (default-constructed for non-layered slots). A slot whose
+// `visible` entry is false (when `visible` is given) is not predicted: it costs nothing and is
+// shaded as lambert (its albedo walks run only if some path reaches it), reason "not visible".
+std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings,
+                                                const std::vector<bool>* visible = nullptr);
 
 }  // namespace lamina

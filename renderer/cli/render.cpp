@@ -146,19 +146,28 @@ int run_render(int argc, char** argv) {
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
+    std::vector<std::string> desc_names;
+    for (std::size_t i = 0; i < bindings.by_material.size(); ++i) desc_names.push_back(desc.material(static_cast<int>(i)).name);
+    const Scene scene(std::move(desc));
+    const LightSet lights(scene, env);
+    if (lights.empty())
+      std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
+                   scene_path.c_str());
+    const Camera camera(cam, settings.width, settings.height);
     // --subsurface auto: a mode per material, predicted from its BSDF (renderer/subsurface_auto.h).
-    // Every bound material is predicted: no visibility pre-pass yet.
+    // Only materials that camera rays of a coarse grid hit are predicted.
     std::vector<AutoChoice> choices;
     std::vector<SubsurfaceMode> per_material;
     if (auto_mode) {
       AutoSettings as;
       as.tolerance = tolerance;
-      choices = choose_subsurface_modes(bindings, as);
+      const std::vector<bool> visible = camera_visible_materials(scene, camera, settings.width, settings.height);
+      choices = choose_subsurface_modes(bindings, as, &visible);
       per_material.assign(bindings.by_material.size(), SubsurfaceMode::RandomWalk);
       for (std::size_t i = 0; i < choices.size(); ++i)
         if (bindings.by_material[i]) {
           per_material[i] = choices[i].mode;
-          std::printf("lamina render: auto: material %s (%s): %s [%.2f s]\n", desc.material(static_cast<int>(i)).name.c_str(),
+          std::printf("lamina render: auto: material %s (%s): %s [%.2f s]\n", desc_names[i].c_str(),
                       bindings.by_material[i]->source().c_str(), choices[i].reason.c_str(), choices[i].seconds);
         }
     }
@@ -173,9 +182,11 @@ int run_render(int argc, char** argv) {
       std::vector<bool> only(bindings.by_material.size(), true);
       if (auto_mode)
         for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
+      int tabulated = 0;
+      for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
       tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only);
       std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
-                  bindings.count(), tables->build_seconds(), tables->bytes() / 1024.0);
+                  tabulated, tables->build_seconds(), tables->bytes() / 1024.0);
     }
     if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
       // Computed before rendering so that the render's time is the render's.
@@ -195,14 +206,6 @@ int run_render(int argc, char** argv) {
     layered.per_material = per_material;
     layered.tables = tables.get();
     settings.layered = &layered;
-    std::vector<std::string> desc_names;
-    for (std::size_t i = 0; i < bindings.by_material.size(); ++i) desc_names.push_back(desc.material(static_cast<int>(i)).name);
-    const Scene scene(std::move(desc));
-    const LightSet lights(scene, env);
-    if (lights.empty())
-      std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
-                   scene_path.c_str());
-    const Camera camera(cam, settings.width, settings.height);
 
     Progress progress("render", static_cast<std::uint64_t>(settings.width) * settings.height * settings.spp);
     RenderStats stats;
