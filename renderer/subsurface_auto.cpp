@@ -18,7 +18,7 @@ struct ErrorSums {
   double ref2 = 0.0;     // sum P_walk^2 (noisy)
   double noise2 = 0.0;   // sum sigma_b^2 of the walk's bins
   double lambert2 = 0.0, first2 = 0.0;  // sum (P_m - P_walk)^2 (noisy)
-  double delta_ref2 = 0.0;      // sum (R_specular + T_ballistic)^2
+  double delta_ref2 = 0.0;      // sum (D + R_diffuse + T_diffuse)^2, D = R_specular + T_ballistic
   double delta_lambert2 = 0.0;  // the same, missing in lambert (first order has them exactly)
 };
 
@@ -70,6 +70,7 @@ void accumulate(const std::vector<Incidence>& incidences, const Spectrum& lamber
                 ErrorSums* e) {
   for (const Incidence& in : incidences) {
     const BrdfTable& first = in.first;
+    Spectrum diffuse_total(0.0);  // R_diffuse + T_diffuse of the walk at this incidence
     for (int side = 0; side < 2; ++side)
       for (int k = 0; k < s.bins_theta; ++k) {
         // P(B) = value(B) * Omega_proj(B) (brdf_table.h): the bin's fraction of the power.
@@ -82,6 +83,7 @@ void accumulate(const std::vector<Incidence>& incidences, const Spectrum& lamber
             const double pf = first.value[b][c] * omega;
             // Lambert: f = albedo / pi on the reflect side only.
             const double pl = side == 0 ? lambert_albedo[c] / kPi * omega : 0.0;
+            diffuse_total[c] += pw;
             e->ref2 += pw * pw;
             e->noise2 += vw;
             e->lambert2 += (pl - pw) * (pl - pw);
@@ -90,9 +92,12 @@ void accumulate(const std::vector<Incidence>& incidences, const Spectrum& lamber
         }
       }
     // The delta parts, exact (zeroth order) in both the walk's totals and first order; lambert
-    // has none.
+    // has none: it misses the fraction D / (D + diffuse) of the light the surface returns under
+    // uniform illumination (a delta lobe never sees a point light: it shows the environment and
+    // other surfaces, which is where a pixel misses it).
     for (int c = 0; c < kChannels; ++c) {
-      e->delta_ref2 += in.delta[c] * in.delta[c];
+      const double total = in.delta[c] + diffuse_total[c];
+      e->delta_ref2 += total * total;
       e->delta_lambert2 += in.delta[c] * in.delta[c];
     }
   }
@@ -131,8 +136,8 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   }
 
   AutoChoice ch;
-  // Diffuse part and delta part each relative to themselves (a pixel sees one or the other:
-  // a highlight or a transmitted background is not diluted by the glow, nor the reverse).
+  // The diffuse part's shape relative to the diffuse part; the missing delta part relative to
+  // all the light returned (energy under uniform illumination); the larger of the two.
   const double delta_lambert = e.delta_ref2 > 0.0 ? std::sqrt(e.delta_lambert2 / e.delta_ref2) : 0.0;
   ch.error_lambert = std::max(relative_rms(e.lambert2, e.ref2, e.noise2), delta_lambert);
   ch.noise_floor = std::sqrt(e.noise2 / std::max(e.ref2 - e.noise2, 1e-300));

@@ -15,10 +15,11 @@
 // Metric: what reaches the image is L_o = int f L_i cos dw (+ the delta parts), so the quantity
 // to compare is the cosine-weighted BSDF, i.e. each bin's power P(B) = value(B) Omega_proj(B)
 // (fraction of the incident power leaving into B). The delta parts (R_specular + T_ballistic)
-// are compared separately (a pixel sees either a highlight / the transmitted background or the
-// glow; neither dilutes the other). The predicted error of a model m is the larger of
+// are exact in first order and table and missing in lambert. The predicted error of a model m
+// is the larger of
 //   diffuse: e_m = sqrt( sum (P_m - P_walk)^2 - sigma^2 ) / sqrt( sum P_walk^2 - sigma^2 ),
-//   delta:   sqrt( sum (D_m - D)^2 / sum D^2 ),  D = R_specular + T_ballistic (exact),
+//   delta:   sqrt( sum (D_m - D)^2 / sum (D + R_d + T_d)^2 ),  D = R_specular + T_ballistic,
+// (the delta one is the fraction of all returned light a model misses under uniform light),
 // summed over bins, incidences, channels and sides, where sigma^2 = sum of the walk bins'
 // squared standard errors: E[(P_m - P_hat)^2] = (P_m - P)^2 + sigma_b^2, so subtracting it
 // makes both sums unbiased for the noise-free quantities (clamped at 0). This is the relative

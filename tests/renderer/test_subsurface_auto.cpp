@@ -102,12 +102,13 @@ TEST(SubsurfaceAuto, TrappedFilmRejectsFirstOrder) {
 }
 
 // Skin-like (multiple scattering dominates): at E = 0.05 only the walk (measured: table 0.09,
-// first order 0.98, lambert 1); at E = 0.2 the table would do. 20000 walks keep the test short.
+// first order 0.98, lambert 0.58: not Lambertian, and it lacks the specular); at E = 0.2 the
+// table would do. 20000 walks keep the test short.
 TEST(SubsurfaceAuto, SkinLikeNeedsTheWalkAtSmallTolerance) {
   const AutoChoice c = predict(skin_like(), 0.05, 20000);
   EXPECT_EQ(c.mode, SubsurfaceMode::RandomWalk) << c.reason;
   EXPECT_GT(c.error_first_order, 0.5) << c.reason;
-  EXPECT_GT(c.error_lambert, 0.5) << c.reason;
+  EXPECT_GT(c.error_lambert, 0.2) << c.reason;
   EXPECT_LT(c.error_table, 0.2) << c.reason;
 }
 
