@@ -159,15 +159,16 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const int material_index = desc.meshes[hit.mesh].material;
     const Material& mat = desc.material(material_index);
     const LayeredMaterial* lm = layered && layered->bindings ? layered->bindings->get(material_index) : nullptr;
+    const SubsurfaceMode mode = lm ? layered->mode_for(material_index) : SubsurfaceMode::RandomWalk;
     Spectrum albedo = mat.base_color;
-    if (lm && layered->mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo();
+    if (lm && mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo();
     else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
     const LambertSurface lambert(albedo);
     const Surface* surface_ptr = &lambert;
     std::optional<FirstOrderSurface> first_order;
     std::optional<TableSurface> table;
     const LayerStack* stack = nullptr;
-    if (lm && layered->mode != SubsurfaceMode::Lambert) {
+    if (lm && mode != SubsurfaceMode::Lambert) {
       // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
       // stack is seen from its top from either side (closed meshes).
       ShadingPoint sp;
@@ -177,16 +178,16 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       sp.triangle = hit.triangle;
       sp.from_below = back_side && lm->transmits();
       stack = &lm->stack_at(sp, scratch);
-      if (layered->mode == SubsurfaceMode::FirstOrder) {
+      if (mode == SubsurfaceMode::FirstOrder) {
         first_order.emplace(*stack, wo);
         surface_ptr = &*first_order;
-      } else if (layered->mode == SubsurfaceMode::Table) {
+      } else if (mode == SubsurfaceMode::Table) {
         table.emplace(layered->tables->get(lm, sp.from_below), wo);
         surface_ptr = &*table;
       }
     }
 
-    if (stack && layered->mode == SubsurfaceMode::RandomWalk) {
+    if (stack && mode == SubsurfaceMode::RandomWalk) {
       // The top interface's specular reflection: a delta lobe chosen with probability R(wo)
       // (weight R / R = 1); else the walk, whose weights carry (1 - R): divided out below.
       const double r_top = fresnel_dielectric(wo.z, stack->above_ior, stack->layers[0].ior);

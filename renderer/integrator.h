@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <vector>
 
 #include "materials/sampling.h"
 #include "renderer/camera.h"
@@ -25,6 +26,12 @@ class LayeredTables;
 struct LayeredShading {
   const LayeredBindings* bindings = nullptr;
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
+  // `--subsurface auto`: the mode of each glTF material slot (renderer/subsurface_auto.h);
+  // empty: `mode` for every material.
+  std::vector<SubsurfaceMode> per_material;
+  SubsurfaceMode mode_for(int material) const {
+    return material >= 0 && material < static_cast<int>(per_material.size()) ? per_material[material] : mode;
+  }
   // Tests and the bias report only: the naive random-walk estimator of the seed's slides. Light
   // samples at events without the Fresnel transmission of the way out and with weight 1, and
   // the walk's exits that reach a light also with weight 1 (no MIS: counted twice).

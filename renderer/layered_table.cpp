@@ -51,9 +51,13 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
   return t;
 }
 
-LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings) {
-  for (const auto& m : bindings.by_material) {
-    if (!m || tables_.count({m.get(), false})) continue;
+LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings)
+    : LayeredTables(bindings, settings, std::vector<bool>(bindings.by_material.size(), true)) {}
+
+LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only) {
+  for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
+    const auto& m = bindings.by_material[i];
+    if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
     auto top = std::make_unique<LayeredTable>(build_layered_table(m->base_stack(), settings));
     seconds_ += top->build_seconds;
     tables_[{m.get(), false}] = std::move(top);

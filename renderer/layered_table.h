@@ -56,6 +56,8 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
 class LayeredTables {
  public:
   LayeredTables(const LayeredBindings& bindings, const TableSettings& settings);
+  // Only the materials whose slot in `only` is true (`--subsurface auto`: those that chose table).
+  LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only);
   const LayeredTable& get(const LayeredMaterial* m, bool from_below) const;
   double build_seconds() const { return seconds_; }
   std::size_t bytes() const;

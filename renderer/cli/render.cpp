@@ -22,6 +22,7 @@
 #include "renderer/progress.h"
 #include "renderer/scene.h"
 #include "renderer/scene_gltf.h"
+#include "renderer/subsurface_auto.h"
 
 namespace lamina {
 namespace {
@@ -76,6 +77,8 @@ int run_render(int argc, char** argv) {
   settings.spp = 16;
   std::string subsurface = "random-walk";
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
+  bool auto_mode = false;
+  double tolerance = 0.0;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
   app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
   app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str();
@@ -86,8 +89,10 @@ int run_render(int argc, char** argv) {
   app.add_option("--seed", settings.seed, "random seed")->capture_default_str();
   app.add_option("--threads", settings.threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_option("--subsurface", subsurface,
-                 "shading of layered materials: random-walk|first-order|table|lambert")
+                 "shading of layered materials: random-walk|first-order|table|lambert|auto")
       ->capture_default_str();
+  CLI::Option* tolerance_opt = app.add_option(
+      "--tolerance", tolerance, "with --subsurface auto: largest predicted relative error per material, in (0, 1]");
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
@@ -112,8 +117,14 @@ int run_render(int argc, char** argv) {
       throw UsageError("--width x --height x --spp exceeds 1e12 paths");
     if (settings.max_depth < 0 || settings.max_depth > 100000) throw UsageError("--max-depth must be between 0 and 100000");
     if (settings.threads < 0 || settings.threads > 4096) throw UsageError("--threads must be between 0 and 4096");
-    if (!parse_subsurface_mode(subsurface, &mode))
-      throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table or lambert");
+    auto_mode = subsurface == "auto";
+    if (!auto_mode && !parse_subsurface_mode(subsurface, &mode))
+      throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table, lambert or auto");
+    if (tolerance_opt->count() > 0 && !auto_mode)
+      throw UsageError("--tolerance is only meaningful with --subsurface auto");
+    if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
+    if (auto_mode && !(tolerance > 0.0 && tolerance <= 1.0))
+      throw UsageError("--tolerance must be a relative error in (0, 1]");
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
@@ -135,13 +146,49 @@ int run_render(int argc, char** argv) {
     const double aspect = static_cast<double>(settings.width) / settings.height;
     CameraDesc cam = camera_name.empty() ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                                          : find_camera(desc, camera_name);
-    std::unique_ptr<LayeredTables> tables;
-    if (bindings.count() > 0 && mode == SubsurfaceMode::Table) {
-      tables = std::make_unique<LayeredTables>(bindings, TableSettings{});
-      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
-                  bindings.count(), tables->build_seconds(), tables->bytes() / 1024.0);
+    std::vector<std::string> desc_names;
+    for (std::size_t i = 0; i < bindings.by_material.size(); ++i) desc_names.push_back(desc.material(static_cast<int>(i)).name);
+    const Scene scene(std::move(desc));
+    const LightSet lights(scene, env);
+    if (lights.empty())
+      std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
+                   scene_path.c_str());
+    const Camera camera(cam, settings.width, settings.height);
+    // --subsurface auto: a mode per material, predicted from its BSDF (renderer/subsurface_auto.h).
+    // Only materials that camera rays of a coarse grid hit are predicted.
+    std::vector<AutoChoice> choices;
+    std::vector<SubsurfaceMode> per_material;
+    if (auto_mode) {
+      AutoSettings as;
+      as.tolerance = tolerance;
+      const std::vector<bool> visible = camera_visible_materials(scene, camera, settings.width, settings.height);
+      choices = choose_subsurface_modes(bindings, as, &visible);
+      per_material.assign(bindings.by_material.size(), SubsurfaceMode::RandomWalk);
+      for (std::size_t i = 0; i < choices.size(); ++i)
+        if (bindings.by_material[i]) {
+          per_material[i] = choices[i].mode;
+          std::printf("lamina render: auto: material %s (%s): %s [%.2f s]\n", desc_names[i].c_str(),
+                      bindings.by_material[i]->source().c_str(), choices[i].reason.c_str(), choices[i].seconds);
+        }
     }
-    if (bindings.count() > 0 && mode == SubsurfaceMode::Lambert) {
+    auto uses = [&](SubsurfaceMode m) {
+      if (!auto_mode) return mode == m;
+      for (std::size_t i = 0; i < per_material.size(); ++i)
+        if (bindings.by_material[i] && per_material[i] == m) return true;
+      return false;
+    };
+    std::unique_ptr<LayeredTables> tables;
+    if (bindings.count() > 0 && uses(SubsurfaceMode::Table)) {
+      std::vector<bool> only(bindings.by_material.size(), true);
+      if (auto_mode)
+        for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
+      int tabulated = 0;
+      for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
+      tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only);
+      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
+                  tabulated, tables->build_seconds(), tables->bytes() / 1024.0);
+    }
+    if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
       // Computed before rendering so that the render's time is the render's.
       const auto t0 = std::chrono::steady_clock::now();
       for (const auto& m : bindings.by_material)
@@ -156,14 +203,9 @@ int run_render(int argc, char** argv) {
     LayeredShading layered;
     layered.bindings = &bindings;
     layered.mode = mode;
+    layered.per_material = per_material;
     layered.tables = tables.get();
     settings.layered = &layered;
-    const Scene scene(std::move(desc));
-    const LightSet lights(scene, env);
-    if (lights.empty())
-      std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
-                   scene_path.c_str());
-    const Camera camera(cam, settings.width, settings.height);
 
     Progress progress("render", static_cast<std::uint64_t>(settings.width) * settings.height * settings.spp);
     RenderStats stats;
@@ -192,6 +234,14 @@ int run_render(int argc, char** argv) {
         {"lamina:scatter_events", std::to_string(stats.rays.scatter_events)},
         {"lamina:event_shadow_rays", std::to_string(stats.rays.event_shadow)},
     };
+    if (auto_mode) {
+      std::ostringstream tol;
+      tol << tolerance;
+      meta.emplace_back("lamina:tolerance", tol.str());
+      for (std::size_t i = 0; i < choices.size(); ++i)
+        if (bindings.by_material[i])
+          meta.emplace_back("lamina:auto:" + desc_names[i], choices[i].reason);
+    }
     for (const std::string& kv : extra_meta) {
       const std::size_t eq = kv.find('=');
       meta.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));

@@ -164,6 +164,13 @@ TEST(RenderCli, BadOptionsFailCleanly) {
   expect_failure(run(dir, scene + " -o " + out + " --spp lots"), "--spp", "", out);
   expect_failure(run(dir, scene + " -o " + out + " --width 16384 --height 16384 --spp 1000000"), "--spp", "1e12", out);
   expect_failure(run(dir, scene + " -o " + out + " --subsurface dipole"), "--subsurface 'dipole'", "random-walk", out);
+  expect_failure(run(dir, scene + " -o " + out + " --tolerance 0.05"), "--tolerance", "--subsurface auto", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface first-order --tolerance 0.05"), "--tolerance", "--subsurface auto", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto"), "--subsurface auto", "--tolerance", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance 0"), "--tolerance", "(0, 1]", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance 2"), "--tolerance", "(0, 1]", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance nan"), "--tolerance", "", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance lots"), "--tolerance", "", out);
   expect_failure(run(dir, scene + " -o " + out + " --env not-a-file.exr"), "not-a-file.exr", "", out);
   const std::string nodir = dir / "no/such/dir/out.exr";
   expect_failure(run(dir, scene + " -o " + nodir), nodir, "does not exist", nodir);
@@ -206,6 +213,43 @@ TEST(RenderCliLayered, MaterialsMapAndModes) {
   std::ofstream(dir / "bad_map.json") << R"({"leaf": "m/nothere.json"})";
   expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + " --materials " + dir / "bad_map.json"),
                  dir / "bad_map.json", "nothere.json", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// --subsurface auto: a strongly absorbing stack (first order is within 5%: see
+// tests/renderer/test_subsurface_auto) on a visible quad, and a second layered material on a
+// quad hidden behind it (no camera ray reaches it). The choice and its reason are printed and
+// stored per material in the EXR metadata; the hidden one is not predicted.
+TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
+  TempDir dir("cli-auto");
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "ink"}});
+  b.json()["materials"].push_back({{"name", "hidden"}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.add_node({{"mesh", b.add_mesh({-0.5, -0.5, -0.2, 0.5, -0.5, -0.2, 0.5, 0.5, -0.2, -0.5, 0.5, -0.2}, {0, 1, 2, 0, 2, 3}, {}, 1)}});
+  b.write_gltf(dir / "auto.gltf");
+  std::ofstream(dir / "ink.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})";
+  std::ofstream(dir / "map.json") << R"({"ink": "ink.json", "hidden": "ink.json"})";
+  const std::string out = dir / "auto.exr";
+  const Result r = run(dir, dir / "auto.gltf -o " + out + " --materials " + dir / "map.json" +
+                                " --width 8 --height 8 --spp 2 --env 1 --subsurface auto --tolerance 0.05");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("material ink"), std::string::npos) << r.out;
+  std::string ink, hidden, tol;
+  for (const auto& [k, v] : read_metadata(out)) {
+    if (k == "lamina:auto:ink") ink = v;
+    if (k == "lamina:auto:hidden") hidden = v;
+    if (k == "lamina:tolerance") tol = v;
+  }
+  EXPECT_EQ(ink.rfind("chose first-order", 0), 0u) << ink;
+  EXPECT_NE(hidden.find("not visible"), std::string::npos) << hidden;
+  EXPECT_EQ(tol, "0.05");
+  for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
 }  // namespace
