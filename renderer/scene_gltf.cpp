@@ -1,4 +1,5 @@
 #include "renderer/scene_gltf.h"
+#include "renderer/texture_filter.h"
 
 #include <algorithm>
 #include <cmath>
@@ -422,29 +423,13 @@ void Loader::run() {
 }  // namespace
 
 Spectrum Texture::lookup(glm::dvec2 uv) const {
-  // Texel centres at (i + 0.5) / width (glTF follows OpenGL sampling).
-  // i is in [-1, n] (x below is in [-0.5, n - 0.5]), so repeat needs one add or subtract, not
-  // an integer division (which was a visible share of the render loop on textured meshes).
-  auto wrap = [](int i, int n, bool clamp) {
-    if (clamp) return std::clamp(i, 0, n - 1);
-    return i < 0 ? i + n : i >= n ? i - n : i;
-  };
-  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return Spectrum(0.0);
-  // Keep coordinates in int range: repeat wraps uv to [0, 1); clamp clamps it (the same texels).
-  const double u = clamp_s ? std::clamp(uv.x, 0.0, 1.0) : uv.x - std::floor(uv.x);
-  const double v = clamp_t ? std::clamp(uv.y, 0.0, 1.0) : uv.y - std::floor(uv.y);
-  const double x = u * width - 0.5, y = v * height - 0.5;
-  const double fx = std::floor(x), fy = std::floor(y);
-  const double tx = x - fx, ty = y - fy;
-  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return Spectrum(0.0);
   Spectrum s;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = (dx ? tx : 1.0 - tx) * (dy ? ty : 1.0 - ty);
-      const float* p = &rgb[(static_cast<std::size_t>(wrap(y0 + dy, height, clamp_t)) * width +
-                             wrap(x0 + dx, width, clamp_s)) * 3];
-      s += Spectrum(p[0], p[1], p[2]) * w;
-    }
+  for (int k = 0; k < 4; ++k) {
+    const float* p = &rgb[f.texel[k] * 3];
+    s += Spectrum(p[0], p[1], p[2]) * f.weight[k];
+  }
   return s;
 }
 

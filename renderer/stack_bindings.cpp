@@ -1,4 +1,5 @@
 #include "renderer/stack_bindings.h"
+#include "renderer/texture_filter.h"
 
 #include <algorithm>
 #include <cmath>
@@ -33,12 +34,6 @@ std::string resolve(const std::string& path, const std::string& relative_to_file
   return (fs::path(relative_to_file).parent_path() / p).lexically_normal().string();
 }
 
-int wrap_index(int i, int n, bool clamp) {
-  if (clamp) return std::clamp(i, 0, n - 1);
-  const int m = i % n;
-  return m < 0 ? m + n : m;
-}
-
 // Knuth's Poisson sampler (TAOCP vol. 2, 3.4.1): multiply uniforms until the product drops
 // below e^-mean. Exact; O(mean) uniforms, and mean <= kMaxSpotsPerCell here.
 int sample_poisson(double mean, Rng& rng) {
@@ -55,23 +50,11 @@ int sample_poisson(double mean, Rng& rng) {
 }  // namespace
 
 double ParameterMap::lookup(glm::dvec2 uv, int channel) const {
-  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return 0.0;
-  // The same sampling as Texture::lookup: wrap (or clamp) uv into [0, 1), texel centres at
-  // (i + 0.5) / size, bilinear weights.
-  const double u = clamp_s ? std::clamp(uv.x, 0.0, 1.0) : uv.x - std::floor(uv.x);
-  const double v = clamp_t ? std::clamp(uv.y, 0.0, 1.0) : uv.y - std::floor(uv.y);
-  const double x = u * width - 0.5, y = v * height - 0.5;
-  const double fx = std::floor(x), fy = std::floor(y);
-  const double tx = x - fx, ty = y - fy;
-  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  // The same sampling as Texture::lookup (renderer/texture_filter.h).
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return 0.0;
   double s = 0.0;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = (dx ? tx : 1.0 - tx) * (dy ? ty : 1.0 - ty);
-      const std::size_t texel = static_cast<std::size_t>(wrap_index(y0 + dy, height, clamp_t)) * width +
-                                wrap_index(x0 + dx, width, clamp_s);
-      s += w * values[texel * channels + channel];
-    }
+  for (int k = 0; k < 4; ++k) s += f.weight[k] * values[f.texel[k] * channels + channel];
   return s;
 }
 
