@@ -28,26 +28,33 @@ def look_at_quat(eye, target, up=(0.0, 1.0, 0.0)):
     return [(m[2][1] - m[1][2]) / (4 * w), (m[0][2] - m[2][0]) / (4 * w), (m[1][0] - m[0][1]) / (4 * w), w]
 
 
+def add_portrait_rig(j, eye, target, key_position, key_color, key_intensity, rim_from, rim_intensity):
+    """Adds to scene 0 of the glTF dict j a camera "portrait" at eye looking at target, a point key
+    light and a directional rim light shining from rim_from towards the origin (KHR_lights_punctual).
+    Intensities are radiometric (W/sr, W/m^2; see renderer/scene_gltf.h)."""
+    j['cameras'] = [{'name': 'portrait', 'type': 'perspective', 'perspective': {'yfov': 0.75, 'znear': 0.1}}]
+    j['extensionsUsed'] = ['KHR_lights_punctual']
+    j['extensions'] = {'KHR_lights_punctual': {'lights': [
+        {'name': 'key', 'type': 'point', 'color': list(key_color), 'intensity': key_intensity},
+        {'name': 'rim', 'type': 'directional', 'color': [0.9, 0.95, 1.0], 'intensity': rim_intensity}]}}
+    n = len(j['nodes'])
+    j['nodes'] += [
+        {'name': 'portrait', 'camera': 0, 'translation': list(eye), 'rotation': look_at_quat(eye, target)},
+        {'name': 'key', 'translation': list(key_position), 'extensions': {'KHR_lights_punctual': {'light': 0}}},
+        {'name': 'rim', 'rotation': look_at_quat(rim_from, (0.0, 0.0, 0.0)),
+         'extensions': {'KHR_lights_punctual': {'light': 1}}}]
+    j['scenes'][0]['nodes'] += [n, n + 1, n + 2]
+
+
 def main():
     j = json.load(open(os.path.join(HERE, 'LeePerrySmith_textured.gltf')))
     j['asset'].setdefault('extras', {})['lamina'] = (
         'Lamina demo wrapper of LeePerrySmith_textured.gltf: adds a camera and two lights; '
         'geometry, material and textures unchanged.')
-    j['cameras'] = [{'name': 'portrait', 'type': 'perspective', 'perspective': {'yfov': 0.75, 'znear': 0.1}}]
-    j['extensionsUsed'] = ['KHR_lights_punctual']
-    # Intensities are radiometric (W/sr, W/m^2; see renderer/scene_gltf.h): the key light at
-    # ~11 units gives irradiance ~ 400/121 ~ 3.3 on the face.
-    j['extensions'] = {'KHR_lights_punctual': {'lights': [
-        {'name': 'key', 'type': 'point', 'color': [1.0, 0.95, 0.9], 'intensity': 400.0},
-        {'name': 'rim', 'type': 'directional', 'color': [0.9, 0.95, 1.0], 'intensity': 1.5}]}}
-    n = len(j['nodes'])
-    eye = (3.0, 1.5, 11.0)
-    j['nodes'] += [
-        {'name': 'portrait', 'camera': 0, 'translation': list(eye), 'rotation': look_at_quat(eye, (0.0, 0.5, 0.0))},
-        {'name': 'key', 'translation': [7.0, 6.0, 8.0], 'extensions': {'KHR_lights_punctual': {'light': 0}}},
-        {'name': 'rim', 'rotation': look_at_quat((-3.0, 4.0, -6.0), (0.0, 0.0, 0.0)),
-         'extensions': {'KHR_lights_punctual': {'light': 1}}}]
-    j['scenes'][0]['nodes'] += [n, n + 1, n + 2]
+    # The key light at ~11 units gives irradiance ~ 400/121 ~ 3.3 on the face.
+    add_portrait_rig(j, eye=(3.0, 1.5, 11.0), target=(0.0, 0.5, 0.0), key_position=(7.0, 6.0, 8.0),
+                     key_color=(1.0, 0.95, 0.9), key_intensity=400.0, rim_from=(-3.0, 4.0, -6.0),
+                     rim_intensity=1.5)
     with open(os.path.join(HERE, 'head_lit.gltf'), 'w') as f:
         json.dump(j, f, indent=1)
         f.write('\n')

@@ -32,24 +32,7 @@ HEAD = os.path.join(ROOT, 'scenes', 'lee_perry_smith_head')
 OUT = os.path.join(ROOT, 'scenes', 'head_skin')
 SIZE = 512
 
-
-def normalize(v):
-    n = math.sqrt(sum(x * x for x in v))
-    return [x / n for x in v]
-
-
-def cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def look_at_quat(eye, target, up=(0.0, 1.0, 0.0)):
-    """glTF rotation (x, y, z, w) turning local -Z towards target and local +Y towards up."""
-    f = normalize([t - e for t, e in zip(target, eye)])
-    r = normalize(cross(f, up))
-    u = cross(r, f)
-    m = [[r[i], u[i], -f[i]] for i in range(3)]
-    w = math.sqrt(max(0.0, 1.0 + m[0][0] + m[1][1] + m[2][2])) / 2.0
-    return [(m[2][1] - m[1][2]) / (4 * w), (m[0][2] - m[2][0]) / (4 * w), (m[1][0] - m[0][1]) / (4 * w), w]
+from make_head_scene import add_portrait_rig  # noqa: E402 (sibling script)
 
 
 def read_ppm(path):
@@ -167,21 +150,11 @@ def main():
                      'amplitude': 0.06, 'seed': 7,
                      'mask': {'texture': 'freckle_mask.png', 'channel': 'r'}},
     }}
-    j['cameras'] = [{'name': 'portrait', 'type': 'perspective', 'perspective': {'yfov': 0.75, 'znear': 0.1}}]
-    j['extensionsUsed'] = ['KHR_lights_punctual']
-    # Radiometric intensities (renderer/scene_gltf.h): the key at ~12 units gives irradiance
-    # ~ 500/144 ~ 3.5 on the face; the rim light grazes the head from behind.
-    j['extensions'] = {'KHR_lights_punctual': {'lights': [
-        {'name': 'key', 'type': 'point', 'color': [1.0, 0.97, 0.93], 'intensity': 500.0},
-        {'name': 'rim', 'type': 'directional', 'color': [0.9, 0.95, 1.0], 'intensity': 4.0}]}}
-    n = len(j['nodes'])
-    eye = (2.0, 1.0, 12.0)
-    j['nodes'] += [
-        {'name': 'portrait', 'camera': 0, 'translation': list(eye), 'rotation': look_at_quat(eye, (0.0, 0.3, 0.0))},
-        {'name': 'key', 'translation': [4.0, 3.0, 11.0], 'extensions': {'KHR_lights_punctual': {'light': 0}}},
-        {'name': 'rim', 'rotation': look_at_quat((-6.0, 3.0, -6.0), (0.0, 0.0, 0.0)),
-         'extensions': {'KHR_lights_punctual': {'light': 1}}}]
-    j['scenes'][0]['nodes'] += [n, n + 1, n + 2]
+    # The key at ~12 units gives irradiance ~ 500/144 ~ 3.5 on the face; the rim light grazes the
+    # head from behind.
+    add_portrait_rig(j, eye=(2.0, 1.0, 12.0), target=(0.0, 0.3, 0.0), key_position=(4.0, 3.0, 11.0),
+                     key_color=(1.0, 0.97, 0.93), key_intensity=500.0, rim_from=(-6.0, 3.0, -6.0),
+                     rim_intensity=4.0)
     with open(os.path.join(OUT, 'head_skin.gltf'), 'w') as f:
         json.dump(j, f, indent=1)
         f.write('\n')
