@@ -374,6 +374,129 @@ TEST(LayeredModes, ExtremesAreFinite) {
   }
 }
 
+// Extremes under a uniform environment of radiance 1 and no other light, in every mode that is
+// cheap here: a passive surface cannot return more than it receives, so every pixel lies in
+// [0, 1] up to noise. All pixels of an image estimate the same radiance (tiny field of view), so
+// a pixel's standard error is the pixels' sample deviation sd and the image mean's is
+// sd / sqrt(n); we require every pixel <= 1 + 4 sd and the mean <= 1 + 4 sd / sqrt(n) (plus
+// 1e-5 for float output), every pixel >= 0 and finite. The index-matched non-absorbing slab over
+// a transmitting index-1 medium must give 1 in random-walk within 4 standard errors (white
+// furnace), and so must the non-absorbing 1e6 mm slab (all light comes back out of the side it
+// entered; with spp 256 over two seeds its means were 0.99-1.02 within 1.2 standard errors). "Grazing light" is the view at 89.9 degrees (reciprocity; the environment lights
+// every direction, grazing included), "grazing view" 89 degrees.
+// table: only on the unscattering and the 1e-9 mm slabs (their build is quick); high-albedo
+// or thick stacks take many seconds per build. lambert: skipped for the 1e6 mm albedo-1 stack
+// (its 2^15 albedo walks run to the forced-roulette limit: tens of seconds).
+TEST(LayeredModes, ExtremesEveryModeWithinEnergyAndAgreement) {
+  struct Case {
+    const char* name;
+    LayerStack stack;
+    bool table = false, lambert = true, furnace = false;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"g=+0.9999", coloured_slab(0.9999)});
+  cases.push_back({"g=-0.9999", coloured_slab(-0.9999)});
+  {
+    LayerStack s = coloured_slab();
+    s.layers[0] = make_layer("black", 1.4, 0.2, Spectrum(0.3, 1.0, 3.0), Spectrum(0.0), Spectrum(0.0));
+    cases.push_back({"albedo 0", s, true});
+  }
+  {
+    LayerStack s = coloured_slab();
+    s.layers[0] = make_layer("white", 1.4, 0.5, Spectrum(0.0), Spectrum(8.0), Spectrum(0.3));
+    cases.push_back({"albedo 1", s});
+  }
+  {
+    LayerStack s = coloured_slab();
+    s.layers[0].thickness = 1e-9;
+    cases.push_back({"thickness 1e-9", s, true});
+  }
+  {
+    LayerStack s = coloured_slab();
+    s.layers[0].thickness = 1e6;
+    cases.push_back({"thickness 1e6", s});
+  }
+  {
+    LayerStack s = coloured_slab();
+    s.layers[0] = make_layer("white", 1.4, 1e6, Spectrum(0.0), Spectrum(2.0), Spectrum(0.0));
+    cases.push_back({"thickness 1e6, albedo 1", s, false, false, true});
+  }
+  {
+    LayerStack s;
+    s.above_ior = 1.0;
+    s.layers.push_back(make_layer("matched", 1.0, 0.5, Spectrum(0.0), Spectrum(8.0), Spectrum(0.6)));
+    s.below.kind = Below::Kind::Dielectric;
+    s.below.ior = 1.0;
+    cases.push_back({"index-matched, albedo 1", s, false, true, true});
+  }
+  {
+    LayerStack s;
+    s.above_ior = 1.0;
+    s.layers.push_back(make_layer("tir", 2.5, 0.3, Spectrum(0.05), Spectrum(2.0), Spectrum(0.0)));
+    s.below.kind = Below::Kind::Lambert;
+    s.below.albedo = Spectrum(1.0, 0.8, 0.3);
+    cases.push_back({"ior 2.5 over Lambert", s});
+  }
+  const bool verbose = std::getenv("LAMINA_TEST_VERBOSE") != nullptr;
+  double max_pixel = 0.0, max_mean = 0.0, max_z = -1e300;
+  for (const Case& cs : cases) {
+    const LayeredBindings b = bind(cs.stack);
+    SceneDesc d = make_scene({plane(0)});
+    std::unique_ptr<LayeredTables> tables;
+    std::vector<SubsurfaceMode> modes = {SubsurfaceMode::RandomWalk, SubsurfaceMode::FirstOrder};
+    if (cs.lambert) modes.push_back(SubsurfaceMode::Lambert);
+    if (cs.table) {
+      TableSettings ts;
+      ts.walks_per_node = 5000;
+      tables = std::make_unique<LayeredTables>(b, ts);
+      modes.push_back(SubsurfaceMode::Table);
+    }
+    std::vector<glm::dvec3> views = {world_dir(0, 0), world_dir(89.0, 180), world_dir(89.9, 0)};
+    if (cs.stack.transmits()) views.push_back(world_dir(60, 0, true));
+    for (SubsurfaceMode mode : modes) {
+      for (const glm::dvec3& view : views) {
+        RenderSetup setup;
+        setup.mode = mode;
+        setup.tables = tables.get();
+        setup.width = setup.height = 4;
+        setup.spp = 32;
+        const Image im = render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(view), setup);
+        const ImageStats st = stats_of(im);
+        const double n = static_cast<double>(im.width) * im.height;
+        // The bound on radiance for a viewer in a medium of index n_v when every medium's
+        // environment has radiance 1: (n_v / n_min)^2 (radiance / n^2 is what is conserved), i.e.
+        // 1 above (air) but (1.5 / 1)^2 = 2.25 for a viewer in the glass below a slab over glass.
+        const double n_view = view.y > 0.0 ? cs.stack.above_ior : cs.stack.below.ior;
+        const double n_min = cs.stack.transmits() ? std::min(cs.stack.above_ior, cs.stack.below.ior) : cs.stack.above_ior;
+        const double bound = std::max(1.0, (n_view / n_min) * (n_view / n_min));
+        const std::string what = std::string(cs.name) + ", " + subsurface_mode_name(mode) + ", view (" +
+                                 std::to_string(view.x) + ", " + std::to_string(view.y) + ")";
+        for (int c = 0; c < 3; ++c) {
+          const double sd = st.stderr_[c] * std::sqrt(n);
+          for (int y = 0; y < im.height; ++y)
+            for (int x = 0; x < im.width; ++x) {
+              const double v = im.pixel(x, y)[c];
+              ASSERT_TRUE(std::isfinite(v)) << what;
+              EXPECT_GE(v, 0.0) << what << " channel " << c;
+              EXPECT_LE(v, bound + 4.0 * sd + 1e-5) << what << " channel " << c << " (pixel sd " << sd << ")";
+              max_pixel = std::max(max_pixel, v / bound);
+            }
+          EXPECT_LE(st.mean[c], bound + 4.0 * st.stderr_[c] + 1e-5) << what << " channel " << c << " (se " << st.stderr_[c] << ")";
+          max_mean = std::max(max_mean, st.mean[c] / bound);
+          if (st.stderr_[c] > 0.0) max_z = std::max(max_z, (st.mean[c] - bound) / st.stderr_[c]);
+          if (cs.furnace && mode == SubsurfaceMode::RandomWalk) {
+            EXPECT_NEAR(st.mean[c], 1.0, std::max(4.0 * st.stderr_[c], 1e-5)) << what << " channel " << c;
+          }
+          if (verbose)
+            std::printf("%s c%d: mean %.5f +- %.5f max pixel %.5f\n", what.c_str(), c, st.mean[c], st.stderr_[c],
+                        [&] { double m = 0; for (int i = 0; i < im.width * im.height; ++i) m = std::max(m, double(im.rgb[3 * i + c])); return m; }());
+        }
+      }
+    }
+  }
+  if (verbose) std::printf("max pixel / bound %.6f, max image mean / bound %.6f, max (mean - bound) / se %.3f\n", max_pixel, max_mean, max_z);
+}
+
 // The naive estimator of the slides (light samples at events without the Fresnel transmission
 // of the way out, no MIS: exits that reach a light count as well) is biased; ours is not. A
 // grey slab in a uniform environment of radiance 1 with a white substrate (albedo 1): the exact
