@@ -14,7 +14,7 @@ packages=(
   libcli11-dev             # command-line parsing
   libglm-dev libtbb-dev
   libgtest-dev libbenchmark-dev
-  python3 python3-numpy python3-matplotlib  # figures and reports only, never the render path
+  python3 python3-pip python3-numpy python3-matplotlib  # figures and reports only, never the render path
 )
 
 missing=()

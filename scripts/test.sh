@@ -9,7 +9,10 @@ scripts/setup.sh
 RAY_VERSION=2.60.0
 if [ "${LAMINA_SKIP_RAY:-0}" != 1 ] && ! python3 -c "import ray" >/dev/null 2>&1; then
   echo "test: installing ray==${RAY_VERSION} for the Ray batch driver test"
-  python3 -m pip install --quiet "ray==${RAY_VERSION}"
+  # Debian's own python3 refuses pip installs outside a venv (PEP 668): fall back to
+  # --break-system-packages there (pip is from python3-pip, see scripts/setup.sh).
+  python3 -m pip install --quiet "ray==${RAY_VERSION}" ||
+    python3 -m pip install --quiet --break-system-packages "ray==${RAY_VERSION}"
 fi
 scripts/build.sh
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
