@@ -30,6 +30,7 @@
 #include "tests/renderer/render_fixtures.h"
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
@@ -124,16 +125,7 @@ LayerStack coloured_slab(double g = 0.3) {
 }
 
 // Two layers over a Lambert substrate (non-transmitting, skin-like).
-LayerStack substrate_stack() {
-  LayerStack s;
-  s.name = "skinlike";
-  s.above_ior = 1.0;
-  s.layers.push_back(make_layer("epi", 1.4, 0.1, Spectrum(0.5, 1.5, 3.0), Spectrum(20.0), Spectrum(0.8)));
-  s.layers.push_back(make_layer("derm", 1.38, 1.0, Spectrum(0.2, 0.6, 1.0), Spectrum(15.0, 12.0, 10.0), Spectrum(0.0)));
-  s.below.kind = Below::Kind::Lambert;
-  s.below.albedo = Spectrum(0.6, 0.4, 0.3);
-  return s;
-}
+LayerStack substrate_stack() { return test::skin_like_stack("skinlike"); }
 
 // The directional light: light travels along -wl.
 LightDesc sun(const glm::dvec3& wl, double irradiance) {

@@ -17,6 +17,7 @@
 #include "renderer/scene_gltf.h"
 #include "renderer/subsurface_auto.h"
 #include "tests/renderer/render_fixtures.h"
+#include "tests/materials/stack_fixtures.h"
 
 namespace lamina {
 namespace {
@@ -54,15 +55,7 @@ LayerStack absorbing() {
 }
 
 // Skin-like: thick, high albedo, dominated by multiple scattering.
-LayerStack skin_like() {
-  LayerStack s;
-  s.name = "skin-like";
-  s.layers.push_back(make_layer("epi", 1.4, 0.1, Spectrum(0.5, 1.5, 3.0), Spectrum(20.0), Spectrum(0.8)));
-  s.layers.push_back(make_layer("derm", 1.38, 1.0, Spectrum(0.2, 0.6, 1.0), Spectrum(15.0, 12.0, 10.0), Spectrum(0.0)));
-  s.below.kind = Below::Kind::Lambert;
-  s.below.albedo = Spectrum(0.6, 0.4, 0.3);
-  return s;
-}
+LayerStack skin_like() { return test::skin_like_stack(); }
 
 TEST(SubsurfaceAuto, PredictionsAreFinite) {
   for (const LayerStack& s : {thin_weak(), absorbing()}) {
