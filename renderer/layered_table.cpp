@@ -16,6 +16,24 @@ double LayeredTable::projected_solid_angle(int k) const {
   return 0.5 * (hi - lo) * (hi + lo) * (2.0 * kPi / settings.bins_phi);
 }
 
+double table_node_cosine(const TableSettings& settings, int j) {
+  if (settings.nodes < 2) return 1.0;
+  return settings.grazing_cosine + (1.0 - settings.grazing_cosine) * j / (settings.nodes - 1.0);
+}
+
+TableNodes table_nodes_at(const TableSettings& settings, double mu) {
+  TableNodes t;
+  const int n = settings.nodes;
+  if (n < 2) return t;
+  // Linear interpolation in mu between evenly spaced nodes, clamped at both ends.
+  const double x = std::clamp((mu - settings.grazing_cosine) / (1.0 - settings.grazing_cosine) * (n - 1), 0.0, n - 1.0);
+  t.node[0] = std::min(static_cast<int>(x), n - 1);
+  t.node[1] = std::min(t.node[0] + 1, n - 1);
+  t.weight[1] = x - t.node[0];
+  t.weight[0] = 1.0 - t.weight[1];
+  return t;
+}
+
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings) {
   const auto start = std::chrono::steady_clock::now();
   LayeredTable t;
@@ -27,7 +45,7 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
   t.power.resize(settings.nodes);
   for (int j = 0; j < settings.nodes; ++j) {
     BrdfOptions o;
-    const double mu = (j + 0.5) / settings.nodes;
+    const double mu = table_node_cosine(settings, j);
     o.theta_i_deg = std::acos(mu) * 180.0 / kPi;
     o.samples = settings.walks_per_node;
     o.bins_theta = settings.bins_theta;
@@ -84,13 +102,11 @@ std::size_t LayeredTables::bytes() const {
 TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo)
     : table_(table), zeroth_(zeroth_order(*table.stack, std::clamp(wo.z, 0.0, 1.0))),
       t_factor_(transmission_radiance_factor(*table.stack)), transmits_(table.stack->transmits()) {
-  // Linear interpolation in mu between nodes at (j + 0.5)/n, clamped at both ends.
-  const int n = table.settings.nodes;
-  const double x = std::clamp(wo.z * n - 0.5, 0.0, n - 1.0);
-  node_[0] = std::min(static_cast<int>(x), n - 1);
-  node_[1] = std::min(node_[0] + 1, n - 1);
-  weight_[1] = x - node_[0];
-  weight_[0] = 1.0 - weight_[1];
+  const TableNodes at = table_nodes_at(table.settings, wo.z);
+  for (int i = 0; i < 2; ++i) {
+    node_[i] = at.node[i];
+    weight_[i] = at.weight[i];
+  }
   p_specular_ = std::clamp(zeroth_.R_specular.average(), 0.0, 1.0);
   p_ballistic_ = transmits_ && zeroth_.cos_below > 0.0 ? std::clamp(zeroth_.T_ballistic.average(), 0.0, 1.0) : 0.0;
   p_diffuse_ = std::max(0.0, 1.0 - p_specular_ - p_ballistic_);

@@ -26,7 +26,12 @@
 namespace lamina {
 
 struct TableSettings {
-  int nodes = 8;         // incidence cosines
+  // Incidence cosines, from grazing to normal (table_node_cosine). The end nodes sit at the ends
+  // of the range so that grazing views are interpolated, not clamped: through a Fresnel
+  // interface the diffuse part falls to 0 as the view grazes (T(mu) ~ mu), and a first node at
+  // mu = 1/16 held it at its 86-degree value.
+  int nodes = 9;
+  double grazing_cosine = 0.002;  // the first node: 89.9 degrees
   int bins_theta = 12;   // K
   int bins_phi = 24;     // M
   std::uint64_t walks_per_node = 50000;
@@ -48,6 +53,17 @@ struct LayeredTable {
   const Spectrum& at(int node, int bin) const { return value[static_cast<std::size_t>(node) * bins() + bin]; }
   double projected_solid_angle(int k) const;
 };
+
+// Node j's incidence cosine: grazing_cosine + (1 - grazing_cosine) j / (nodes - 1), evenly spaced
+// (so a second difference over three nodes estimates the interpolation error: subsurface_auto).
+double table_node_cosine(const TableSettings& settings, int j);
+// Where cosine mu falls between the nodes: node[0] <= node[1] = node[0] + 1 (or both the end
+// node outside the range), with linear interpolation weights weight[0] + weight[1] = 1.
+struct TableNodes {
+  int node[2] = {0, 0};
+  double weight[2] = {1.0, 0.0};
+};
+TableNodes table_nodes_at(const TableSettings& settings, double mu);
 
 // Builds the table of `stack` by the walk; deterministic for any thread count.
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings);

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
@@ -13,143 +14,303 @@
 namespace lamina {
 namespace {
 
-// Sums of squares over bins, incidences, channels (and sides of the stack).
-struct ErrorSums {
-  double ref2 = 0.0;     // sum P_walk^2 (noisy)
-  double noise2 = 0.0;   // sum sigma_b^2 of the walk's bins
-  double lambert2 = 0.0, first2 = 0.0;  // sum (P_m - P_walk)^2 (noisy)
-  double delta_ref2 = 0.0;      // sum (D + R_diffuse + T_diffuse)^2, D = R_specular + T_ballistic
-  double delta_lambert2 = 0.0;  // the same, missing in lambert (first order has them exactly)
-};
+// Projected solid angle of bin k of a K x M grid (materials/brdf_table.h: bin k spans |cos| in
+// [k/K, (k+1)/K]): int |cos| dw = (hi^2 - lo^2) / 2 * (2 pi / M).
+double bin_projected_solid_angle(int k, int K, int M) {
+  const double lo = static_cast<double>(k) / K, hi = (k + 1.0) / K;
+  return 0.5 * (hi - lo) * (hi + lo) * (2.0 * kPi / M);
+}
 
-// The coarse tables of one stack at the prediction's incidences: the walk's (running pooled
-// estimate over rounds of walks) and first order's (exact, computed once).
-struct Incidence {
-  BrdfOptions options;
-  BrdfTable first;
-  std::vector<Spectrum> walk_value, walk_var;  // pooled bin mean and its variance (stderr^2)
-  Spectrum delta;                              // R_specular + T_ballistic (exact)
+// One incidence's binned quantities, both sides: P(B) = value(B) Omega_proj(B) per channel.
+struct Binned {
+  std::vector<Spectrum> power, var;  // P(B) and its variance (0 for exact models)
+  Spectrum delta{0.0};               // R_specular + T_ballistic (exact)
+  Spectrum diffuse_var{0.0};         // variance of sum_B P = R_diffuse + T_diffuse
   std::uint64_t walks = 0;
 };
 
-std::vector<Incidence> make_incidences(const LayerStack& stack, const AutoSettings& s, std::uint64_t seed) {
-  std::vector<Incidence> out(s.incidences);
-  for (int j = 0; j < s.incidences; ++j) {
-    BrdfOptions& o = out[j].options;
-    const double mu = (j + 0.5) / s.incidences;
-    o.theta_i_deg = std::acos(mu) * 180.0 / kPi;
-    o.bins_theta = s.bins_theta;
-    o.bins_phi = s.bins_phi;
-    o.seed = seed + 7919u * static_cast<std::uint64_t>(j);
-    out[j].first = brdf_table_first_order(stack, o);
-    out[j].delta = out[j].first.totals.R_specular.value + out[j].first.totals.T_ballistic.value;
+BrdfOptions options_at(double mu, const AutoSettings& s, std::uint64_t seed) {
+  BrdfOptions o;
+  o.theta_i_deg = std::acos(std::clamp(mu, 0.0, 1.0)) * 180.0 / kPi;
+  o.bins_theta = s.bins_theta;
+  o.bins_phi = s.bins_phi;
+  o.seed = seed;
+  return o;
+}
+
+// `table`'s bins as powers; `with_variance`: from its standard errors.
+Binned binned(const BrdfTable& table, bool with_variance) {
+  const int K = table.options.bins_theta, M = table.options.bins_phi;
+  Binned out;
+  out.power.resize(table.value.size());
+  out.var.resize(table.value.size(), Spectrum(0.0));
+  for (std::size_t b = 0; b < table.value.size(); ++b) {
+    const double omega = bin_projected_solid_angle(static_cast<int>(b / M) % K, K, M);
+    out.power[b] = table.value[b] * omega;
+    if (with_variance) out.var[b] = table.stderr_[b] * table.stderr_[b] * (omega * omega);
+  }
+  out.delta = table.totals.R_specular.value + table.totals.T_ballistic.value;
+  // absorbed = 1 - (exact delta parts) - R_diffuse - T_diffuse, so its standard error is that
+  // of R_diffuse + T_diffuse, correlations included.
+  if (with_variance) out.diffuse_var = table.totals.absorbed.stderr_ * table.totals.absorbed.stderr_;
+  return out;
+}
+
+// `walks` more walks at this incidence (a new seed per round), pooled with the earlier ones:
+// mean = (N1 m1 + N2 m2) / (N1 + N2), var = (N1^2 v1 + N2^2 v2) / (N1 + N2)^2.
+void add_walks(const LayerStack& stack, BrdfOptions options, std::uint64_t walks, int round, Binned* pooled) {
+  options.samples = walks;
+  options.seed += 1000003u * static_cast<std::uint64_t>(round);
+  const Binned more = binned(brdf_table_monte_carlo(stack, options), true);
+  if (pooled->walks == 0) {
+    *pooled = more;
+    pooled->walks = walks;
+    return;
+  }
+  const double n1 = static_cast<double>(pooled->walks), n2 = static_cast<double>(walks), n = n1 + n2;
+  for (std::size_t b = 0; b < more.power.size(); ++b) {
+    pooled->power[b] = (pooled->power[b] * n1 + more.power[b] * n2) * (1.0 / n);
+    pooled->var[b] = (pooled->var[b] * (n1 * n1) + more.var[b] * (n2 * n2)) * (1.0 / (n * n));
+  }
+  pooled->diffuse_var = (pooled->diffuse_var * (n1 * n1) + more.diffuse_var * (n2 * n2)) * (1.0 / (n * n));
+  pooled->walks += walks;
+}
+
+Binned first_order_binned(const LayerStack& stack, const BrdfOptions& options) {
+  return binned(brdf_table_first_order(stack, options), false);
+}
+
+// lambert: f = albedo / pi on the viewer's side only (layer below or not), no delta parts.
+Binned lambert_binned(const Spectrum& albedo, const AutoSettings& s) {
+  Binned out;
+  const int K = s.bins_theta, M = s.bins_phi;
+  out.power.assign(static_cast<std::size_t>(2 * K * M), Spectrum(0.0));
+  out.var.assign(out.power.size(), Spectrum(0.0));
+  for (int k = 0; k < K; ++k)
+    for (int m = 0; m < M; ++m) out.power[static_cast<std::size_t>(k * M + m)] = albedo * (kInvPi * bin_projected_solid_angle(k, K, M));
+  return out;
+}
+
+// A model minus the walk, as a linear combination sum_i c_i X_i of binned quantities (the same
+// object may appear twice: its coefficients are merged first, so that shared noise cancels).
+struct Difference {
+  std::vector<Spectrum> d, d_var;  // per bin
+  Spectrum du{0.0}, du_var{0.0};   // per channel: the uniform-light difference, its variance
+};
+
+Difference combine(std::vector<std::pair<const Binned*, double>> terms) {
+  std::vector<std::pair<const Binned*, double>> merged;
+  for (const auto& [x, c] : terms) {
+    auto it = std::find_if(merged.begin(), merged.end(), [x = x](const auto& t) { return t.first == x; });
+    if (it == merged.end()) merged.push_back({x, c});
+    else it->second += c;
+  }
+  Difference out;
+  const std::size_t n = terms.front().first->power.size();
+  out.d.assign(n, Spectrum(0.0));
+  out.d_var.assign(n, Spectrum(0.0));
+  for (const auto& [x, c] : merged) {
+    if (c == 0.0) continue;
+    Spectrum total(0.0);
+    for (std::size_t b = 0; b < n; ++b) {
+      out.d[b] += x->power[b] * c;
+      out.d_var[b] += x->var[b] * (c * c);
+      total += x->power[b];
+    }
+    out.du += (total + x->delta) * c;
+    out.du_var += x->diffuse_var * (c * c);
   }
   return out;
 }
 
-// `walks` more walks at each incidence (a new seed per round), pooled with the earlier ones:
-// mean = (N1 m1 + N2 m2) / (N1 + N2), var = (N1^2 v1 + N2^2 v2) / (N1 + N2)^2.
-void add_walks(const LayerStack& stack, std::uint64_t walks, int round, std::vector<Incidence>* incidences) {
-  for (Incidence& in : *incidences) {
-    BrdfOptions o = in.options;
-    o.samples = walks;
-    o.seed = in.options.seed + 1000003u * static_cast<std::uint64_t>(round);
-    const BrdfTable t = brdf_table_monte_carlo(stack, o);
-    const double n1 = static_cast<double>(in.walks), n2 = static_cast<double>(walks), n = n1 + n2;
-    in.walk_value.resize(t.value.size());
-    in.walk_var.resize(t.value.size());
-    for (std::size_t b = 0; b < t.value.size(); ++b) {
-      in.walk_value[b] = (n1 * in.walk_value[b] + n2 * t.value[b]) * (1.0 / n);
-      in.walk_var[b] = (n1 * n1 * in.walk_var[b] + n2 * n2 * t.stderr_[b] * t.stderr_[b]) * (1.0 / (n * n));
-    }
-    in.walks += walks;
-  }
-}
+// The two relative errors of a difference against the walk at the same incidence, corrected
+// for noise, and the noise scale of each (derivation in subsurface_auto.h).
+struct Relative {
+  double shape_num = 0.0, shape_var = 0.0;  // sum (P_m - P_hat)^2 - sigma^2, and sigma^2
+  double shape_var2 = 0.0;                  // sum sigma^4 (the spread of shape_num: 2 sum sigma^4)
+  double shape = 0.0, uniform = 0.0;
+  double shape_noise = 0.0, uniform_noise = 0.0;  // sqrt(noise^2 / reference^2)
+  double shape_ref2 = 0.0, uniform_ref2 = 0.0;     // the noise-corrected reference sums
+};
 
-void accumulate(const std::vector<Incidence>& incidences, const Spectrum& lambert_albedo, const AutoSettings& s,
-                ErrorSums* e) {
-  for (const Incidence& in : incidences) {
-    const BrdfTable& first = in.first;
-    Spectrum diffuse_total(0.0);  // R_diffuse + T_diffuse of the walk at this incidence
-    for (int side = 0; side < 2; ++side)
-      for (int k = 0; k < s.bins_theta; ++k) {
-        // P(B) = value(B) * Omega_proj(B) (brdf_table.h): the bin's fraction of the power.
-        const double omega = first.projected_solid_angle(k);
-        for (int m = 0; m < s.bins_phi; ++m) {
-          const int b = first.bin_index(static_cast<BrdfSide>(side), k, m);
-          for (int c = 0; c < kChannels; ++c) {
-            const double pw = in.walk_value[b][c] * omega;
-            const double vw = in.walk_var[b][c] * omega * omega;
-            const double pf = first.value[b][c] * omega;
-            // Lambert: f = albedo / pi on the reflect side only.
-            const double pl = side == 0 ? lambert_albedo[c] / kPi * omega : 0.0;
-            diffuse_total[c] += pw;
-            e->ref2 += pw * pw;
-            e->noise2 += vw;
-            e->lambert2 += (pl - pw) * (pl - pw);
-            e->first2 += (pf - pw) * (pf - pw);
-          }
-        }
-      }
-    // The delta parts, exact (zeroth order) in both the walk's totals and first order; lambert
-    // has none: it misses the fraction D / (D + diffuse) of the light the surface returns under
-    // uniform illumination (a delta lobe never sees a point light: it shows the environment and
-    // other surfaces, which is where a pixel misses it).
+// shape_ref2: the shape's reference sum, when it is not this incidence's own; 0 for its own.
+Relative relative_to(const Difference& diff, const Binned& walk, double shape_ref2 = 0.0) {
+  double d2 = 0.0, dvar = 0.0, dvar2 = 0.0, r2 = 0.0, rvar = 0.0;
+  for (std::size_t b = 0; b < walk.power.size(); ++b)
     for (int c = 0; c < kChannels; ++c) {
-      const double total = in.delta[c] + diffuse_total[c];
-      e->delta_ref2 += total * total;
-      e->delta_lambert2 += in.delta[c] * in.delta[c];
+      d2 += diff.d[b][c] * diff.d[b][c];
+      dvar += diff.d_var[b][c];
+      dvar2 += diff.d_var[b][c] * diff.d_var[b][c];
+      r2 += walk.power[b][c] * walk.power[b][c];
+      rvar += walk.var[b][c];
     }
+  double u2 = 0.0, uvar = 0.0, ur2 = 0.0, urvar = 0.0;
+  Spectrum albedo(0.0);
+  for (const Spectrum& p : walk.power) albedo += p;
+  for (int c = 0; c < kChannels; ++c) {
+    u2 += diff.du[c] * diff.du[c];
+    uvar += diff.du_var[c];
+    const double ref = albedo[c] + walk.delta[c];
+    ur2 += ref * ref;
+    urvar += walk.diffuse_var[c];
+  }
+  Relative r;
+  r.shape_ref2 = shape_ref2 > 0.0 ? shape_ref2 : std::max(r2 - rvar, 1e-300);
+  r.uniform_ref2 = std::max(ur2 - urvar, 1e-300);
+  r.shape_num = d2 - dvar;
+  r.shape_var = dvar;
+  r.shape_var2 = dvar2;
+  r.shape = std::sqrt(std::max(d2 - dvar, 0.0) / r.shape_ref2);
+  r.uniform = std::sqrt(std::max(u2 - uvar, 0.0) / r.uniform_ref2);
+  r.shape_noise = std::sqrt(dvar / r.shape_ref2);
+  r.uniform_noise = std::sqrt(uvar / r.uniform_ref2);
+  // A stack that returns nothing diffusely (albedo 0, or no light enters) has no shape to get
+  // wrong: its pixels are the delta parts, which the uniform error covers.
+  if (r2 <= 0.0 && shape_ref2 <= 0.0) r.shape = r.shape_noise = r.shape_num = r.shape_var = 0.0;
+  return r;
+}
+
+// The table's own statistical error, relative, for a table value interpolated as
+// sum_i w_i X_i from nodes of `table_walks` walks each, from the prediction's walks at those
+// nodes (`nodes[i]`, with their variances): per-bin variance scales as walks / table_walks, and
+// the shape's relative error with sqrt(bin count ratio) (see subsurface_auto.h).
+void add_table_statistics(const std::vector<std::pair<const Binned*, double>>& nodes, const AutoSettings& s,
+                          const Relative& rel, double* shape2, double* uniform2) {
+  const double bins_ratio = static_cast<double>(s.table.bins_theta * s.table.bins_phi) / (s.bins_theta * s.bins_phi);
+  for (const auto& [x, w] : nodes) {
+    const double walks_ratio = static_cast<double>(x->walks) / static_cast<double>(std::max<std::uint64_t>(s.table.walks_per_node, 1));
+    double v = 0.0, u = 0.0;
+    for (const Spectrum& var : x->var) v += var.average() * kChannels;
+    u = x->diffuse_var.average() * kChannels;
+    *shape2 += w * w * v * walks_ratio * bins_ratio / rel.shape_ref2;
+    *uniform2 += w * w * u * walks_ratio / rel.uniform_ref2;
   }
 }
 
-// sqrt(max(a - noise, 0) / max(b - noise, tiny)): the noise-corrected relative RMS.
-double relative_rms(double diff2, double ref2, double noise2) {
-  const double num = std::max(diff2 - noise2, 0.0);
-  const double den = std::max(ref2 - noise2, 1e-300);
-  return std::sqrt(num / den);
+// The errors of the three models over a set of views: the uniform metric's worst view, and the
+// shape metric's sums over views (its per-view estimate needs ~10^6 walks to resolve an error of
+// a few percent over 2 x 6 x 12 bins and 3 channels; summed over the views it is an RMS over
+// views and resolved with the walks the uniform metric needs).
+struct Accumulator {
+  ViewErrors worst;         // uniform: worst view; shape: filled in by finish()
+  double shape_num[3] = {0.0, 0.0, 0.0}, shape_var2[3] = {0.0, 0.0, 0.0};
+  double table_stat_num = 0.0;  // the table's statistical part of the shape sum
+  double shape_ref = 0.0;   // sum over views of the noise-corrected reference sums
+};
+constexpr double ModeErrors::*kModels[3] = {&ModeErrors::lambert, &ModeErrors::first_order, &ModeErrors::table};
+
+void record(const Relative& r, int model, Accumulator* a) {
+  ModeErrors& u = a->worst.uniform;
+  u.*kModels[model] = std::max(u.*kModels[model], r.uniform);
+  u.noise = std::max(u.noise, r.uniform_noise);
+  a->shape_num[model] += r.shape_num;
+  a->shape_var2[model] += r.shape_var2;
 }
+
+// The table's errors given its interpolation bias (a Difference against the walk) and the nodes
+// it interpolates: bias^2 + statistics^2 in each metric.
+void record_table(const Difference& bias, const Binned& walk, const std::vector<std::pair<const Binned*, double>>& nodes,
+                  const AutoSettings& s, double shape_ref2, Accumulator* a) {
+  const Relative r = relative_to(bias, walk, shape_ref2);
+  double shape2 = 0.0, uniform2 = 0.0;
+  add_table_statistics(nodes, s, r, &shape2, &uniform2);
+  ModeErrors& u = a->worst.uniform;
+  u.table = std::max(u.table, std::sqrt(r.uniform * r.uniform + uniform2));
+  u.table_noise = std::max(u.table_noise, std::sqrt(uniform2));
+  u.noise = std::max(u.noise, r.uniform_noise);
+  a->shape_num[2] += r.shape_num + shape2 * r.shape_ref2;
+  a->shape_var2[2] += r.shape_var2;
+  a->table_stat_num += shape2 * r.shape_ref2;
+}
+
+// The shape metric from the sums: sqrt(max(sum num, 0) / sum ref). Its resolution: where the
+// model equals the walk, each term of num is delta^2 - sigma^2 with delta ~ N(0, sigma^2), of
+// variance 2 sigma^4, so the estimate of e^2 spreads by sqrt(2 sum sigma^4) / ref and e by the
+// square root of that (for e > 0 the spread of e is smaller: ~ sd(e^2) / 2e).
+ViewErrors finish(const Accumulator& a) {
+  ViewErrors e = a.worst;
+  const double ref = std::max(a.shape_ref, 1e-300);
+  for (int m = 0; m < 3; ++m) {
+    e.shape.*kModels[m] = std::sqrt(std::max(a.shape_num[m], 0.0) / ref);
+    e.shape.noise = std::max(e.shape.noise, std::sqrt(std::sqrt(2.0 * a.shape_var2[m]) / ref));
+  }
+  e.shape.table_noise = std::sqrt(a.table_stat_num / ref);
+  return e;
+}
+
+const char* short_name(SubsurfaceMode m) { return subsurface_mode_name(m); }
 
 }  // namespace
 
 AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSettings& settings) {
   const auto t0 = std::chrono::steady_clock::now();
   const Spectrum& albedo = material.lambert_albedo();
-  // The stack from above, and from below if it transmits (a leaf lit from behind).
+  const Binned lambert = lambert_binned(albedo, settings);
+  const int n = std::max(settings.table.nodes, 1);
+  // The stack from above, and from below if it transmits (a leaf lit from behind); at each the
+  // table's nodes: walk (pooled over rounds) and first order (exact).
   std::vector<LayerStack> stacks{material.base_stack()};
   if (material.transmits()) stacks.push_back(flipped(material.base_stack()));
-  std::vector<std::vector<Incidence>> incidences;
+  struct Node {
+    BrdfOptions options;
+    Binned walk, first;
+  };
+  std::vector<std::vector<Node>> nodes(stacks.size(), std::vector<Node>(n));
   for (std::size_t i = 0; i < stacks.size(); ++i)
-    incidences.push_back(make_incidences(stacks[i], settings, settings.seed + 104729u * i));
-  // Rounds of walks until the prediction resolves the tolerance (noise floor <= tolerance / 2)
-  // or the budget is spent: deterministic (a fixed sequence of seeds), and cheap stacks (thin,
-  // absorbing: few events per walk) get the many walks their rare scattering needs.
-  ErrorSums e;
+    for (int j = 0; j < n; ++j) {
+      Node& node = nodes[i][j];
+      node.options = options_at(table_node_cosine(settings.table, j), settings, settings.seed + 104729u * i + 7919u * j);
+      node.first = first_order_binned(stacks[i], node.options);
+    }
+  // Rounds of walks (doubling, a fixed sequence of seeds: deterministic) until the choice is
+  // decided -- every cheaper model's predicted error is at least 2 noise units away from the
+  // tolerance -- or the budget is spent. Cheap stacks (thin, absorbing: few events per walk)
+  // so get the many walks their rare scattering needs, expensive ones stop once the walk is
+  // clearly needed.
+  auto worst_errors = [&] {
+    Accumulator acc;
+    for (std::size_t i = 0; i < stacks.size(); ++i)
+      for (int j = 0; j < n; ++j) {
+        const Binned& walk = nodes[i][j].walk;
+        const Relative rl = relative_to(combine({{&lambert, 1.0}, {&walk, -1.0}}), walk);
+        acc.shape_ref += rl.shape_ref2;
+        record(rl, 0, &acc);
+        record(relative_to(combine({{&nodes[i][j].first, 1.0}, {&walk, -1.0}}), walk), 1, &acc);
+        // Interpolation error at the midpoints next to node j: the second difference / 8,
+        // centred on an inner node (the end nodes take their neighbour's). Its statistics: a
+        // half-half mix of two nodes (the typical view between nodes).
+        if (n >= 3) {
+          const int c = std::clamp(j, 1, n - 2);
+          const Difference bias = combine({{&nodes[i][c - 1].walk, 0.125}, {&nodes[i][c].walk, -0.25}, {&nodes[i][c + 1].walk, 0.125}});
+          record_table(bias, walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
+        } else {
+          record_table(combine({{&walk, 0.0}}), walk, {{&walk, 1.0}}, settings, 0.0, &acc);
+        }
+      }
+    const ViewErrors worst = finish(acc);
+    return worst;
+  };
+  ViewErrors worst;
   std::uint64_t walks = 0;
   for (int round = 0; walks < settings.max_walks; ++round) {
-    const std::uint64_t more = walks == 0 ? settings.walks : walks;  // doubling
-    for (std::size_t i = 0; i < stacks.size(); ++i) add_walks(stacks[i], more, round, &incidences[i]);
+    const std::uint64_t more = walks == 0 ? settings.walks : std::min(walks, settings.max_walks - walks);
+    for (std::size_t i = 0; i < stacks.size(); ++i)
+      for (Node& node : nodes[i]) add_walks(stacks[i], node.options, more, round, &node.walk);
     walks += more;
-    e = ErrorSums{};
-    for (const auto& in : incidences) accumulate(in, albedo, settings, &e);
-    if (std::sqrt(e.noise2 / std::max(e.ref2 - e.noise2, 1e-300)) <= 0.5 * settings.tolerance) break;
+    worst = worst_errors();
+    const double noise = std::max(worst.shape.noise, worst.uniform.noise);
+    bool decided = true;
+    for (double e : {std::max(worst.shape.lambert, worst.uniform.lambert), std::max(worst.shape.first_order, worst.uniform.first_order),
+                     std::max(worst.shape.table, worst.uniform.table)})
+      decided = decided && std::abs(e - settings.tolerance) >= 2.0 * noise;
+    if (decided) break;
   }
 
   AutoChoice ch;
-  // The diffuse part's shape relative to the diffuse part; the missing delta part relative to
-  // all the light returned (energy under uniform illumination); the larger of the two.
-  const double delta_lambert = e.delta_ref2 > 0.0 ? std::sqrt(e.delta_lambert2 / e.delta_ref2) : 0.0;
-  ch.error_lambert = std::max(relative_rms(e.lambert2, e.ref2, e.noise2), delta_lambert);
-  ch.noise_floor = std::sqrt(e.noise2 / std::max(e.ref2 - e.noise2, 1e-300));
-  ch.error_first_order = relative_rms(e.first2, e.ref2, e.noise2);
-  // The table mode: its own Monte Carlo noise. Per-bin variance scales as 1 / (walks per node)
-  // and, for the same total power, the sum of squared bin errors scales with the bin count
-  // (sigma_b^2 ~ P_b / N, sum_b P_b fixed): scale the prediction's noise accordingly.
-  const TableSettings table;
-  const double bins_ratio = static_cast<double>(table.bins_theta * table.bins_phi) / (settings.bins_theta * settings.bins_phi);
-  const double walks_ratio = static_cast<double>(walks) / static_cast<double>(table.walks_per_node);
-  // Relative to the noise-corrected reference power.
-  ch.error_table = std::sqrt(e.noise2 * bins_ratio * walks_ratio / std::max(e.ref2 - e.noise2, 1e-300));
+  ch.error_lambert = std::max(worst.shape.lambert, worst.uniform.lambert);
+  ch.error_first_order = std::max(worst.shape.first_order, worst.uniform.first_order);
+  ch.error_table = std::max(worst.shape.table, worst.uniform.table);
+  ch.noise_floor = std::max(worst.shape.noise, worst.uniform.noise);
 
   const double tol = settings.tolerance;
   if (ch.error_lambert <= tol) ch.mode = SubsurfaceMode::Lambert;
@@ -160,14 +321,50 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
                         : ch.mode == SubsurfaceMode::FirstOrder ? ch.error_first_order
                         : ch.mode == SubsurfaceMode::Table      ? ch.error_table
                                                                 : 0.0;
-  char buf[256];
-  std::snprintf(buf, sizeof buf, "chose %s (predicted error %.3g %s %.3g; lambert %.3g, first-order %.3g, table %.3g; prediction noise %.2g)",
-                subsurface_mode_name(ch.mode), chosen, ch.mode == SubsurfaceMode::RandomWalk ? "reference," : "<=", tol,
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "chose %s (predicted error %.3g %s %.3g; worst over views from 0 to 89.9 deg: lambert %.3g, first-order %.3g, "
+                "table %.3g; prediction noise %.2g)",
+                short_name(ch.mode), chosen, ch.mode == SubsurfaceMode::RandomWalk ? "reference," : "<=", tol,
                 ch.error_lambert, ch.error_first_order, ch.error_table, ch.noise_floor);
   ch.reason = buf;
   ch.walks = walks;
   ch.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ch;
+}
+
+ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool from_below, const AutoSettings& settings,
+                               std::uint64_t walks) {
+  const LayerStack stack = from_below && material.transmits() ? flipped(material.base_stack()) : material.base_stack();
+  const std::uint64_t seed = settings.seed + (from_below ? 104729u : 0u);
+  // The walk at mu and at the table nodes around it (one set of walks per distinct cosine).
+  const TableNodes at = table_nodes_at(settings.table, mu);
+  std::vector<double> cosines = {mu};
+  std::vector<Binned> walk(3);
+  const double node_mu[2] = {table_node_cosine(settings.table, at.node[0]), table_node_cosine(settings.table, at.node[1])};
+  int index[2];
+  for (int i = 0; i < 2; ++i) {
+    auto it = std::find(cosines.begin(), cosines.end(), node_mu[i]);
+    index[i] = static_cast<int>(it - cosines.begin());
+    if (it == cosines.end()) cosines.push_back(node_mu[i]);
+  }
+  for (std::size_t k = 0; k < cosines.size(); ++k)
+    add_walks(stack, options_at(cosines[k], settings, seed + 7919u * k), walks, 0, &walk[k]);
+  const Binned& here = walk[0];
+  const Binned first = first_order_binned(stack, options_at(mu, settings, seed));
+  const Binned lambert = lambert_binned(material.lambert_albedo(), settings);
+
+  Accumulator acc;
+  const Relative rl = relative_to(combine({{&lambert, 1.0}, {&here, -1.0}}), here);
+  acc.shape_ref = rl.shape_ref2;
+  record(rl, 0, &acc);
+  record(relative_to(combine({{&first, 1.0}, {&here, -1.0}}), here), 1, &acc);
+  const std::vector<std::pair<const Binned*, double>> interp = {{&walk[index[0]], at.weight[0]}, {&walk[index[1]], at.weight[1]}};
+  std::vector<std::pair<const Binned*, double>> bias = interp;
+  bias.push_back({&here, -1.0});
+  record_table(combine(bias), here, interp, settings, 0.0, &acc);
+  const ViewErrors e = finish(acc);
+  return e;
 }
 
 std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid) {

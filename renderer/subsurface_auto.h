@@ -1,30 +1,41 @@
 // `lamina render --subsurface auto --tolerance E`: per layered material, the cheapest shading
 // model whose predicted error against the full random walk is within E.
 //
-// The prediction (no image is rendered): for each material's base stack (and its flipped stack
-// if it transmits) and a few incidence cosines mu_j, the walk's BRDF/BTDF is tabulated once on
-// a coarse grid of outgoing bins (materials/brdf_table: brdf_table_monte_carlo, with standard
-// errors), together with the same binned quantities of the cheaper models:
+// The prediction (no image is rendered). A pixel that sees a flat patch of the stack from a
+// direction of cosine mu shows L = sum_B P(mu -> B) Lbar_in(B) + D(mu) L_in(mirror), where
+// P(mu -> B) = f(B) Omega_proj(B) is the fraction of the power arriving from the viewer's
+// direction that leaves into bin B (by reciprocity, the weight of the light from B in the
+// pixel; across an index change up to the constant (n_v / n_l)^2, the same for every model),
+// Lbar_in(B) the mean incident radiance over B, and D = R_specular + T_ballistic the delta
+// parts. So the models are compared through P and D at incidences mu, from both sides of a
+// stack that transmits:
+//   walk:        brdf_table_monte_carlo on a coarse grid of bins, with standard errors;
 //   lambert:     albedo/pi on the reflect side (the mode's albedo: lambert_albedo()), 0 on the
 //                transmit side, and no delta parts;
-//   first-order: brdf_table_first_order (the exact single-scattering bin averages) plus the
-//                exact zeroth-order delta parts;
-//   table:       the walk itself, so its error is the statistical error of a table of the size
-//                the table mode builds (TableSettings) -- a conservative bound, since an image
-//                pixel averages many bins.
-// Metric: what reaches the image is L_o = int f L_i cos dw (+ the delta parts), so the quantity
-// to compare is the cosine-weighted BSDF, i.e. each bin's power P(B) = value(B) Omega_proj(B)
-// (fraction of the incident power leaving into B). The delta parts (R_specular + T_ballistic)
-// are exact in first order and table and missing in lambert. The predicted error of a model m
-// is the larger of
-//   diffuse: e_m = sqrt( sum (P_m - P_walk)^2 - sigma^2 ) / sqrt( sum P_walk^2 - sigma^2 ),
-//   delta:   sqrt( sum (D_m - D)^2 / sum (D + R_d + T_d)^2 ),  D = R_specular + T_ballistic,
-// (the delta one is the fraction of all returned light a model misses under uniform light),
-// summed over bins, incidences, channels and sides, where sigma^2 = sum of the walk bins'
-// squared standard errors: E[(P_m - P_hat)^2] = (P_m - P)^2 + sigma_b^2, so subtracting it
-// makes both sums unbiased for the noise-free quantities (clamped at 0). This is the relative
-// RMS image error under uniform illumination of a flat patch seen from all directions; a scene
-// lit by a small light weights some bins more, so it is a prediction, not a bound.
+//   first-order: brdf_table_first_order (exact single-scattering bin averages) plus the exact D;
+//   table:       the walk, linearly interpolated between the table's nodes, with the noise of a
+//                table of TableSettings' size; D exact.
+// Two relative errors per incidence and model m, both over the three channels:
+//   shape (a point light: the pixel is one bin):
+//      sqrt( sum_B,c (P_m - P)^2 ) / sqrt( sum_B,c P^2 )
+//   uniform (a uniform environment: the pixel is the directional albedo):
+//      sqrt( sum_c (A_m + D_m - A - D)^2 ) / sqrt( sum_c (A + D)^2 ),  A = sum_B P,
+// and the model's predicted error is the larger of
+//   uniform: the worst view (incidences at the table's nodes, 89.9 degrees to normal, and both
+//            sides): well resolved per view (the albedo's noise is small), and a bound on what
+//            any pixel under broad light sees;
+//   shape:   the RMS over those views (sums over views in numerator and reference): per view it
+//            would need ~10^6 walks to resolve a few percent over 2 x 6 x 12 bins; and through a
+//            Fresnel interface almost no light enters at grazing incidence (T ~ mu), where an
+//            error relative to that view's own nothing would say nothing about the image. Each sum is corrected for the walk's
+// noise: E[(P_m - P_hat)^2] = (P_m - P)^2 + sigma^2, so sigma^2 (the bins' squared standard
+// errors; for A the variance of R_diffuse + T_diffuse) is subtracted from both the numerator
+// and the reference sum (clamped at 0).
+// The table's interpolation error, at the midpoints next to node j of evenly spaced nodes, is
+// (P_{j-1} - 2 P_j + P_{j+1}) / 8 (linear interpolation of a smooth function: h^2 |P''| / 8
+// with P'' ~ second difference / h^2); its own statistical error is the walk's noise scaled to
+// the table's walks per node and, for the shape, to its finer bins (sum of sigma_b^2 ~ power / N
+// whatever the bins; sum of P_b^2 falls as 1 / bin count).
 // Cost order (README "Speed and accuracy"): lambert < first-order < table < random-walk.
 #pragma once
 
@@ -34,27 +45,42 @@
 
 #include "renderer/camera.h"
 #include "renderer/layered_material.h"
+#include "renderer/layered_table.h"
 #include "renderer/scene.h"
 
 namespace lamina {
 
 struct AutoSettings {
   double tolerance = 0.05;
-  int incidences = 4;           // mu_j = (j + 0.5) / incidences
-  int bins_theta = 6;           // coarse grid of the prediction
+  TableSettings table;   // the table mode's settings; its nodes are the prediction's incidences
+  int bins_theta = 6;    // coarse grid of the prediction
   int bins_phi = 12;
-  std::uint64_t walks = 20000;      // per incidence, first round (then doubled)
-  std::uint64_t max_walks = 80000;  // per incidence, in all rounds (a table build: 8 x 50000)
+  std::uint64_t walks = 10000;      // per incidence, first round (then doubled)
+  std::uint64_t max_walks = 40000;  // per incidence, in all rounds
   std::uint64_t seed = 11;
+};
+
+// Predicted relative errors of the cheaper models against the walk (whose own error is 0).
+struct ModeErrors {
+  double lambert = 0.0, first_order = 0.0, table = 0.0;
+  // The prediction's resolution (1 sigma of the estimates above where they are near 0, the
+  // larger of the shape's and the uniform's): errors below it are not resolved.
+  double noise = 0.0;
+  // The part of `table` that is the table's own statistical error (1 sigma).
+  double table_noise = 0.0;
+};
+
+// The two metrics of one view (or the worst over views): shape (a point light) and uniform (a
+// uniform environment).
+struct ViewErrors {
+  ModeErrors shape, uniform;
 };
 
 struct AutoChoice {
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
-  // Predicted relative RMS errors; random-walk is 0 by definition (the reference).
+  // Predicted relative errors (the largest over incidences and sides); random-walk is 0.
   double error_lambert = 0.0, error_first_order = 0.0, error_table = 0.0;
-  // sqrt(sum sigma_b^2 / sum P^2): the relative noise of the walk's coarse table, the scale
-  // below which the diffuse errors are not resolved (their noise-corrected estimates scatter by
-  // about noise_floor * (2 / number of terms)^(1/4)).
+  // The prediction's relative noise (the largest over incidences and sides).
   double noise_floor = 0.0;
   std::uint64_t walks = 0;  // per incidence and side, in all rounds
   double seconds = 0.0;  // time of the prediction
@@ -64,6 +90,13 @@ struct AutoChoice {
 
 // The prediction for one material (its base stack: texture-driven parameters are not varied).
 AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSettings& settings);
+
+// The predicted errors for one view: incidence cosine mu on the top of the stack (or, with
+// from_below, of the flipped stack), from `walks` walks at mu and at the table nodes around it
+// (the table's error is its actual interpolation there). Used by the tests of every mode
+// against the walk, and to explain a choice.
+ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool from_below,
+                               const AutoSettings& settings, std::uint64_t walks);
 
 // Which glTF material slots the camera sees directly: camera rays through a grid of at most
 // grid x grid film positions over the whole image (pixel centres of a coarse grid; all pixels

@@ -238,9 +238,9 @@ TEST(LayeredSlab, FirstOrderReflectionAndTransmission) {
 }
 
 TEST(LayeredSlab, TableReflectionAndTransmission) {
-  // Viewer at a node's cosine (mu = 0.8125 with 8 nodes: theta = 35.66 degrees), so the table
+  // Viewer at a node's cosine (node 6 of 9: mu = 0.7505, theta = 41.4 degrees), so the table
   // is not interpolated; the light direction at a bin centre is irrelevant (bins are constant).
-  const double theta_node = std::acos(6.5 / 8.0) * 180.0 / kPi;
+  const double theta_node = std::acos(table_node_cosine(TableSettings{}, 6)) * 180.0 / kPi;
   expect_slab_matches_brdf(coloured_slab(), world_dir(30, 0), world_dir(theta_node, 180), SubsurfaceMode::Table, 3.0,
                            "reflection");
   expect_slab_matches_brdf(coloured_slab(), world_dir(30, 0), world_dir(theta_node, 180, true), SubsurfaceMode::Table,
