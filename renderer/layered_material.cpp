@@ -62,16 +62,15 @@ Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std:
   return mean;
 }
 
-LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source)
-    : stack_(std::move(stack)), source_(std::move(source)) {
+LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, int albedo_walks)
+    : stack_(std::move(stack)), source_(std::move(source)), albedo_walks_(albedo_walks) {
   if (stack_.transmits()) flipped_ = flipped(stack_);
 }
 
 const Spectrum& LayeredMaterial::lambert_albedo() const {
-  // 2^15 walks: a standard error of about 0.003 on an albedo of 0.5 (printed by lamina render);
-  // computed once per material.
+  // Computed once per material, on first use.
   std::call_once(albedo_once_, [this] {
-    lambert_albedo_ = diffuse_bihemispherical_albedo(stack_, 1 << 15, 0x1a3bULL, &lambert_albedo_stderr_);
+    lambert_albedo_ = diffuse_bihemispherical_albedo(stack_, albedo_walks_, 0x1a3bULL, &lambert_albedo_stderr_);
   });
   return lambert_albedo_;
 }

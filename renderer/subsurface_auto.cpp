@@ -24,10 +24,36 @@ double bin_projected_solid_angle(int k, int K, int M) {
 // One incidence's binned quantities, both sides: P(B) = value(B) Omega_proj(B) per channel.
 struct Binned {
   std::vector<Spectrum> power, var;  // P(B) and its variance (0 for exact models)
-  Spectrum delta{0.0};               // R_specular + T_ballistic (exact)
-  Spectrum diffuse_var{0.0};         // variance of sum_B P = R_diffuse + T_diffuse
+  Spectrum R_specular{0.0}, T_ballistic{0.0};  // the delta parts (exact)
+  Spectrum R_diffuse_var{0.0}, T_diffuse_var{0.0};  // variances of sum_B P over each side
+  // The radiance factor of what the transmit side brings to a viewer on the top side under
+  // equal radiance in both media: (n_above / n_below)^2 (radiance / n^2 is what crosses).
+  double transmit_factor = 1.0;
   std::uint64_t walks = 0;
+
+  // What a viewer on top sees in a uniform environment of radiance 1 in both media (per
+  // channel): sum over the reflect side of P + R_specular + t (sum over the transmit side of P
+  // + T_ballistic), and its variance (bounded by (sd_R + t sd_T)^2: the sides are correlated).
+  Spectrum uniform_radiance() const {
+    Spectrum r = R_specular, t = T_ballistic;
+    const std::size_t half = power.size() / 2;
+    for (std::size_t b = 0; b < power.size(); ++b) (b < half ? r : t) += power[b];
+    return r + t * transmit_factor;
+  }
+  Spectrum uniform_variance() const {
+    Spectrum v(0.0);
+    for (int c = 0; c < kChannels; ++c) {
+      const double sd = std::sqrt(R_diffuse_var[c]) + transmit_factor * std::sqrt(T_diffuse_var[c]);
+      v[c] = sd * sd;
+    }
+    return v;
+  }
 };
+
+double transmit_factor(const LayerStack& stack) {
+  const double r = stack.above_ior / stack.below.ior;
+  return stack.transmits() ? r * r : 1.0;
+}
 
 BrdfOptions options_at(double mu, const AutoSettings& s, std::uint64_t seed) {
   BrdfOptions o;
@@ -49,10 +75,12 @@ Binned binned(const BrdfTable& table, bool with_variance) {
     out.power[b] = table.value[b] * omega;
     if (with_variance) out.var[b] = table.stderr_[b] * table.stderr_[b] * (omega * omega);
   }
-  out.delta = table.totals.R_specular.value + table.totals.T_ballistic.value;
-  // absorbed = 1 - (exact delta parts) - R_diffuse - T_diffuse, so its standard error is that
-  // of R_diffuse + T_diffuse, correlations included.
-  if (with_variance) out.diffuse_var = table.totals.absorbed.stderr_ * table.totals.absorbed.stderr_;
+  out.R_specular = table.totals.R_specular.value;
+  out.T_ballistic = table.totals.T_ballistic.value;
+  if (with_variance) {
+    out.R_diffuse_var = table.totals.R_diffuse.stderr_ * table.totals.R_diffuse.stderr_;
+    out.T_diffuse_var = table.totals.T_diffuse.stderr_ * table.totals.T_diffuse.stderr_;
+  }
   return out;
 }
 
@@ -61,7 +89,8 @@ Binned binned(const BrdfTable& table, bool with_variance) {
 void add_walks(const LayerStack& stack, BrdfOptions options, std::uint64_t walks, int round, Binned* pooled) {
   options.samples = walks;
   options.seed += 1000003u * static_cast<std::uint64_t>(round);
-  const Binned more = binned(brdf_table_monte_carlo(stack, options), true);
+  Binned more = binned(brdf_table_monte_carlo(stack, options), true);
+  more.transmit_factor = transmit_factor(stack);
   if (pooled->walks == 0) {
     *pooled = more;
     pooled->walks = walks;
@@ -72,12 +101,15 @@ void add_walks(const LayerStack& stack, BrdfOptions options, std::uint64_t walks
     pooled->power[b] = (pooled->power[b] * n1 + more.power[b] * n2) * (1.0 / n);
     pooled->var[b] = (pooled->var[b] * (n1 * n1) + more.var[b] * (n2 * n2)) * (1.0 / (n * n));
   }
-  pooled->diffuse_var = (pooled->diffuse_var * (n1 * n1) + more.diffuse_var * (n2 * n2)) * (1.0 / (n * n));
+  pooled->R_diffuse_var = (pooled->R_diffuse_var * (n1 * n1) + more.R_diffuse_var * (n2 * n2)) * (1.0 / (n * n));
+  pooled->T_diffuse_var = (pooled->T_diffuse_var * (n1 * n1) + more.T_diffuse_var * (n2 * n2)) * (1.0 / (n * n));
   pooled->walks += walks;
 }
 
 Binned first_order_binned(const LayerStack& stack, const BrdfOptions& options) {
-  return binned(brdf_table_first_order(stack, options), false);
+  Binned out = binned(brdf_table_first_order(stack, options), false);
+  out.transmit_factor = transmit_factor(stack);
+  return out;
 }
 
 // lambert: f = albedo / pi on the viewer's side only (layer below or not), no delta parts.
@@ -111,14 +143,12 @@ Difference combine(std::vector<std::pair<const Binned*, double>> terms) {
   out.d_var.assign(n, Spectrum(0.0));
   for (const auto& [x, c] : merged) {
     if (c == 0.0) continue;
-    Spectrum total(0.0);
     for (std::size_t b = 0; b < n; ++b) {
       out.d[b] += x->power[b] * c;
       out.d_var[b] += x->var[b] * (c * c);
-      total += x->power[b];
     }
-    out.du += (total + x->delta) * c;
-    out.du_var += x->diffuse_var * (c * c);
+    out.du += x->uniform_radiance() * c;
+    out.du_var += x->uniform_variance() * (c * c);
   }
   return out;
 }
@@ -128,6 +158,7 @@ Difference combine(std::vector<std::pair<const Binned*, double>> terms) {
 struct Relative {
   double shape_num = 0.0, shape_var = 0.0;  // sum (P_m - P_hat)^2 - sigma^2, and sigma^2
   double shape_var2 = 0.0;                  // sum sigma^4 (the spread of shape_num: 2 sum sigma^4)
+  double shape_cross = 0.0;                 // sum (P_m - P_hat)^2 sigma^2 (and 4 times it)
   double shape = 0.0, uniform = 0.0;
   double shape_noise = 0.0, uniform_noise = 0.0;  // sqrt(noise^2 / reference^2)
   double shape_ref2 = 0.0, uniform_ref2 = 0.0;     // the noise-corrected reference sums
@@ -135,24 +166,23 @@ struct Relative {
 
 // shape_ref2: the shape's reference sum, when it is not this incidence's own; 0 for its own.
 Relative relative_to(const Difference& diff, const Binned& walk, double shape_ref2 = 0.0) {
-  double d2 = 0.0, dvar = 0.0, dvar2 = 0.0, r2 = 0.0, rvar = 0.0;
+  double d2 = 0.0, dvar = 0.0, dvar2 = 0.0, cross = 0.0, r2 = 0.0, rvar = 0.0;
   for (std::size_t b = 0; b < walk.power.size(); ++b)
     for (int c = 0; c < kChannels; ++c) {
       d2 += diff.d[b][c] * diff.d[b][c];
       dvar += diff.d_var[b][c];
       dvar2 += diff.d_var[b][c] * diff.d_var[b][c];
+      cross += diff.d[b][c] * diff.d[b][c] * diff.d_var[b][c];
       r2 += walk.power[b][c] * walk.power[b][c];
       rvar += walk.var[b][c];
     }
   double u2 = 0.0, uvar = 0.0, ur2 = 0.0, urvar = 0.0;
-  Spectrum albedo(0.0);
-  for (const Spectrum& p : walk.power) albedo += p;
+  const Spectrum ref = walk.uniform_radiance(), ref_var = walk.uniform_variance();
   for (int c = 0; c < kChannels; ++c) {
     u2 += diff.du[c] * diff.du[c];
     uvar += diff.du_var[c];
-    const double ref = albedo[c] + walk.delta[c];
-    ur2 += ref * ref;
-    urvar += walk.diffuse_var[c];
+    ur2 += ref[c] * ref[c];
+    urvar += ref_var[c];
   }
   Relative r;
   r.shape_ref2 = shape_ref2 > 0.0 ? shape_ref2 : std::max(r2 - rvar, 1e-300);
@@ -160,6 +190,7 @@ Relative relative_to(const Difference& diff, const Binned& walk, double shape_re
   r.shape_num = d2 - dvar;
   r.shape_var = dvar;
   r.shape_var2 = dvar2;
+  r.shape_cross = cross;
   r.shape = std::sqrt(std::max(d2 - dvar, 0.0) / r.shape_ref2);
   r.uniform = std::sqrt(std::max(u2 - uvar, 0.0) / r.uniform_ref2);
   r.shape_noise = std::sqrt(dvar / r.shape_ref2);
@@ -181,7 +212,7 @@ void add_table_statistics(const std::vector<std::pair<const Binned*, double>>& n
     const double walks_ratio = static_cast<double>(x->walks) / static_cast<double>(std::max<std::uint64_t>(s.table.walks_per_node, 1));
     double v = 0.0, u = 0.0;
     for (const Spectrum& var : x->var) v += var.average() * kChannels;
-    u = x->diffuse_var.average() * kChannels;
+    u = x->uniform_variance().average() * kChannels;
     *shape2 += w * w * v * walks_ratio * bins_ratio / rel.shape_ref2;
     *uniform2 += w * w * u * walks_ratio / rel.uniform_ref2;
   }
@@ -193,7 +224,7 @@ void add_table_statistics(const std::vector<std::pair<const Binned*, double>>& n
 // views and resolved with the walks the uniform metric needs).
 struct Accumulator {
   ViewErrors worst;         // uniform: worst view; shape: filled in by finish()
-  double shape_num[3] = {0.0, 0.0, 0.0}, shape_var2[3] = {0.0, 0.0, 0.0};
+  double shape_num[3] = {0.0, 0.0, 0.0}, shape_var2[3] = {0.0, 0.0, 0.0}, shape_cross[3] = {0.0, 0.0, 0.0};
   double table_stat_num = 0.0;  // the table's statistical part of the shape sum
   double shape_ref = 0.0;   // sum over views of the noise-corrected reference sums
 };
@@ -205,6 +236,7 @@ void record(const Relative& r, int model, Accumulator* a) {
   u.noise = std::max(u.noise, r.uniform_noise);
   a->shape_num[model] += r.shape_num;
   a->shape_var2[model] += r.shape_var2;
+  a->shape_cross[model] += r.shape_cross;
 }
 
 // The table's errors given its interpolation bias (a Difference against the walk) and the nodes
@@ -220,6 +252,7 @@ void record_table(const Difference& bias, const Binned& walk, const std::vector<
   u.noise = std::max(u.noise, r.uniform_noise);
   a->shape_num[2] += r.shape_num + shape2 * r.shape_ref2;
   a->shape_var2[2] += r.shape_var2;
+  a->shape_cross[2] += r.shape_cross;
   a->table_stat_num += shape2 * r.shape_ref2;
 }
 
@@ -227,12 +260,25 @@ void record_table(const Difference& bias, const Binned& walk, const std::vector<
 // model equals the walk, each term of num is delta^2 - sigma^2 with delta ~ N(0, sigma^2), of
 // variance 2 sigma^4, so the estimate of e^2 spreads by sqrt(2 sum sigma^4) / ref and e by the
 // square root of that (for e > 0 the spread of e is smaller: ~ sd(e^2) / 2e).
-ViewErrors finish(const Accumulator& a) {
+//
+// spread[m]: the standard deviation of model m's predicted error (the larger metric's), for the
+// decision to stop adding walks. The shape's e^2 = num / ref spreads by
+// sd2 = sqrt(2 sum sigma^4 + 4 sum delta^2 sigma^2) / ref (each term (delta + x)^2 - sigma^2 with
+// x ~ N(0, sigma^2) has variance 2 sigma^4 + 4 delta^2 sigma^2; delta^2 estimated by the noisy
+// difference, which overstates it), so e spreads by sd2 / 2e, at most sqrt(sd2) (near 0); the
+// uniform error is a plain difference whose spread is its noise.
+ViewErrors finish(const Accumulator& a, double* spread = nullptr) {
   ViewErrors e = a.worst;
   const double ref = std::max(a.shape_ref, 1e-300);
   for (int m = 0; m < 3; ++m) {
-    e.shape.*kModels[m] = std::sqrt(std::max(a.shape_num[m], 0.0) / ref);
+    const double shape = std::sqrt(std::max(a.shape_num[m], 0.0) / ref);
+    e.shape.*kModels[m] = shape;
     e.shape.noise = std::max(e.shape.noise, std::sqrt(std::sqrt(2.0 * a.shape_var2[m]) / ref));
+    if (spread) {
+      const double sd2 = std::sqrt(2.0 * a.shape_var2[m] + 4.0 * a.shape_cross[m]) / ref;
+      const double shape_spread = shape > 0.0 ? std::min(std::sqrt(sd2), sd2 / (2.0 * shape)) : std::sqrt(sd2);
+      spread[m] = shape >= e.uniform.*kModels[m] ? shape_spread : e.uniform.noise;
+    }
   }
   e.shape.table_noise = std::sqrt(a.table_stat_num / ref);
   return e;
@@ -246,9 +292,14 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   const auto t0 = std::chrono::steady_clock::now();
   const Spectrum& albedo = material.lambert_albedo();
   const Binned lambert = lambert_binned(albedo, settings);
-  const int n = std::max(settings.table.nodes, 1);
-  // The stack from above, and from below if it transmits (a leaf lit from behind); at each the
-  // table's nodes: walk (pooled over rounds) and first order (exact).
+  // The prediction's incidences: every other node of the table when that still leaves >= 5
+  // (from 89.9 degrees to normal), else every node: half the walks, and the table's
+  // interpolation error still follows from second differences (below).
+  const int table_nodes = std::max(settings.table.nodes, 1);
+  const int stride = table_nodes >= 9 && (table_nodes - 1) % 2 == 0 ? 2 : 1;
+  const int n = (table_nodes - 1) / stride + 1;
+  // The stack from above, and from below if it transmits (a leaf lit from behind); at each
+  // incidence: walk (pooled over rounds) and first order (exact).
   std::vector<LayerStack> stacks{material.base_stack()};
   if (material.transmits()) stacks.push_back(flipped(material.base_stack()));
   struct Node {
@@ -259,14 +310,15 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   for (std::size_t i = 0; i < stacks.size(); ++i)
     for (int j = 0; j < n; ++j) {
       Node& node = nodes[i][j];
-      node.options = options_at(table_node_cosine(settings.table, j), settings, settings.seed + 104729u * i + 7919u * j);
+      node.options = options_at(table_node_cosine(settings.table, j * stride), settings, settings.seed + 104729u * i + 7919u * j);
       node.first = first_order_binned(stacks[i], node.options);
     }
   // Rounds of walks (doubling, a fixed sequence of seeds: deterministic) until the choice is
-  // decided -- every cheaper model's predicted error is at least 2 noise units away from the
-  // tolerance -- or the budget is spent. Cheap stacks (thin, absorbing: few events per walk)
+  // decided -- every cheaper model's predicted error is at least 2 of its standard deviations
+  // away from the tolerance (finish()) -- or the budget is spent. Cheap stacks (thin, absorbing: few events per walk)
   // so get the many walks their rare scattering needs, expensive ones stop once the walk is
   // clearly needed.
+  double spread[3] = {0.0, 0.0, 0.0};
   auto worst_errors = [&] {
     Accumulator acc;
     for (std::size_t i = 0; i < stacks.size(); ++i)
@@ -276,18 +328,21 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
         acc.shape_ref += rl.shape_ref2;
         record(rl, 0, &acc);
         record(relative_to(combine({{&nodes[i][j].first, 1.0}, {&walk, -1.0}}), walk), 1, &acc);
-        // Interpolation error at the midpoints next to node j: the second difference / 8,
-        // centred on an inner node (the end nodes take their neighbour's). Its statistics: a
-        // half-half mix of two nodes (the typical view between nodes).
+        // The table's interpolation error at the midpoints between its nodes (spacing h) near
+        // incidence j: h^2 |P''| / 8, with P'' from the second difference over the prediction's
+        // incidences (spacing stride h), centred on an inner one (the end ones take their
+        // neighbour's): (P_{j-1} - 2 P_j + P_{j+1}) / (8 stride^2). Its statistics: a half-half
+        // mix of two nodes (the typical view between nodes).
         if (n >= 3) {
           const int c = std::clamp(j, 1, n - 2);
-          const Difference bias = combine({{&nodes[i][c - 1].walk, 0.125}, {&nodes[i][c].walk, -0.25}, {&nodes[i][c + 1].walk, 0.125}});
+          const double k = 1.0 / (8.0 * stride * stride);
+          const Difference bias = combine({{&nodes[i][c - 1].walk, k}, {&nodes[i][c].walk, -2.0 * k}, {&nodes[i][c + 1].walk, k}});
           record_table(bias, walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
         } else {
           record_table(combine({{&walk, 0.0}}), walk, {{&walk, 1.0}}, settings, 0.0, &acc);
         }
       }
-    const ViewErrors worst = finish(acc);
+    const ViewErrors worst = finish(acc, spread);
     return worst;
   };
   ViewErrors worst;
@@ -298,11 +353,11 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
       for (Node& node : nodes[i]) add_walks(stacks[i], node.options, more, round, &node.walk);
     walks += more;
     worst = worst_errors();
-    const double noise = std::max(worst.shape.noise, worst.uniform.noise);
     bool decided = true;
-    for (double e : {std::max(worst.shape.lambert, worst.uniform.lambert), std::max(worst.shape.first_order, worst.uniform.first_order),
-                     std::max(worst.shape.table, worst.uniform.table)})
-      decided = decided && std::abs(e - settings.tolerance) >= 2.0 * noise;
+    for (int m = 0; m < 3; ++m) {
+      const double e = std::max(worst.shape.*kModels[m], worst.uniform.*kModels[m]);
+      decided = decided && std::abs(e - settings.tolerance) >= 2.0 * spread[m];
+    }
     if (decided) break;
   }
 
