@@ -403,7 +403,7 @@ int run_batch(int argc, char** argv) {
                "a contact sheet and a summary CSV.",
                "lamina batch");
   app.add_option("manifest", args.manifest, "batch manifest (JSON)")->required();
-  app.add_option("--out", args.out, "output directory (default: <manifest name>-batch)");
+  app.add_option("-o,--out", args.out, "output directory (default: <manifest name>-batch)");
   auto* shard = app.add_option("--shard", args.shard, "render only shard i of n (jobs whose index mod n is i); no comparisons");
   auto* fin = app.add_flag("--finalize", args.finalize, "render nothing: write comparisons, contact sheet and summary (after all shards)");
   shard->excludes(fin);
