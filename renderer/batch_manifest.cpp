@@ -225,8 +225,9 @@ ModeSpec parse_mode(const json& j, const Where& where) {
   if (mode.subsurface == "auto") {
     if (!j.contains("tolerance")) where.fail("\"subsurface\": \"auto\" needs a \"tolerance\" (a relative error in (0, 1], e.g. 0.05)");
     const json& t = j["tolerance"];
-    // The predicted relative RMS error a material may have (renderer/subsurface_auto.h); above 1
-    // every model qualifies, and 0 only the walk itself.
+    // The largest predicted relative RMS error a material may have (renderer/subsurface_auto.h):
+    // the range `lamina render --tolerance` accepts, checked here so a bad manifest fails before
+    // any job renders.
     if (!t.is_number() || !std::isfinite(t.get<double>()) || !(t.get<double>() > 0.0) || t.get<double>() > 1.0)
       where.key("tolerance").fail("expected a relative error in (0, 1], got " + t.dump());
     mode.tolerance = t.get<double>();
