@@ -62,12 +62,15 @@ long long get_integer(const json& j, const Where& where, long long lo, long long
 
 // Names become parts of file names: letters, digits, '.', '-', '_', not starting with '.' or
 // '-', and no "__" (the separator of job ids, so ids are unambiguous).
-std::string get_name(const json& j, const Where& where) {
-  const std::string s = get_string(j, where);
+void check_name(const std::string& s, const Where& where) {
   bool ok = !s.empty() && s.size() <= 64 && std::isalnum(static_cast<unsigned char>(s[0]));
   for (char c : s) ok = ok && (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_');
   if (!ok || s.find("__") != std::string::npos)
     where.fail("name '" + s + "' must be 1-64 letters, digits, '.', '-' or '_', start with a letter or digit, and not contain '__'");
+}
+std::string get_name(const json& j, const Where& where) {
+  const std::string s = get_string(j, where);
+  check_name(s, where);
   return s;
 }
 
@@ -197,6 +200,50 @@ void parse_env(const json& j, const Where& where, const std::string& directory, 
 
 const char* const kModes[] = {"random-walk", "first-order", "table", "lambert"};
 
+bool is_fixed_mode(const std::string& mode) {
+  return std::find_if(std::begin(kModes), std::end(kModes), [&](const char* k) { return mode == k; }) != std::end(kModes);
+}
+
+// One entry of "modes": a fixed mode as a string, or {"name", "subsurface", "tolerance"}.
+ModeSpec parse_mode(const json& j, const Where& where) {
+  const char* const auto_form = "{\"subsurface\": \"auto\", \"tolerance\": 0.05} (optional \"name\")";
+  ModeSpec mode;
+  if (j.is_string()) {
+    mode.subsurface = j.get<std::string>();
+    if (mode.subsurface == "auto") where.fail("mode \"auto\" needs a tolerance: write " + std::string(auto_form));
+    if (!is_fixed_mode(mode.subsurface))
+      where.fail("unknown mode '" + mode.subsurface + "' (expected random-walk, first-order, table, lambert or " + auto_form + ")");
+    mode.name = mode.subsurface;
+    return mode;
+  }
+  if (!j.is_object()) where.fail("expected a mode name or an object " + std::string(auto_form) + ", got " + type_name(j));
+  check_keys(j, where, {"name", "subsurface", "tolerance"});
+  if (!j.contains("subsurface")) where.fail("missing \"subsurface\" (random-walk, first-order, table, lambert or auto)");
+  mode.subsurface = get_string(j["subsurface"], where.key("subsurface"));
+  if (mode.subsurface != "auto" && !is_fixed_mode(mode.subsurface))
+    where.key("subsurface").fail("unknown mode '" + mode.subsurface + "' (expected random-walk, first-order, table, lambert or auto)");
+  if (mode.subsurface == "auto") {
+    if (!j.contains("tolerance")) where.fail("\"subsurface\": \"auto\" needs a \"tolerance\" (a relative error in (0, 1], e.g. 0.05)");
+    const json& t = j["tolerance"];
+    // The largest predicted relative RMS error a material may have (renderer/subsurface_auto.h):
+    // the range `lamina render --tolerance` accepts, checked here so a bad manifest fails before
+    // any job renders.
+    if (!t.is_number() || !std::isfinite(t.get<double>()) || !(t.get<double>() > 0.0) || t.get<double>() > 1.0)
+      where.key("tolerance").fail("expected a relative error in (0, 1], got " + t.dump());
+    mode.tolerance = t.get<double>();
+  } else if (j.contains("tolerance")) {
+    where.key("tolerance").fail("a tolerance is only meaningful with \"subsurface\": \"auto\" (mode '" + mode.subsurface + "' is fixed)");
+  }
+  if (j.contains("name")) {
+    mode.name = get_name(j["name"], where.key("name"));
+  } else {
+    // Shortest text that reads back as the same double: 0.05 -> "auto-0.05".
+    mode.name = mode.subsurface == "auto" ? "auto-" + json(mode.tolerance).dump() : mode.subsurface;
+    check_name(mode.name, where);
+  }
+  return mode;
+}
+
 JobSelector parse_selector(const json& j, const Where& where, const Manifest& m) {
   check_keys(j, where, {"scene", "variant", "lighting", "mode", "spp"});
   JobSelector s;
@@ -213,7 +260,7 @@ JobSelector parse_selector(const json& j, const Where& where, const Manifest& m)
   s.scene = pick("scene", [&] { std::vector<std::string> v; for (auto& x : m.scenes) v.push_back(x.name); return v; });
   s.variant = pick("variant", [&] { std::vector<std::string> v; for (auto& x : m.variants) v.push_back(x.name); return v; });
   s.lighting = pick("lighting", [&] { std::vector<std::string> v; for (auto& x : m.lighting) v.push_back(x.name); return v; });
-  s.mode = pick("mode", [&] { return m.modes; });
+  s.mode = pick("mode", [&] { std::vector<std::string> v; for (auto& x : m.modes) v.push_back(x.name); return v; });
   if (j.contains("spp")) {
     s.spp = static_cast<int>(get_integer(j["spp"], where.key("spp"), 1, 1 << 20));
     if (std::find(m.spp.begin(), m.spp.end(), s.spp) == m.spp.end()) where.key("spp").fail(std::to_string(s.spp) + " is not in the batch's spp");
@@ -470,14 +517,18 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
     const json modes = j["modes"].is_array() ? j["modes"] : json::array({j["modes"]});
     if (modes.empty()) w.fail("expected a non-empty list of modes");
     for (std::size_t i = 0; i < modes.size(); ++i) {
-      const std::string mode = get_string(modes[i], w.at(i));
-      if (std::find_if(std::begin(kModes), std::end(kModes), [&](const char* k) { return mode == k; }) == std::end(kModes))
-        w.at(i).fail("unknown mode '" + mode + "' (expected random-walk, first-order, table or lambert)");
-      if (std::find(m.modes.begin(), m.modes.end(), mode) != m.modes.end()) w.at(i).fail("duplicate mode '" + mode + "'");
-      m.modes.push_back(mode);
+      const Where wi = j["modes"].is_array() ? w.at(i) : w;
+      ModeSpec mode = parse_mode(modes[i], wi);
+      for (const ModeSpec& other : m.modes) {
+        if (other.name == mode.name) (modes[i].is_object() && modes[i].contains("name") ? wi.key("name") : wi).fail("duplicate mode name '" + mode.name + "'");
+        // Rendering is deterministic: the same settings twice would be the same image twice.
+        if (other.subsurface == mode.subsurface && other.tolerance == mode.tolerance)
+          wi.fail("mode '" + mode.name + "' renders the same as mode '" + other.name + "'");
+      }
+      m.modes.push_back(std::move(mode));
     }
   } else {
-    m.modes.push_back("random-walk");
+    m.modes.push_back({"random-walk", "random-walk", 0.0});
   }
 
   if (!j.contains("spp")) root.fail("missing \"spp\" (a number or a list of samples per pixel)");
@@ -624,33 +675,38 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
           if (eh == env_hashes.end()) eh = env_hashes.emplace(lighting.env, file_hash(lighting.env)).first;
           env_desc = json{{"file_hash", eh->second}};
         }
-        for (const std::string& mode : m.modes) {
+        for (const ModeSpec& mode : m.modes) {
           for (int spp : m.spp) {
             BatchJob job;
             job.index = jobs.size();
             job.scene = scene.name;
             job.variant = variant.name;
             job.lighting = lighting.name;
-            job.mode = mode;
+            job.mode = mode.name;
+            job.subsurface = mode.subsurface;
+            job.tolerance = mode.tolerance;
             job.spp = spp;
-            job.id = scene.name + "__" + variant.name + "__" + lighting.name + "__" + mode + "__spp" + std::to_string(spp);
+            job.id = scene.name + "__" + variant.name + "__" + lighting.name + "__" + mode.name + "__spp" + std::to_string(spp);
             job.scene_file = scene.file;
             job.materials = binding_list;
             job.env = lighting.env;
             job.camera = lighting.camera;
             // Everything that changes the pixels, and nothing else (not names, paths or the
-            // thread count: rendering is deterministic for any thread count).
+            // thread count: rendering is deterministic for any thread count). "mode" is the
+            // --subsurface argument, not the mode's name; the tolerance only exists for auto, so
+            // the hashes of fixed-mode jobs are those of manifests written before auto existed.
             job.description = json{{"lamina_version", lamina_version()},
                                    {"scene_hash", sh->second},
                                    {"materials", materials_desc},
                                    {"env", env_desc},
                                    {"camera", lighting.camera},
-                                   {"mode", mode},
+                                   {"mode", mode.subsurface},
                                    {"spp", spp},
                                    {"seed", m.settings.seed},
                                    {"width", m.settings.width},
                                    {"height", m.settings.height},
                                    {"max_depth", m.settings.max_depth}};
+            if (mode.subsurface == "auto") job.description["tolerance"] = mode.tolerance;
             job.hash = content_hash(job.description.dump());
             jobs.push_back(std::move(job));
           }

@@ -74,6 +74,17 @@ struct RenderSettingsSpec {
   int max_depth = 16;
 };
 
+// How a job shades its layered materials: a `lamina render --subsurface` mode, or "auto" with a
+// tolerance (--subsurface auto --tolerance E: per material, the cheapest mode whose predicted
+// error is within E; renderer/subsurface_auto.h). `name` is what job ids, comparison selectors
+// and the summary use: the mode itself for a plain string in the manifest, or the object's
+// "name" (default "auto-<tolerance>" for auto, the mode for a fixed mode).
+struct ModeSpec {
+  std::string name;
+  std::string subsurface;  // random-walk, first-order, table, lambert or auto
+  double tolerance = 0.0;  // auto only: in (0, 1]; 0 for the fixed modes
+};
+
 struct ContactSheetSpec {
   int columns = 4;
   int thumbnail_width = 160;
@@ -87,7 +98,7 @@ struct Manifest {
   std::vector<SceneSpec> scenes;
   std::vector<VariantSpec> variants;
   std::vector<LightingSpec> lighting;
-  std::vector<std::string> modes;
+  std::vector<ModeSpec> modes;
   std::vector<int> spp;
   std::vector<ComparisonSpec> comparisons;
   ContactSheetSpec contact_sheet;
@@ -111,7 +122,9 @@ struct MaterialBinding {
 struct BatchJob {
   std::size_t index = 0;  // position in the expansion order
   std::string id;         // scene__variant__lighting__mode__sppN: the output file's stem
-  std::string scene, variant, lighting, mode;
+  std::string scene, variant, lighting, mode;  // mode: the ModeSpec's name
+  std::string subsurface;  // the --subsurface argument
+  double tolerance = 0.0;  // the --tolerance argument when subsurface is "auto"
   int spp = 0;
   std::string scene_file;
   std::vector<MaterialBinding> materials;  // sorted by material name

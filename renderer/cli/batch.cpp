@@ -135,8 +135,9 @@ int render_job(const std::string& out, const BatchJob& job, const Manifest& m, i
   std::vector<std::string> args = {"render", job.scene_file, "-o", job_exr(out, job),
                                    "--spp", std::to_string(job.spp), "--width", std::to_string(m.settings.width),
                                    "--height", std::to_string(m.settings.height), "--seed", std::to_string(m.settings.seed),
-                                   "--max-depth", std::to_string(m.settings.max_depth), "--subsurface", job.mode,
+                                   "--max-depth", std::to_string(m.settings.max_depth), "--subsurface", job.subsurface,
                                    "--threads", std::to_string(threads)};
+  if (job.subsurface == "auto") args.insert(args.end(), {"--tolerance", number(job.tolerance)});
   if (!job.env.empty()) args.insert(args.end(), {"--env", job.env});
   if (!job.camera.empty()) args.insert(args.end(), {"--camera", job.camera});
   if (!job.materials.empty()) args.insert(args.end(), {"--materials", write_material_map(out, job)});
@@ -163,6 +164,57 @@ std::string meta_value(const Metadata& meta, const std::string& key) {
   for (const auto& [k, v] : meta)
     if (k == key) return v;
   return "";
+}
+
+// What `--subsurface auto` chose per material, from the EXR header: `lamina render` writes
+// "lamina:auto:<glTF material name>" = its reason, "chose <mode> (predicted error ...)", or
+// "not visible to camera rays: ..." for a material it did not predict (shaded as lambert).
+// Sorted by material name (the metadata's order is the file's). Empty for fixed-mode jobs.
+struct AutoChoiceEntry {
+  std::string material, mode;
+};
+std::vector<AutoChoiceEntry> auto_choices(const Metadata& meta) {
+  const std::string prefix = "lamina:auto:";
+  std::vector<AutoChoiceEntry> out;
+  for (const auto& [k, v] : meta) {
+    if (k.compare(0, prefix.size(), prefix) != 0) continue;
+    std::string mode;
+    if (v.compare(0, 6, "chose ") == 0) {
+      mode = v.substr(6, v.find(' ', 6) == std::string::npos ? std::string::npos : v.find(' ', 6) - 6);
+    } else if (v.compare(0, 11, "not visible") == 0) {
+      mode = "lambert-hidden";
+    } else {
+      mode = "?";  // a reason this version does not know how to read
+    }
+    out.push_back({k.substr(prefix.size()), mode});
+  }
+  std::sort(out.begin(), out.end(), [](const AutoChoiceEntry& a, const AutoChoiceEntry& b) { return a.material < b.material; });
+  return out;
+}
+
+// "skin=first-order;leaf=random-walk".
+std::string auto_choices_text(const std::vector<AutoChoiceEntry>& choices) {
+  std::string s;
+  for (const AutoChoiceEntry& c : choices) s += (s.empty() ? "" : ";") + c.material + "=" + c.mode;
+  return s;
+}
+
+// A CSV field (RFC 4180): quoted when it holds a comma, a quote or a line break (material names
+// are arbitrary glTF strings).
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+// A short form of a mode for a contact sheet label, where a cell is ~160 px wide.
+std::string short_mode(const std::string& mode) {
+  if (mode == "random-walk") return "walk";
+  if (mode == "first-order") return "1st";
+  if (mode == "table") return "table";
+  if (mode == "lambert") return "lamb";
+  return mode;
 }
 
 // Display colours of a signed relative difference, as linear values for write_png.
@@ -230,7 +282,7 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
   // The summary: one row per job; the error columns hold the first comparison the job is the
   // test of, and are empty for jobs that are no comparison's test.
   std::ostringstream csv;
-  csv << "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference\n";
+  csv << "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference,auto_choices\n";
   for (const BatchJob& job : jobs) {
     const Metadata& mt = meta[job.index];
     double seconds = NAN, rays = NAN;
@@ -248,14 +300,23 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
     } else {
       csv << ",";
     }
-    csv << "\n";
+    csv << "," << csv_field(auto_choices_text(auto_choices(mt))) << "\n";
   }
   write_text_if_changed((fs::path(out) / "summary.csv").string(), csv.str());
 
   // Contact sheet: every job, then every difference.
   std::vector<ContactCell> cells;
-  for (const BatchJob& job : jobs)
-    cells.push_back({images[job.index], {job.scene + " / " + job.variant + " / " + job.lighting, job.mode + ", " + std::to_string(job.spp) + " spp"}});
+  for (const BatchJob& job : jobs) {
+    // An auto job's label names what it chose: "auto-0.05 (skin 1st, leaf walk), 64 spp".
+    std::string mode = job.mode;
+    const std::vector<AutoChoiceEntry> chosen = auto_choices(meta[job.index]);
+    if (!chosen.empty()) {
+      std::string brief;
+      for (const AutoChoiceEntry& c : chosen) brief += (brief.empty() ? "" : ", ") + (chosen.size() > 1 ? c.material + " " : "") + short_mode(c.mode);
+      mode += " (" + brief + ")";
+    }
+    cells.push_back({images[job.index], {job.scene + " / " + job.variant + " / " + job.lighting, mode + ", " + std::to_string(job.spp) + " spp"}});
+  }
   for (ContactCell& c : diff_cells) cells.push_back(std::move(c));
   bool labelled = true;
   const Image sheet = make_contact_sheet(cells, m.contact_sheet.columns, m.contact_sheet.thumbnail_width, &labelled);
@@ -342,7 +403,7 @@ int run_batch(int argc, char** argv) {
                "a contact sheet and a summary CSV.",
                "lamina batch");
   app.add_option("manifest", args.manifest, "batch manifest (JSON)")->required();
-  app.add_option("--out", args.out, "output directory (default: <manifest name>-batch)");
+  app.add_option("-o,--out", args.out, "output directory (default: <manifest name>-batch)");
   auto* shard = app.add_option("--shard", args.shard, "render only shard i of n (jobs whose index mod n is i); no comparisons");
   auto* fin = app.add_flag("--finalize", args.finalize, "render nothing: write comparisons, contact sheet and summary (after all shards)");
   shard->excludes(fin);

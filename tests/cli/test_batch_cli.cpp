@@ -115,10 +115,11 @@ TEST(BatchCli, WritesImagesDiffsSheetAndSummary) {
   // 4 spp jobs (the tests of "noise"), empty for the 16 spp references.
   const std::vector<std::string> csv = lines(slurp(b.dir / "out/summary.csv"));
   ASSERT_EQ(csv.size(), 9u);
-  EXPECT_EQ(csv[0], "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference");
+  EXPECT_EQ(csv[0], "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference,auto_choices");
   for (std::size_t i = 0; i < jobs.size(); ++i) {
     const std::vector<std::string> f = split(csv[i + 1]);
-    ASSERT_EQ(f.size(), 10u) << csv[i + 1];
+    ASSERT_EQ(f.size(), 11u) << csv[i + 1];
+    EXPECT_EQ(f[10], "");  // no auto mode in this batch
     EXPECT_EQ(f[0], jobs[i].id);
     EXPECT_EQ(f[4], jobs[i].mode);
     EXPECT_EQ(f[5], std::to_string(jobs[i].spp));
@@ -295,6 +296,64 @@ TEST(BatchCli, ShardsCoverTheBatchAndFinalizeCompletesIt) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(lines(slurp(b.dir / "out/summary.csv")).size(), 9u);
   EXPECT_TRUE(fs::exists(b.dir / "out/contact_sheet.png"));
+}
+
+// A mode {"subsurface": "auto", "tolerance": E}: rendered with --subsurface auto --tolerance E,
+// what it chose per material in the summary's last column (read back from the EXR header, so
+// also for skipped jobs), and a re-run skips it.
+TEST(BatchCli, AutoModeChoicesInSummaryAndResume) {
+  json m = small_manifest(12, 9, {2});
+  m["scenes"][0]["materials"] = {{"skin", "stack.json"}};
+  m["lighting"] = {{{"name", "grey"}, {"env", 1.0}}};
+  m["modes"] = {"random-walk", {{"subsurface", "auto"}, {"tolerance", 0.05}}};
+  m["comparisons"] = {{{"name", "auto"}, {"reference", {{"mode", "random-walk"}}}, {"test", {{"mode", "auto-0.05"}}}}};
+  BatchDir b("batch-auto", m);
+  // A thin, weakly scattering stack (optical depths ~1): the prediction's walks are short.
+  testing::write_json(b.dir / "stack.json", json::parse(R"({
+    "lamina_material": 1, "name": "thin", "above_ior": 1.0,
+    "layers": [ { "name": "top", "ior": 1.3, "thickness": 0.05, "sigma_a": [0.5, 1.0, 2.0], "sigma_s": 10.0, "g": 0.3 } ],
+    "below": { "lambert": 0.3 } })"));
+  Result r = batch(b.dir, b.dir / "m.json --out " + b.out());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 jobs: 2 rendered, 0 already complete, 0 failed"), std::string::npos) << r.out;
+  const std::vector<BatchJob> jobs = b.jobs();
+  ASSERT_EQ(jobs.size(), 2u);
+  ASSERT_EQ(jobs[1].id, "quad__base__grey__auto-0.05__spp2");
+
+  // The header of the auto job: how it was rendered and what it chose for "skin".
+  std::map<std::string, std::string> meta;
+  for (const auto& [k, v] : read_metadata(b.exr(jobs[1].id))) meta[k] = v;
+  EXPECT_EQ(meta["lamina:subsurface"], "auto");
+  EXPECT_EQ(meta["lamina:tolerance"], "0.05");
+  const std::string reason = meta["lamina:auto:skin"];
+  std::string chosen;
+  for (const char* mode : {"random-walk", "first-order", "table", "lambert"})
+    if (reason.rfind(std::string("chose ") + mode + " (", 0) == 0) chosen = mode;
+  ASSERT_FALSE(chosen.empty()) << "lamina:auto:skin = '" << reason << "'";
+  for (const auto& [k, v] : read_metadata(b.exr(jobs[0].id))) EXPECT_NE(k.rfind("lamina:auto:", 0), 0u) << k;
+
+  const std::string summary = slurp(b.dir / "out/summary.csv");
+  const std::vector<std::string> csv = lines(summary);
+  ASSERT_EQ(csv.size(), 3u);
+  const std::vector<std::string> walk = split(csv[1]), automatic = split(csv[2]);
+  ASSERT_EQ(walk.size(), 11u) << csv[1];
+  ASSERT_EQ(automatic.size(), 11u) << csv[2];
+  EXPECT_EQ(walk[4], "random-walk");
+  EXPECT_EQ(walk[10], "");
+  EXPECT_EQ(automatic[4], "auto-0.05");
+  EXPECT_EQ(automatic[10], "skin=" + chosen);
+  EXPECT_NE(automatic[8], "");  // the test of comparison "auto"
+  EXPECT_TRUE(fs::exists(b.dir / ("out/diffs/auto__" + jobs[1].id + ".exr")));
+
+  // Resume: nothing re-renders (no second prediction either), and the summary is the same,
+  // its auto_choices read from the existing EXR.
+  const long long before = mtime_ns(b.exr(jobs[1].id));
+  r = batch(b.dir, b.dir / "m.json --out " + b.out());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 jobs: 0 rendered, 2 already complete"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("auto: material"), std::string::npos) << r.out;
+  EXPECT_EQ(mtime_ns(b.exr(jobs[1].id)), before);
+  EXPECT_EQ(slurp(b.dir / "out/summary.csv"), summary);
 }
 
 TEST(BatchCli, BadInputIsOneLineAndNonZero) {

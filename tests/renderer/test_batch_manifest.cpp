@@ -3,6 +3,7 @@
 // the example manifests in scenes/batch/.
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <set>
 #include <string>
 
@@ -78,7 +79,10 @@ TEST(BatchManifest, ParsesAndAppliesDefaults) {
   EXPECT_EQ(d.variants[0].name, "base");
   ASSERT_EQ(d.lighting.size(), 1u);
   EXPECT_EQ(d.lighting[0].name, "default");
-  EXPECT_EQ(d.modes, std::vector<std::string>{"random-walk"});
+  ASSERT_EQ(d.modes.size(), 1u);
+  EXPECT_EQ(d.modes[0].name, "random-walk");
+  EXPECT_EQ(d.modes[0].subsurface, "random-walk");
+  EXPECT_EQ(d.modes[0].tolerance, 0.0);
   EXPECT_EQ(d.spp, std::vector<int>{8});
   EXPECT_EQ(expand_jobs(d).size(), 1u);
 }
@@ -120,6 +124,89 @@ TEST(BatchManifest, ErrorsNameFileAndPath) {
   expect_error(f, j, "comparisons[0].test.spp", "not in the batch");
   j = f.manifest(); j["comparisons"][0]["reference"] = json::object();
   expect_error(f, j, "comparisons[0]", "matches no pair");
+}
+
+// "modes" entries as objects: {"name", "subsurface", "tolerance"}; the name is the job axis.
+TEST(BatchManifest, AutoModeObjects) {
+  Fixture f;
+  json j = f.manifest();
+  j["modes"] = json::parse(R"([ "random-walk",
+                                { "subsurface": "auto", "tolerance": 0.05 },
+                                { "name": "coarse", "subsurface": "auto", "tolerance": 1 },
+                                { "name": "walk2", "subsurface": "first-order" },
+                                { "subsurface": "lambert" } ])");
+  j["comparisons"] = {{{"name", "auto"}, {"reference", {{"mode", "random-walk"}}}, {"test", {{"mode", "auto-0.05"}}}}};
+  const Manifest m = f.parse(j);
+  ASSERT_EQ(m.modes.size(), 5u);
+  EXPECT_EQ(m.modes[0].name, "random-walk");
+  EXPECT_EQ(m.modes[1].name, "auto-0.05");  // default name: "auto-" and the tolerance's shortest text
+  EXPECT_EQ(m.modes[1].subsurface, "auto");
+  EXPECT_EQ(m.modes[1].tolerance, 0.05);
+  EXPECT_EQ(m.modes[2].name, "coarse");
+  EXPECT_EQ(m.modes[2].tolerance, 1.0);
+  EXPECT_EQ(m.modes[3].name, "walk2");
+  EXPECT_EQ(m.modes[3].subsurface, "first-order");
+  EXPECT_EQ(m.modes[4].name, "lambert");  // default name of a fixed mode: the mode
+  const std::vector<BatchJob> jobs = expand_jobs(m);
+  ASSERT_EQ(jobs.size(), 2u * 3u * 2u * 5u * 2u);
+  EXPECT_EQ(jobs[2].id, "a__base__grey__auto-0.05__spp4");
+  EXPECT_EQ(jobs[2].mode, "auto-0.05");
+  EXPECT_EQ(jobs[2].subsurface, "auto");
+  EXPECT_EQ(jobs[2].tolerance, 0.05);
+  EXPECT_EQ(jobs[6].subsurface, "first-order");
+  EXPECT_EQ(jobs[6].tolerance, 0.0);
+  const std::vector<ComparisonPair> pairs = resolve_comparisons(m, jobs);
+  ASSERT_EQ(pairs.size(), jobs.size() / 5);
+  for (const ComparisonPair& p : pairs) {
+    EXPECT_EQ(jobs[p.test].mode, "auto-0.05");
+    EXPECT_EQ(jobs[p.reference].mode, "random-walk");
+  }
+  // A single object instead of a list.
+  j = f.manifest();
+  j["modes"] = {{"subsurface", "auto"}, {"tolerance", 0.25}};
+  j.erase("comparisons");
+  const Manifest single = f.parse(j);
+  ASSERT_EQ(single.modes.size(), 1u);
+  EXPECT_EQ(single.modes[0].name, "auto-0.25");
+}
+
+TEST(BatchManifest, AutoModeErrors) {
+  Fixture f;
+  auto with_mode = [&](const json& mode) {
+    json j = f.manifest();
+    j["modes"] = {"random-walk", mode};
+    j.erase("comparisons");
+    return j;
+  };
+  const json nan = std::numeric_limits<double>::quiet_NaN();
+  const json inf = std::numeric_limits<double>::infinity();
+  // The plain string "auto": the error shows the object form.
+  expect_error(f, with_mode("auto"), "modes[1]", "needs a tolerance: write {\"subsurface\": \"auto\", \"tolerance\": 0.05}");
+  expect_error(f, with_mode({{"subsurface", "auto"}}), "modes[1]", "needs a \"tolerance\"");
+  for (const json& t : {json(0.0), json(-0.1), json(1.0000001), json(2), nan, inf, json("0.05"), json::array({0.05}), json(nullptr)}) {
+    SCOPED_TRACE(t.dump());
+    expect_error(f, with_mode({{"subsurface", "auto"}, {"tolerance", t}}), "modes[1].tolerance", "expected a relative error in (0, 1]");
+  }
+  expect_error(f, with_mode({{"subsurface", "table"}, {"tolerance", 0.05}}), "modes[1].tolerance", "only meaningful with");
+  expect_error(f, with_mode({{"subsurface", "auto"}, {"tolerance", 0.05}, {"tolerence", 0.1}}), "modes[1].tolerence", "unknown key");
+  expect_error(f, with_mode({{"subsurface", "photon"}}), "modes[1].subsurface", "unknown mode 'photon'");
+  expect_error(f, with_mode({{"tolerance", 0.05}}), "modes[1]", "missing \"subsurface\"");
+  expect_error(f, with_mode({{"subsurface", 3}}), "modes[1].subsurface", "expected a string");
+  expect_error(f, with_mode(0.05), "modes[1]", "expected a mode name or an object");
+  expect_error(f, with_mode({{"name", "a__b"}, {"subsurface", "auto"}, {"tolerance", 0.05}}), "modes[1].name", "__");
+  expect_error(f, with_mode({{"name", "../x"}, {"subsurface", "auto"}, {"tolerance", 0.05}}), "modes[1].name", "letters");
+  // Duplicate names: explicit, or a default name that another mode has.
+  expect_error(f, with_mode({{"name", "random-walk"}, {"subsurface", "auto"}, {"tolerance", 0.05}}), "modes[1].name",
+               "duplicate mode name 'random-walk'");
+  expect_error(f, with_mode({{"subsurface", "random-walk"}}), "modes[1]", "duplicate mode name 'random-walk'");
+  json j = f.manifest();
+  j["modes"] = {{{"name", "a"}, {"subsurface", "auto"}, {"tolerance", 0.05}}, {{"name", "a"}, {"subsurface", "auto"}, {"tolerance", 0.1}}};
+  j.erase("comparisons");
+  expect_error(f, j, "modes[1].name", "duplicate mode name 'a'");
+  // The same settings under two names would render the same image twice.
+  j["modes"][1]["name"] = "b";
+  j["modes"][1]["tolerance"] = 0.05;
+  expect_error(f, j, "modes[1]", "renders the same as mode 'a'");
 }
 
 TEST(BatchManifest, LoadReportsFileErrors) {
@@ -197,6 +284,22 @@ TEST(BatchManifest, HashesAreStableAndFollowWhatChangesTheImage) {
   const std::string b_hash = a[24].hash;
   std::ofstream(f.dir / "quad.bin", std::ios::app) << 'x';  // b's external buffer changes
   EXPECT_NE(expand_jobs(f.parse(f.manifest()))[24].hash, b_hash);
+  // The mode: a fixed mode's hash is that of its --subsurface argument, whatever its name; auto
+  // hashes its tolerance, so a new tolerance re-renders.
+  auto first_hash = [&](const json& mode) {
+    json j = f.manifest();
+    j["modes"] = {mode};
+    j.erase("comparisons");
+    return expand_jobs(f.parse(j))[0].hash;
+  };
+  EXPECT_EQ(first_hash("random-walk"), a[0].hash);
+  EXPECT_EQ(first_hash({{"name", "walk"}, {"subsurface", "random-walk"}}), a[0].hash);
+  EXPECT_NE(first_hash("first-order"), a[0].hash);
+  const std::string auto5 = first_hash({{"subsurface", "auto"}, {"tolerance", 0.05}});
+  EXPECT_NE(auto5, a[0].hash);
+  EXPECT_EQ(first_hash({{"name", "renamed"}, {"subsurface", "auto"}, {"tolerance", 0.05}}), auto5);
+  EXPECT_NE(first_hash({{"subsurface", "auto"}, {"tolerance", 0.1}}), auto5);
+  EXPECT_NE(first_hash({{"subsurface", "auto"}, {"tolerance", 0.05 * (1 + 1e-15)}}), auto5);
   // The stack's contents.
   json stack = testing::small_stack();
   stack["layers"][0]["g"] = 0.4;
