@@ -154,7 +154,7 @@ int render_job(const std::string& out, const BatchJob& job, const Manifest& m, i
 // Temporary files left by a killed write (image_io's "<file>.tmp-<pid>-<n>", ours
 // "<file>.tmp-<host>-<pid>"): only removed when no other process can be writing them.
 void remove_stale_temporaries(const std::string& out) {
-  for (const char* sub : {"jobs", "diffs"}) {
+  for (const char* sub : {"jobs", "diffs", "cache/tables"}) {
     std::error_code ec;
     const fs::path dir = fs::path(out) / sub;
     if (!fs::is_directory(dir, ec)) continue;
