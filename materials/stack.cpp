@@ -89,6 +89,29 @@ LayerStack flipped(const LayerStack& stack) {
   return f;
 }
 
+std::string stack_fingerprint(const LayerStack& stack) {
+  std::ostringstream out;
+  out << std::hexfloat;
+  auto spectrum = [&](const Spectrum& v) {
+    for (int c = 0; c < kChannels; ++c) out << ' ' << v[c];
+  };
+  out << "above " << stack.above_ior << '\n';
+  for (const Layer& l : stack.layers) {
+    out << "layer " << l.ior << ' ' << l.thickness << " sigma_a";
+    spectrum(l.sigma_a);
+    for (const PhaseLobe& lobe : l.lobes) {
+      out << " lobe";
+      spectrum(lobe.sigma_s);
+      spectrum(lobe.g);
+    }
+    out << '\n';
+  }
+  out << "below " << (stack.below.kind == Below::Kind::Dielectric ? "dielectric " : "lambert ") << stack.below.ior;
+  spectrum(stack.below.albedo);
+  out << '\n';
+  return out.str();
+}
+
 namespace {
 
 bool bad_coefficient(double v) { return !std::isfinite(v) || v < 0.0; }

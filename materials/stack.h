@@ -81,6 +81,11 @@ struct LayerStack {
 // and no semi-infinite layer); throws std::invalid_argument otherwise.
 LayerStack flipped(const LayerStack& stack);
 
+// Every number of the stack that affects light transport, exactly (hexadecimal floating point),
+// in a fixed order: equal fingerprints mean the same physics (names are left out). For cache
+// keys (renderer/table_cache.h).
+std::string stack_fingerprint(const LayerStack& stack);
+
 // Returns an empty string if the stack is physically valid, else the first problem found, in
 // the form "layers[1].sigma_a[2]: must be finite and >= 0" (the JSON path of the bad value).
 std::string validate_stack(const LayerStack& stack);

@@ -11,9 +11,6 @@
 #include <set>
 #include <sstream>
 
-#ifndef LAMINA_VERSION
-#error "LAMINA_VERSION must be defined by the build (renderer/CMakeLists.txt)"
-#endif
 
 namespace lamina {
 namespace {
@@ -331,26 +328,7 @@ void check_setting_value(const json& v, const Where& where) {
   if (!ok) where.fail("expected a finite number, [r, g, b] or \"inf\", got " + v.dump());
 }
 
-// FNV-1a, 128-bit (Fowler, Noll, Vo; IETF draft-eastlake-fnv: offset basis and prime below).
-__extension__ typedef unsigned __int128 u128;
-std::string fnv1a_128(const std::string& bytes) {
-  const u128 prime = (static_cast<u128>(1) << 88) + 0x13B;
-  u128 h = (static_cast<u128>(0x6c62272e07bb0142ull) << 64) | 0x62b821756295c58dull;
-  for (unsigned char c : bytes) {
-    h ^= c;
-    h *= prime;
-  }
-  char out[33];
-  std::snprintf(out, sizeof out, "%016llx%016llx", static_cast<unsigned long long>(h >> 64),
-                static_cast<unsigned long long>(h));
-  return out;
-}
-
 }  // namespace
-
-const char* lamina_version() { return LAMINA_VERSION; }
-
-std::string content_hash(const std::string& bytes) { return fnv1a_128(bytes); }
 
 std::string file_hash(const std::string& path) { return content_hash(read_bytes(path)); }
 

@@ -14,6 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "renderer/content_hash.h"
+
 namespace lamina {
 
 // Thrown with one line: "<manifest file>: <JSON path>: <problem>".
@@ -162,15 +164,9 @@ bool in_shard(std::size_t job_index, int shard, int shard_count);
 // Parses "i/n" (0 <= i < n); throws std::invalid_argument with a one-line message.
 std::pair<int, int> parse_shard(const std::string& text);
 
-// A 128-bit FNV-1a hash (two 64-bit lanes with different offset bases) as 32 hex digits:
-// detects changes, not tampering.
-std::string content_hash(const std::string& bytes);
 // content_hash of a file's bytes; throws ManifestError naming the file if it cannot be read.
 std::string file_hash(const std::string& path);
 // content_hash over a glTF file and the external files it references (buffers, images).
 std::string scene_hash(const std::string& path);
-
-// The version written into job hashes: a new Lamina version re-renders everything.
-const char* lamina_version();
 
 }  // namespace lamina

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
 #include "renderer/layered_surface.h"
+#include "renderer/table_cache.h"
 
 namespace lamina {
 
@@ -72,18 +74,29 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
 LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings)
     : LayeredTables(bindings, settings, std::vector<bool>(bindings.by_material.size(), true)) {}
 
-LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only) {
+LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only,
+                             const TableCache* cache) {
+  // The table of `stack`: from the cache if it has it, else built (and stored).
+  auto obtain = [&](const LayerStack& stack) {
+    if (cache) {
+      if (std::optional<LayeredTable> t = cache->load(stack, settings)) {
+        ++loaded_;
+        return std::make_unique<LayeredTable>(std::move(*t));
+      }
+    }
+    auto t = std::make_unique<LayeredTable>(build_layered_table(stack, settings));
+    seconds_ += t->build_seconds;
+    ++built_;
+    if (cache) cache->store(stack, *t);
+    return t;
+  };
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     const auto& m = bindings.by_material[i];
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
-    auto top = std::make_unique<LayeredTable>(build_layered_table(m->base_stack(), settings));
-    seconds_ += top->build_seconds;
-    tables_[{m.get(), false}] = std::move(top);
+    tables_[{m.get(), false}] = obtain(m->base_stack());
     if (m->transmits()) {
       flipped_.push_back(std::make_unique<LayerStack>(flipped(m->base_stack())));
-      auto back = std::make_unique<LayeredTable>(build_layered_table(*flipped_.back(), settings));
-      seconds_ += back->build_seconds;
-      tables_[{m.get(), true}] = std::move(back);
+      tables_[{m.get(), true}] = obtain(*flipped_.back());
     }
   }
 }

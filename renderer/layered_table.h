@@ -25,6 +25,8 @@
 
 namespace lamina {
 
+class TableCache;
+
 struct TableSettings {
   // Incidence cosines, from grazing to normal (table_node_cosine). The end nodes sit at the ends
   // of the range so that grazing views are interpolated, not clamped: through a Fresnel
@@ -73,15 +75,21 @@ class LayeredTables {
  public:
   LayeredTables(const LayeredBindings& bindings, const TableSettings& settings);
   // Only the materials whose slot in `only` is true (`--subsurface auto`: those that chose table).
-  LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only);
+  // With a cache (renderer/table_cache.h), tables found there are loaded instead of built, and
+  // the ones built are stored.
+  LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only,
+                const TableCache* cache = nullptr);
   const LayeredTable& get(const LayeredMaterial* m, bool from_below) const;
-  double build_seconds() const { return seconds_; }
+  double build_seconds() const { return seconds_; }  // of the tables built (not loaded)
+  int built() const { return built_; }
+  int loaded() const { return loaded_; }
   std::size_t bytes() const;
 
  private:
   std::map<std::pair<const LayeredMaterial*, bool>, std::unique_ptr<LayeredTable>> tables_;
   std::vector<std::unique_ptr<LayerStack>> flipped_;
   double seconds_ = 0.0;
+  int built_ = 0, loaded_ = 0;
 };
 
 class TableSurface final : public Surface {

@@ -2,9 +2,11 @@
 #include <unistd.h>
 
 #include <chrono>
+
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -18,6 +20,7 @@
 #include "renderer/integrator.h"
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
+#include "renderer/table_cache.h"
 #include "renderer/lights.h"
 #include "renderer/progress.h"
 #include "renderer/scene.h"
@@ -96,6 +99,10 @@ int run_render(int argc, char** argv) {
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
+  std::string table_cache_dir;
+  std::optional<TableCache> table_cache;
+  app.add_option("--table-cache", table_cache_dir,
+                 "directory of built tables (table mode, auto): reused when the stack, settings and lamina build match");
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
@@ -131,6 +138,13 @@ int run_render(int argc, char** argv) {
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     check_writable(out_path, "output");
     if (!png_path.empty()) check_writable(png_path, "--png");
+    if (!table_cache_dir.empty()) {
+      try {
+        table_cache.emplace(table_cache_dir);
+      } catch (const std::runtime_error& e) {
+        throw UsageError(std::string("--table-cache ") + e.what());
+      }
+    }
   } catch (const UsageError& e) {
     std::fprintf(stderr, "lamina render: %s\n", e.what());
     return 2;
@@ -184,9 +198,10 @@ int run_render(int argc, char** argv) {
         for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
       int tabulated = 0;
       for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
-      tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only);
-      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s) built by the walk in %.2f s (%.0f kB)\n",
-                  tabulated, tables->build_seconds(), tables->bytes() / 1024.0);
+      tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, table_cache ? &*table_cache : nullptr);
+      std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s): %d built by the walk in %.2f s, %d loaded from %s (%.0f kB)\n",
+                  tabulated, tables->built(), tables->build_seconds(), tables->loaded(),
+                  table_cache ? table_cache->directory().c_str() : "no cache", tables->bytes() / 1024.0);
     }
     if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
       // Computed before rendering so that the render's time is the render's.

@@ -254,3 +254,38 @@ TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
 
 }  // namespace
 }  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// --table-cache: the first table-mode render builds the table and stores it, the second loads
+// it (prints "0 built ... 2 loaded") and writes the same pixels; a cache path that cannot be a
+// directory fails before rendering, naming it. The stack is a strongly absorbing 100 mm slab in
+// air, so the table's 9 x 50000 walks are short (about a second); it is symmetric, so its
+// flipped table (seen from below) is the same table: built once, loaded for the other side.
+TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
+  TempDir dir("cli-table-cache");
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "ink"}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(dir / "ink.gltf");
+  std::ofstream(dir / "ink.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})";
+  std::ofstream(dir / "map.json") << R"({"ink": "ink.json"})";
+  const std::string common = dir / "ink.gltf" + " --materials " + dir / "map.json" +
+                             " --width 6 --height 4 --spp 2 --env 1 --subsurface table --table-cache " + dir / "cache";
+  const Result first = run(dir, common + " -o " + dir / "first.exr");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find(": 1 built by the walk"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find(", 1 loaded"), std::string::npos) << first.out;
+  const Result second = run(dir, common + " -o " + dir / "second.exr");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_NE(second.out.find(": 0 built by the walk in 0.00 s, 2 loaded"), std::string::npos) << second.out;
+  EXPECT_EQ(read_image(dir / "first.exr").rgb, read_image(dir / "second.exr").rgb);
+  std::ofstream(dir / "plain") << "x";
+  expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --table-cache " +
+                              dir / "plain/cache -o " + dir / "x.exr"),
+                 dir / "plain/cache", "table cache", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina
