@@ -137,6 +137,9 @@ MailProg=/bin/true
 SelectType=select/cons_tres
 SelectTypeParameters=CR_CPU
 SchedulerType=sched/builtin
+# Schedule at once (the defaults batch submissions for 3 s and rescan the queue every 60 s,
+# which would make a test wait for seconds between the array's waves and the finalize job).
+SchedulerParameters=batch_sched_delay=0,sched_interval=1
 ReturnToService=2
 InactiveLimit=0
 KillWait=5
@@ -160,21 +163,28 @@ EOF
   trap - ERR
 
   if [ -n "$owner" ]; then
-    # Stops the cluster once $owner exits. Detached from our stdout so that
-    # `eval "$(... start)"` does not wait for it.
-    (
-      trap '' HUP
-      while kill -0 "$owner" 2>/dev/null && [ -d "$dir" ]; do sleep 1; done
-      rm -f "$dir/watchdog.pid"
-      [ -d "$dir" ] && "$0" stop "$dir"
-    ) > /dev/null 2>&1 < /dev/null &
+    # In its own session, so that signals sent to the owner's process group (timeout(1), ^C)
+    # do not kill it with the owner; detached from our stdout so that `eval "$(... start)"` does
+    # not wait for it.
+    setsid "$0" watch "$owner" "$dir" > /dev/null 2>&1 < /dev/null &
     echo $! > "$dir/watchdog.pid"
   fi
   printf 'export LAMINA_SLURM_DIR=%q\nexport SLURM_CONF=%q\n' "$dir" "$SLURM_CONF" | tee "$dir/env"
 }
 
+# Stops the cluster in $2 once process $1 has exited (start --owner runs this).
+watch_owner() {
+  trap '' HUP INT  # (stop sends it TERM)
+  while kill -0 "$1" 2>/dev/null && [ -d "$2" ]; do sleep 1; done
+  if [ -d "$2" ]; then
+    rm -f "$2/watchdog.pid"
+    stop_cluster "$2"
+  fi
+}
+
 case "${1:-}" in
   start) shift; start_cluster "$@" ;;
+  watch) watch_owner "$2" "$3" ;;
   stop)
     [ "$#" -eq 2 ] || die "usage: $0 stop DIR"
     stop_cluster "$2" ;;

@@ -27,6 +27,9 @@ namespace fs = std::filesystem;
 using testing::TempDir;
 
 const std::string kScripts = std::string(LAMINA_SOURCE_DIR) + "/scripts";
+// A run that hangs (e.g. a finalize job left pending for ever) fails the test instead of blocking
+// ctest: the runs take seconds.
+const std::string kWaitLimit = "timeout 120 ";
 
 // Why Slurm cannot run here, or "" if it can.
 std::string slurm_missing() {
@@ -78,7 +81,7 @@ TEST(BatchSlurm, SameFilesAsALocalRun) {
 
   const LocalSlurm slurm(dir.path);
   ASSERT_EQ(slurm.error, "");
-  ASSERT_EQ(slurm.run("LAMINA=" + std::string(LAMINA_EXE) + " " + kScripts + "/batch_slurm.sh --wait " + manifest + " " + out +
+  ASSERT_EQ(slurm.run("LAMINA=" + std::string(LAMINA_EXE) + " " + kWaitLimit + kScripts + "/batch_slurm.sh --wait " + manifest + " " + out +
                       " 3 >" + (dir / "slurm.log") + " 2>&1"),
             0)
       << test::slurp(dir / "slurm.log") << test::slurp(out + "/slurm/finalize.log");
@@ -106,7 +109,7 @@ TEST(BatchSlurm, AFailedShardFailsTheWaitAndCancelsFinalize) {
 
   const LocalSlurm slurm(dir.path);
   ASSERT_EQ(slurm.error, "");
-  EXPECT_EQ(slurm.run("LAMINA=" + wrapper + " " + kScripts + "/batch_slurm.sh --wait " + manifest + " " + out + " 2 >" +
+  EXPECT_EQ(slurm.run("LAMINA=" + wrapper + " " + kWaitLimit + kScripts + "/batch_slurm.sh --wait " + manifest + " " + out + " 2 >" +
                       (dir / "slurm.log") + " 2>&1"),
             1);
   const std::string log = test::slurp(dir / "slurm.log");
