@@ -73,14 +73,15 @@ TEST(BatchSlurm, SameFilesAsALocalRun) {
   const std::string manifest = test::write_tiny_batch(dir.path);
   const std::string out = dir / "out";
 
+  // The cluster first: its scheduler starts 3 s after slurmctld, the local run meanwhile.
+  const LocalSlurm slurm(dir.path);
+  ASSERT_EQ(slurm.error, "");
+
   // Local run, moved aside; then the Slurm run into the same path (so the command lines recorded
   // in the EXR headers are the same).
   ASSERT_EQ(test::run_shell(std::string(LAMINA_EXE) + " batch " + manifest + " --out " + out + " >" + (dir / "local.log") + " 2>&1"), 0)
       << test::slurp(dir / "local.log");
   fs::rename(out, dir / "local");
-
-  const LocalSlurm slurm(dir.path);
-  ASSERT_EQ(slurm.error, "");
   ASSERT_EQ(slurm.run("LAMINA=" + std::string(LAMINA_EXE) + " " + kWaitLimit + kScripts + "/batch_slurm.sh --wait " + manifest + " " + out +
                       " 3 >" + (dir / "slurm.log") + " 2>&1"),
             0)
