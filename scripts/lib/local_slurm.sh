@@ -17,18 +17,25 @@
 # are in the directory's pid files) and removes the directory.
 #
 # Needs Debian's slurm-wlm and munge (scripts/setup.sh installs them) and root: the daemons run
-# as root (SlurmUser=root) and jobs run as the submitting user. No cgroups are used
-# (proctrack/linuxproc, task/none), so it works in an unprivileged container.
+# as root (SlurmUser=root), and so do jobs (the directory, slurm.conf and the MUNGE socket in it
+# are root's alone). No cgroups are used (proctrack/linuxproc, task/none), so it also works in
+# a container that does not delegate them.
 set -euo pipefail
 
 die() { echo "local_slurm: $*" >&2; exit 1; }
 
-# Sends SIGTERM to the processes whose pids are in the files given, waits up to 10 s for them to
-# exit, then SIGKILLs what is left.
+# Sends SIGTERM to the processes whose pids are in the files $2... , waits up to 10 s for them to
+# exit, then SIGKILLs what is left. Only processes whose command line names the cluster's
+# directory $1 (every daemon's does): a pid file left by a dead daemon may name a pid that has
+# since been reused.
 kill_pidfiles() {
-  local f pids=() pid left
+  local dir=$1 f pids=() pid left
+  shift
   for f in "$@"; do
-    [ -s "$f" ] && pid=$(cat "$f") && kill "$pid" 2>/dev/null && pids+=("$pid")
+    [ -s "$f" ] || continue
+    pid=$(cat "$f")
+    tr '\0' ' ' < "/proc/$pid/cmdline" 2>/dev/null | grep -qF "$dir" || continue
+    kill "$pid" 2>/dev/null && pids+=("$pid")
   done
   for _ in $(seq 100); do
     left=()
@@ -42,9 +49,8 @@ kill_pidfiles() {
 stop_cluster() {
   local dir=$1
   [ -f "$dir/slurm.conf" ] || die "$dir: not a local_slurm directory (no slurm.conf)"
-  kill_pidfiles "$dir/watchdog.pid"
   # All at once: each takes about 2 s to exit, and neither needs another to shut down.
-  kill_pidfiles "$dir/run/slurmd.pid" "$dir/run/slurmctld.pid" "$dir/run/munged.pid"
+  kill_pidfiles "$dir" "$dir/watchdog.pid" "$dir/run/slurmd.pid" "$dir/run/slurmctld.pid" "$dir/run/munged.pid"
   rm -rf "$dir"
 }
 
