@@ -114,19 +114,24 @@ all_finished() {
 
 # The finalize job ends last (it runs after the array, or is cancelled when a task fails); then
 # the array's records. scontrol keeps finished jobs for MinJobAge (300 s by default), far longer
-# than this polls.
+# than this polls: every second for the first minute, then every 10 s (one query per poll, so a
+# long batch does not load the controller).
 errors=0
+polls=0
 while :; do
   if ! final=$(job_states "$final_id" 2> /dev/null); then
     errors=$((errors + 1))
     if [ "$errors" -ge 30 ]; then
-      echo "$0: cannot read the state of job $final_id from scontrol" >&2
+      echo "$0: cannot read the state of job $final_id from scontrol (30 tries)" >&2
       exit 1
     fi
   elif [ -n "$final" ] && all_finished "$final"; then
     break
+  else
+    errors=0
   fi
-  sleep 1
+  polls=$((polls + 1))
+  if [ "$polls" -le 60 ]; then sleep 1; else sleep 10; fi
 done
 array=$(job_states "$array_id") || { echo "$0: cannot read the state of job array $array_id" >&2; exit 1; }
 while ! all_finished "$array"; do  # tasks still completing when finalize was cancelled
