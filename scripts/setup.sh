@@ -15,6 +15,7 @@ packages=(
   libglm-dev libtbb-dev
   libgtest-dev libbenchmark-dev
   python3 python3-pip python3-numpy python3-matplotlib  # figures and reports only, never the render path
+  slurm-wlm munge          # a private local Slurm cluster for scripts/batch_slurm.sh's test (scripts/lib/local_slurm.sh)
 )
 
 missing=()

@@ -14,6 +14,9 @@ if [ "${LAMINA_SKIP_RAY:-0}" != 1 ] && ! python3 -c "import ray" >/dev/null 2>&1
   python3 -m pip install --quiet "ray==${RAY_VERSION}" ||
     python3 -m pip install --quiet --break-system-packages "ray==${RAY_VERSION}"
 fi
+# The Slurm batch driver's test (tests/cli/test_batch_slurm.cpp) starts a private local cluster
+# (scripts/lib/local_slurm.sh): it needs slurm-wlm and munge (setup.sh installs them) and root.
+# It fails (never skips silently) without them; LAMINA_SKIP_SLURM=1 skips it.
 scripts/build.sh
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" --timeout 600
