@@ -184,18 +184,26 @@ TEST(RenderCli, BadOptionsFailCleanly) {
 namespace lamina {
 namespace {
 
+// A glTF with one quad z = 0 in [-1, 1]^2 facing +z whose material is `material`, bound by
+// DIR/map.json to DIR/<stack_file> holding `stack_json`: the scene of the layered CLI tests.
+void write_layered_quad(const TempDir& dir, const std::string& gltf, const std::string& material,
+                        const std::string& stack_file, const std::string& stack_json) {
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", material}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(dir / gltf);
+  std::filesystem::create_directories((dir.path / stack_file).parent_path());
+  std::ofstream(dir / stack_file) << stack_json;
+  std::ofstream(dir / "map.json") << nlohmann::json{{material, stack_file}}.dump();
+}
+
 // A quad whose material "leaf" is bound to a stack by --materials (path relative to the map),
 // rendered in every --subsurface mode; the EXR records the layered counters. A map naming a
 // missing stack file fails with one line naming the map, the material and the file.
 TEST(RenderCliLayered, MaterialsMapAndModes) {
   TempDir dir("cli-layered");
-  GltfBuilder b;
-  b.json()["materials"].push_back({{"name", "leaf"}});
-  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
-  b.write_gltf(dir / "leaf.gltf");
-  std::filesystem::create_directories(dir.path / "m");
-  std::ofstream(dir / "m/leaf.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": [0.5, 0.1, 0.8], "sigma_s": 20, "g": 0.3}], "below": {"ior": 1.0}})";
-  std::ofstream(dir / "map.json") << R"({"leaf": "m/leaf.json"})";
+  write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": [0.5, 0.1, 0.8], "sigma_s": 20, "g": 0.3}], "below": {"ior": 1.0}})");
   // (table mode builds its tables from 4e5 walks: tested in tests/renderer, not here, for time)
   for (const char* mode : {"random-walk", "first-order", "lambert"}) {
     const std::string out = dir / (std::string(mode) + ".exr");
@@ -252,12 +260,6 @@ TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
   for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
-}  // namespace
-}  // namespace lamina
-
-namespace lamina {
-namespace {
-
 // --table-cache: the first table-mode render builds the table and stores it, the second loads
 // it (prints "0 built ... 2 loaded") and writes the same pixels; a cache path that cannot be a
 // directory fails before rendering, naming it. The stack is a strongly absorbing 100 mm slab in
@@ -265,12 +267,8 @@ namespace {
 // flipped table (seen from below) is the same table: built once, loaded for the other side.
 TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
   TempDir dir("cli-table-cache");
-  GltfBuilder b;
-  b.json()["materials"].push_back({{"name", "ink"}});
-  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
-  b.write_gltf(dir / "ink.gltf");
-  std::ofstream(dir / "ink.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})";
-  std::ofstream(dir / "map.json") << R"({"ink": "ink.json"})";
+  write_layered_quad(dir, "ink.gltf", "ink", "ink.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})");
   const std::string common = dir / "ink.gltf" + " --materials " + dir / "map.json" +
                              " --width 6 --height 4 --spp 2 --env 1 --subsurface table --table-cache " + dir / "cache";
   const Result first = run(dir, common + " -o " + dir / "first.exr");
