@@ -70,9 +70,21 @@ LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, int albed
 const Spectrum& LayeredMaterial::lambert_albedo() const {
   // Computed once per material, on first use.
   std::call_once(albedo_once_, [this] {
-    lambert_albedo_ = diffuse_bihemispherical_albedo(stack_, albedo_walks_, 0x1a3bULL, &lambert_albedo_stderr_);
+    lambert_albedo_ = diffuse_bihemispherical_albedo(stack_, albedo_walks_, kAlbedoSeed, &lambert_albedo_stderr_);
+    albedo_state_ = 1;
   });
   return lambert_albedo_;
+}
+
+bool LayeredMaterial::preset_lambert_albedo(const Spectrum& albedo, const Spectrum& standard_error) const {
+  bool set = false;
+  std::call_once(albedo_once_, [&] {
+    lambert_albedo_ = albedo;
+    lambert_albedo_stderr_ = standard_error;
+    albedo_state_ = 2;
+    set = true;
+  });
+  return set;
 }
 
 const Spectrum& LayeredMaterial::lambert_albedo_stderr() const {

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -82,6 +83,13 @@ class LayeredMaterial {
   // Computed on first use (thread-safe), so that modes that do not need it do not pay for it.
   const Spectrum& lambert_albedo() const;
   const Spectrum& lambert_albedo_stderr() const;
+  int albedo_walks() const { return albedo_walks_; }
+  static constexpr std::uint64_t kAlbedoSeed = 0x1a3bULL;
+  // A value computed earlier for this stack and walk count (renderer/walk_cache.h), set before
+  // first use; false (and ignored) if the albedo is already known.
+  bool preset_lambert_albedo(const Spectrum& albedo, const Spectrum& standard_error) const;
+  // True once the albedo has been computed by this material's own walks (not preset).
+  bool lambert_albedo_computed() const { return albedo_state_.load() == 1; }
 
  private:
   LayerStack stack_;
@@ -90,6 +98,7 @@ class LayeredMaterial {
   std::string source_;
   int albedo_walks_ = kDefaultAlbedoWalks;
   mutable std::once_flag albedo_once_;
+  mutable std::atomic<int> albedo_state_{0};  // 0 unknown, 1 computed, 2 preset
   mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
 };
 

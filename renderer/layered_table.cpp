@@ -8,7 +8,7 @@
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
 #include "renderer/layered_surface.h"
-#include "renderer/table_cache.h"
+#include "renderer/walk_cache.h"
 
 namespace lamina {
 
@@ -75,7 +75,7 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     : LayeredTables(bindings, settings, std::vector<bool>(bindings.by_material.size(), true)) {}
 
 LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only,
-                             const TableCache* cache) {
+                             const WalkCache* cache) {
   // The table of `stack`: from the cache if it has it, else built (and stored).
   auto obtain = [&](const LayerStack& stack) {
     if (cache) {

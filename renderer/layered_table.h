@@ -25,7 +25,7 @@
 
 namespace lamina {
 
-class TableCache;
+class WalkCache;
 
 struct TableSettings {
   // Incidence cosines, from grazing to normal (table_node_cosine). The end nodes sit at the ends
@@ -75,10 +75,10 @@ class LayeredTables {
  public:
   LayeredTables(const LayeredBindings& bindings, const TableSettings& settings);
   // Only the materials whose slot in `only` is true (`--subsurface auto`: those that chose table).
-  // With a cache (renderer/table_cache.h), tables found there are loaded instead of built, and
+  // With a cache (renderer/walk_cache.h), tables found there are loaded instead of built, and
   // the ones built are stored.
   LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only,
-                const TableCache* cache = nullptr);
+                const WalkCache* cache = nullptr);
   const LayeredTable& get(const LayeredMaterial* m, bool from_below) const;
   double build_seconds() const { return seconds_; }  // of the tables built (not loaded)
   int built() const { return built_; }

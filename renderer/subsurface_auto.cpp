@@ -6,6 +6,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
@@ -439,8 +443,55 @@ std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& cam
   return seen;
 }
 
+namespace {
+
+// The cache key of a material's prediction: its stack, every setting, and the Lambert albedo's
+// walk count (the lambert model is that albedo).
+std::string auto_key(const LayeredMaterial& m, const AutoSettings& s) {
+  std::ostringstream what;
+  what << std::hexfloat << "auto prediction\ntolerance " << s.tolerance << " bins " << s.bins_theta << ' ' << s.bins_phi
+       << " walks " << s.walks << ' ' << s.max_walks << " seed " << s.seed << "\ntable " << s.table.nodes << ' '
+       << s.table.grazing_cosine << ' ' << s.table.bins_theta << ' ' << s.table.bins_phi << ' ' << s.table.walks_per_node
+       << ' ' << s.table.seed << "\nalbedo walks " << m.albedo_walks() << '\n'
+       << stack_fingerprint(m.base_stack());
+  return walk_cache_key(what.str());
+}
+
+std::optional<AutoChoice> load_choice(const WalkCache& cache, const std::string& key) {
+  const std::optional<std::string> text = cache.load_record("auto", key);
+  if (!text) return std::nullopt;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(*text);
+    AutoChoice c;
+    if (!parse_subsurface_mode(j.at("mode").get<std::string>(), &c.mode)) throw std::runtime_error("mode");
+    c.error_lambert = j.at("error_lambert").get<double>();
+    c.error_first_order = j.at("error_first_order").get<double>();
+    c.error_table = j.at("error_table").get<double>();
+    c.noise_floor = j.at("noise_floor").get<double>();
+    c.walks = j.at("walks").get<std::uint64_t>();
+    c.seconds = j.at("seconds").get<double>();
+    c.reason = j.at("reason").get<std::string>();
+    c.cached = true;
+    return c;
+  } catch (const std::exception&) {
+    std::fprintf(stderr, "lamina: warning: %s/auto/%s.json: not a valid prediction record; predicting again\n",
+                 cache.directory().c_str(), key.c_str());
+    return std::nullopt;
+  }
+}
+
+void store_choice(const WalkCache& cache, const std::string& key, const AutoChoice& c) {
+  const nlohmann::json j = {{"mode", subsurface_mode_name(c.mode)}, {"error_lambert", c.error_lambert},
+                            {"error_first_order", c.error_first_order}, {"error_table", c.error_table},
+                            {"noise_floor", c.noise_floor}, {"walks", c.walks}, {"seconds", c.seconds},
+                            {"reason", c.reason}};
+  cache.store_record("auto", key, j.dump(2) + "\n");
+}
+
+}  // namespace
+
 std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings,
-                                                const std::vector<bool>* visible) {
+                                                const std::vector<bool>* visible, const WalkCache* cache) {
   std::vector<AutoChoice> out(bindings.by_material.size());
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     if (!bindings.by_material[i]) continue;
@@ -449,7 +500,16 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
       out[i].reason = "not visible to camera rays: lambert, no prediction";
       continue;
     }
-    out[i] = choose_subsurface_mode(*bindings.by_material[i], settings);
+    const LayeredMaterial& m = *bindings.by_material[i];
+    const std::string key = cache ? auto_key(m, settings) : "";
+    if (cache) {
+      if (std::optional<AutoChoice> c = load_choice(*cache, key)) {
+        out[i] = *c;
+        continue;
+      }
+    }
+    out[i] = choose_subsurface_mode(m, settings);
+    if (cache) store_choice(*cache, key, out[i]);
   }
   return out;
 }

@@ -47,6 +47,7 @@
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
 #include "renderer/scene.h"
+#include "renderer/walk_cache.h"
 
 namespace lamina {
 
@@ -86,6 +87,7 @@ struct AutoChoice {
   double seconds = 0.0;  // time of the prediction
   // "chose first-order (predicted error 0.012 <= 0.05; lambert 0.31, first-order 0.012, table 0.021)"
   std::string reason;
+  bool cached = false;  // read from a WalkCache (seconds is then the original prediction's)
 };
 
 // The prediction for one material (its base stack: texture-driven parameters are not varied).
@@ -107,7 +109,10 @@ std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& cam
 // One choice per glTF material slot (default-constructed for non-layered slots). A slot whose
 // `visible` entry is false (when `visible` is given) is not predicted: it costs nothing and is
 // shaded as lambert (its albedo walks run only if some path reaches it), reason "not visible".
+// With a cache (renderer/walk_cache.h), predictions made before for the same stack and settings
+// by the same lamina build are read from it, and new ones are stored.
 std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings,
-                                                const std::vector<bool>* visible = nullptr);
+                                                const std::vector<bool>* visible = nullptr,
+                                                const WalkCache* cache = nullptr);
 
 }  // namespace lamina

@@ -141,9 +141,9 @@ int render_job(const std::string& out, const BatchJob& job, const Manifest& m, i
   if (!job.env.empty()) args.insert(args.end(), {"--env", job.env});
   if (!job.camera.empty()) args.insert(args.end(), {"--camera", job.camera});
   if (!job.materials.empty()) args.insert(args.end(), {"--materials", write_material_map(out, job)});
-  // Tables are shared by every job (and shard) of the batch whose stack and build match
-  // (renderer/table_cache.h): a table-mode or auto batch builds each table once.
-  args.insert(args.end(), {"--table-cache", (fs::path(out) / "cache" / "tables").string()});
+  // Tables, auto predictions and lambert albedos are shared by every job (and shard) of the
+  // batch whose stack and build match (renderer/walk_cache.h): each is computed once.
+  args.insert(args.end(), {"--cache", (fs::path(out) / "cache").string()});
   args.insert(args.end(), {"--meta", "lamina:job_id=" + job.id, "--meta", "lamina:job_hash=" + job.hash});
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
@@ -154,7 +154,7 @@ int render_job(const std::string& out, const BatchJob& job, const Manifest& m, i
 // Temporary files left by a killed write (image_io's "<file>.tmp-<pid>-<n>", ours
 // "<file>.tmp-<host>-<pid>"): only removed when no other process can be writing them.
 void remove_stale_temporaries(const std::string& out) {
-  for (const char* sub : {"jobs", "diffs", "cache/tables"}) {
+  for (const char* sub : {"jobs", "diffs", "cache/tables", "cache/auto", "cache/albedo"}) {
     std::error_code ec;
     const fs::path dir = fs::path(out) / sub;
     if (!fs::is_directory(dir, ec)) continue;

@@ -20,7 +20,7 @@
 #include "renderer/integrator.h"
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
-#include "renderer/table_cache.h"
+#include "renderer/walk_cache.h"
 #include "renderer/lights.h"
 #include "renderer/progress.h"
 #include "renderer/scene.h"
@@ -99,10 +99,10 @@ int run_render(int argc, char** argv) {
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
-  std::string table_cache_dir;
-  std::optional<TableCache> table_cache;
-  app.add_option("--table-cache", table_cache_dir,
-                 "directory of built tables (table mode, auto): reused when the stack, settings and lamina build match");
+  std::string cache_dir;
+  std::optional<WalkCache> cache;
+  app.add_option("--cache", cache_dir,
+                 "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
@@ -138,11 +138,11 @@ int run_render(int argc, char** argv) {
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     check_writable(out_path, "output");
     if (!png_path.empty()) check_writable(png_path, "--png");
-    if (!table_cache_dir.empty()) {
+    if (!cache_dir.empty()) {
       try {
-        table_cache.emplace(table_cache_dir);
+        cache.emplace(cache_dir);
       } catch (const std::runtime_error& e) {
-        throw UsageError(std::string("--table-cache ") + e.what());
+        throw UsageError(std::string("--cache ") + e.what());
       }
     }
   } catch (const UsageError& e) {
@@ -172,17 +172,22 @@ int run_render(int argc, char** argv) {
     // Only materials that camera rays of a coarse grid hit are predicted.
     std::vector<AutoChoice> choices;
     std::vector<SubsurfaceMode> per_material;
+    // Lambert albedos computed by an earlier run (the lambert mode's, auto's lambert model).
+    if (cache)
+      for (const auto& m : bindings.by_material)
+        if (m) load_lambert_albedo(*cache, *m);
     if (auto_mode) {
       AutoSettings as;
       as.tolerance = tolerance;
       const std::vector<bool> visible = camera_visible_materials(scene, camera, settings.width, settings.height);
-      choices = choose_subsurface_modes(bindings, as, &visible);
+      choices = choose_subsurface_modes(bindings, as, &visible, cache ? &*cache : nullptr);
       per_material.assign(bindings.by_material.size(), SubsurfaceMode::RandomWalk);
       for (std::size_t i = 0; i < choices.size(); ++i)
         if (bindings.by_material[i]) {
           per_material[i] = choices[i].mode;
-          std::printf("lamina render: auto: material %s (%s): %s [%.2f s]\n", desc_names[i].c_str(),
-                      bindings.by_material[i]->source().c_str(), choices[i].reason.c_str(), choices[i].seconds);
+          std::printf("lamina render: auto: material %s (%s): %s [%s%.2f s]\n", desc_names[i].c_str(),
+                      bindings.by_material[i]->source().c_str(), choices[i].reason.c_str(),
+                      choices[i].cached ? "from the cache; predicted in " : "", choices[i].seconds);
         }
     }
     auto uses = [&](SubsurfaceMode m) {
@@ -198,10 +203,10 @@ int run_render(int argc, char** argv) {
         for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
       int tabulated = 0;
       for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
-      tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, table_cache ? &*table_cache : nullptr);
+      tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, cache ? &*cache : nullptr);
       std::printf("lamina render: table mode: BRDF/BTDF tables of %d layered material(s): %d built by the walk in %.2f s, %d loaded from %s (%.0f kB)\n",
                   tabulated, tables->built(), tables->build_seconds(), tables->loaded(),
-                  table_cache ? table_cache->directory().c_str() : "no cache", tables->bytes() / 1024.0);
+                  cache ? cache->directory().c_str() : "no cache", tables->bytes() / 1024.0);
     }
     if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
       // Computed before rendering so that the render's time is the render's.
@@ -212,8 +217,10 @@ int run_render(int argc, char** argv) {
           std::printf("lamina render: lambert mode: %s: diffuse bihemispherical albedo %.4f %.4f %.4f (+- %.4f %.4f %.4f)\n",
                       m->source().c_str(), a[0], a[1], a[2], se[0], se[1], se[2]);
         }
-      std::printf("lamina render: lambert mode: albedos by the walk in %.2f s\n",
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      int from_cache = 0;
+      for (const auto& m : bindings.by_material) from_cache += m && !m->lambert_albedo_computed() ? 1 : 0;
+      std::printf("lamina render: lambert mode: albedos by the walk in %.2f s (%d from the cache)\n",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), from_cache);
     }
     LayeredShading layered;
     layered.bindings = &bindings;
@@ -228,6 +235,9 @@ int run_render(int argc, char** argv) {
                                      [&](std::uint64_t n) { progress.advance(n); });
     progress.finish();
     const double seconds = progress.elapsed_seconds();
+    if (cache)
+      for (const auto& m : bindings.by_material)
+        if (m) store_lambert_albedo(*cache, *m);
 
     std::ostringstream sec;
     sec << seconds;

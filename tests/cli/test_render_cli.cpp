@@ -260,7 +260,7 @@ TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
   for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
-// --table-cache: the first table-mode render builds the table and stores it, the second loads
+// --cache: the first table-mode render builds the table and stores it, the second loads
 // it (prints "0 built ... 2 loaded") and writes the same pixels; a cache path that cannot be a
 // directory fails before rendering, naming it. The stack is a strongly absorbing 100 mm slab in
 // air, so the table's 9 x 50000 walks are short (about a second); it is symmetric, so its
@@ -270,7 +270,7 @@ TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
   write_layered_quad(dir, "ink.gltf", "ink", "ink.json",
                      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})");
   const std::string common = dir / "ink.gltf" + " --materials " + dir / "map.json" +
-                             " --width 6 --height 4 --spp 2 --env 1 --subsurface table --table-cache " + dir / "cache";
+                             " --width 6 --height 4 --spp 2 --env 1 --subsurface table --cache " + dir / "cache";
   const Result first = run(dir, common + " -o " + dir / "first.exr");
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_NE(first.out.find(": 1 built by the walk"), std::string::npos) << first.out;
@@ -280,9 +280,9 @@ TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
   EXPECT_NE(second.out.find(": 0 built by the walk in 0.00 s, 2 loaded"), std::string::npos) << second.out;
   EXPECT_EQ(read_image(dir / "first.exr").rgb, read_image(dir / "second.exr").rgb);
   std::ofstream(dir / "plain") << "x";
-  expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --table-cache " +
+  expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --cache " +
                               dir / "plain/cache -o " + dir / "x.exr"),
-                 dir / "plain/cache", "table cache", dir / "x.exr");
+                 dir / "plain/cache", "cache directory", dir / "x.exr");
 }
 
 }  // namespace

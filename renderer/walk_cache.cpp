@@ -1,5 +1,5 @@
-// The table cache (layout and key in table_cache.h).
-#include "renderer/table_cache.h"
+// The walk cache (layout and keys in walk_cache.h).
+#include "renderer/walk_cache.h"
 
 #include <link.h>
 #include <unistd.h>
@@ -12,6 +12,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "renderer/content_hash.h"
 
@@ -78,6 +80,37 @@ bool get_vector(const std::string& in, std::size_t* at, std::size_t expected, st
   return true;
 }
 
+// `bytes` into `path` through a temporary of this process and an atomic rename (creating the
+// directory); a failure is a warning naming the file.
+void write_atomically(const std::string& path, const std::string& bytes, const char* what) {
+  std::error_code ec;
+  fs::create_directories(fs::path(path).parent_path(), ec);
+  char host[256] = "host";
+  ::gethostname(host, sizeof host - 1);
+  const std::string tmp = path + ".tmp-" + host + "-" + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    f.close();
+    if (!f) {
+      fs::remove(tmp, ec);
+      std::fprintf(stderr, "lamina: warning: %s: could not write the %s cache entry\n", path.c_str(), what);
+      return;
+    }
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    const std::string message = ec.message();
+    fs::remove(tmp, ec);
+    std::fprintf(stderr, "lamina: warning: %s: could not write the %s cache entry: %s\n", path.c_str(), what, message.c_str());
+  }
+}
+
+// Record keys are file names: 32 hex digits only.
+bool is_key(const std::string& key) {
+  return key.size() == 32 && key.find_first_not_of("0123456789abcdef") == std::string::npos;
+}
+
 }  // namespace
 
 std::string executable_build_id() {
@@ -89,29 +122,36 @@ std::string executable_build_id() {
   return id;
 }
 
-std::string table_cache_key(const LayerStack& stack, const TableSettings& settings) {
+std::string walk_cache_key(const std::string& what) {
   std::ostringstream text;
-  text << std::hexfloat << "lamina table layout " << kLayoutVersion << "\nversion " << lamina_version() << "\nbuild "
-       << executable_build_id() << "\nnodes " << settings.nodes << " grazing " << settings.grazing_cosine << " bins "
-       << settings.bins_theta << ' ' << settings.bins_phi << " walks " << settings.walks_per_node << " seed "
-       << settings.seed << '\n'
-       << stack_fingerprint(stack);
+  text << "lamina walk cache layout " << kLayoutVersion << "\nversion " << lamina_version() << "\nbuild "
+       << executable_build_id() << '\n'
+       << what;
   return content_hash(text.str());
 }
 
-TableCache::TableCache(std::string directory) : directory_(std::move(directory)) {
+std::string table_cache_key(const LayerStack& stack, const TableSettings& settings) {
+  std::ostringstream text;
+  text << std::hexfloat << "table\nnodes " << settings.nodes << " grazing " << settings.grazing_cosine << " bins "
+       << settings.bins_theta << ' ' << settings.bins_phi << " walks " << settings.walks_per_node << " seed "
+       << settings.seed << '\n'
+       << stack_fingerprint(stack);
+  return walk_cache_key(text.str());
+}
+
+WalkCache::WalkCache(std::string directory) : directory_(std::move(directory)) {
   std::error_code ec;
   fs::create_directories(directory_, ec);
   if (ec || !fs::is_directory(directory_))
-    throw std::runtime_error(directory_ + ": cannot create the table cache directory" + (ec ? ": " + ec.message() : ""));
-  if (::access(directory_.c_str(), W_OK) != 0) throw std::runtime_error(directory_ + ": the table cache directory is not writable");
+    throw std::runtime_error(directory_ + ": cannot create the cache directory" + (ec ? ": " + ec.message() : ""));
+  if (::access(directory_.c_str(), W_OK) != 0) throw std::runtime_error(directory_ + ": the cache directory is not writable");
 }
 
-std::string TableCache::path_of(const LayerStack& stack, const TableSettings& settings) const {
-  return (fs::path(directory_) / (table_cache_key(stack, settings) + ".lamtable")).string();
+std::string WalkCache::path_of(const LayerStack& stack, const TableSettings& settings) const {
+  return (fs::path(directory_) / "tables" / (table_cache_key(stack, settings) + ".lamtable")).string();
 }
 
-std::optional<LayeredTable> TableCache::load(const LayerStack& stack, const TableSettings& settings) const {
+std::optional<LayeredTable> WalkCache::load(const LayerStack& stack, const TableSettings& settings) const {
   const std::string path = path_of(stack, settings);
   std::ifstream file(path, std::ios::binary);
   if (!file) return std::nullopt;  // a plain miss
@@ -144,7 +184,7 @@ std::optional<LayeredTable> TableCache::load(const LayerStack& stack, const Tabl
   return t;
 }
 
-void TableCache::store(const LayerStack& stack, const LayeredTable& table) const {
+void WalkCache::store(const LayerStack& stack, const LayeredTable& table) const {
   const std::string path = path_of(stack, table.settings);
   std::string out;
   out.append(kMagic, 8);
@@ -156,27 +196,61 @@ void TableCache::store(const LayerStack& stack, const LayeredTable& table) const
   put_vector(out, table.value);
   put_vector(out, table.cdf);
   put_vector(out, table.power);
-  // A temporary of this process, then an atomic rename over the final name.
-  char host[256] = "host";
-  ::gethostname(host, sizeof host - 1);
-  const std::string tmp = path + ".tmp-" + host + "-" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(out.data(), static_cast<std::streamsize>(out.size()));
-    f.close();
-    if (!f) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      std::fprintf(stderr, "lamina: warning: %s: could not write the table cache entry\n", path.c_str());
-      return;
+  write_atomically(path, out, "table");
+}
+
+
+std::optional<std::string> WalkCache::load_record(const std::string& kind, const std::string& key) const {
+  if (!is_key(key)) return std::nullopt;
+  std::ifstream file(fs::path(directory_) / kind / (key + ".json"), std::ios::binary);
+  if (!file) return std::nullopt;
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  return buffer.str();
+}
+
+void WalkCache::store_record(const std::string& kind, const std::string& key, const std::string& text) const {
+  if (!is_key(key)) return;
+  write_atomically((fs::path(directory_) / kind / (key + ".json")).string(), text, kind.c_str());
+}
+
+namespace {
+
+std::string albedo_key(const LayeredMaterial& m) {
+  std::ostringstream what;
+  what << "lambert albedo\nwalks " << m.albedo_walks() << " seed " << LayeredMaterial::kAlbedoSeed << '\n'
+       << stack_fingerprint(m.base_stack());
+  return walk_cache_key(what.str());
+}
+
+}  // namespace
+
+bool load_lambert_albedo(const WalkCache& cache, const LayeredMaterial& material) {
+  const std::string key = albedo_key(material);
+  const std::optional<std::string> text = cache.load_record("albedo", key);
+  if (!text) return false;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(*text);
+    Spectrum a, se;
+    for (int c = 0; c < kChannels; ++c) {
+      a[c] = j.at("albedo").at(c).get<double>();
+      se[c] = j.at("stderr").at(c).get<double>();
     }
+    return material.preset_lambert_albedo(a, se);
+  } catch (const std::exception&) {
+    std::fprintf(stderr, "lamina: warning: %s/albedo/%s.json: not a valid albedo record; recomputing it\n",
+                 cache.directory().c_str(), key.c_str());
+    return false;
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    std::fprintf(stderr, "lamina: warning: %s: could not write the table cache entry: %s\n", path.c_str(), ec.message().c_str());
-  }
+}
+
+void store_lambert_albedo(const WalkCache& cache, const LayeredMaterial& material) {
+  if (!material.lambert_albedo_computed()) return;
+  const Spectrum& a = material.lambert_albedo();
+  const Spectrum& se = material.lambert_albedo_stderr();
+  // nlohmann writes doubles in their shortest round-trip form: the values come back exactly.
+  const nlohmann::json j = {{"albedo", {a[0], a[1], a[2]}}, {"stderr", {se[0], se[1], se[2]}}};
+  cache.store_record("albedo", albedo_key(material), j.dump() + "\n");
 }
 
 }  // namespace lamina

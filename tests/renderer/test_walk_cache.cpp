@@ -1,5 +1,6 @@
-// renderer/table_cache: a cached table is the built table, bit for bit; keys change with
-// everything that changes a table; damaged entries are rebuilt, never trusted or fatal.
+// renderer/walk_cache: a cached table, prediction or albedo is the computed one, bit for bit;
+// keys change with everything that changes them; damaged entries are recomputed, never trusted
+// or fatal.
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -14,7 +15,8 @@
 #include "materials/stack.h"
 #include "renderer/layered_material.h"
 #include "renderer/layered_table.h"
-#include "renderer/table_cache.h"
+#include "renderer/subsurface_auto.h"
+#include "renderer/walk_cache.h"
 #include "tests/renderer/gltf_fixture.h"
 
 namespace lamina {
@@ -48,9 +50,9 @@ void expect_same_bits(const LayeredTable& a, const LayeredTable& b) {
   EXPECT_EQ(std::memcmp(a.power.data(), b.power.data(), a.power.size() * sizeof(double)), 0);
 }
 
-TEST(TableCache, StoredTableLoadsBitForBit) {
+TEST(WalkCache, StoredTableLoadsBitForBit) {
   testing::TempDir dir("table-cache-roundtrip");
-  const TableCache cache((dir.path / "tables").string());
+  const WalkCache cache((dir.path / "tables").string());
   const LayerStack s = leafish();
   const TableSettings ts = small_settings();
   EXPECT_FALSE(cache.load(s, ts).has_value());  // empty cache: a miss
@@ -63,14 +65,14 @@ TEST(TableCache, StoredTableLoadsBitForBit) {
   EXPECT_EQ(loaded->settings.nodes, ts.nodes);
   // No temporaries left behind.
   int files = 0;
-  for (const auto& e : fs::directory_iterator(dir.path / "tables")) {
+  for (const auto& e : fs::directory_iterator(dir.path / "tables" / "tables")) {
     ++files;
     EXPECT_EQ(e.path().extension(), ".lamtable") << e.path();
   }
   EXPECT_EQ(files, 1);
 }
 
-TEST(TableCache, KeyFollowsEverythingThatChangesATable) {
+TEST(WalkCache, KeyFollowsEverythingThatChangesATable) {
   const LayerStack s = leafish();
   const TableSettings ts = small_settings();
   const std::string key = table_cache_key(s, ts);
@@ -102,9 +104,9 @@ TEST(TableCache, KeyFollowsEverythingThatChangesATable) {
   EXPECT_FALSE(executable_build_id().empty()) << "no GNU build id in this executable";
 }
 
-TEST(TableCache, DamagedEntriesAreRebuiltNotTrusted) {
+TEST(WalkCache, DamagedEntriesAreRebuiltNotTrusted) {
   testing::TempDir dir("table-cache-damaged");
-  const TableCache cache((dir.path / "tables").string());
+  const WalkCache cache((dir.path / "tables").string());
   const LayerStack s = leafish();
   const TableSettings ts = small_settings();
   const LayeredTable built = build_layered_table(s, ts);
@@ -139,9 +141,9 @@ TEST(TableCache, DamagedEntriesAreRebuiltNotTrusted) {
   expect_same_bits(built, *cache.load(s, ts));
 }
 
-TEST(TableCache, SecondSceneLoadsEveryTableAndMatchesTheBuild) {
+TEST(WalkCache, SecondSceneLoadsEveryTableAndMatchesTheBuild) {
   testing::TempDir dir("table-cache-tables");
-  const TableCache cache((dir.path / "tables").string());
+  const WalkCache cache((dir.path / "tables").string());
   const TableSettings ts = small_settings();
   LayeredBindings b;
   b.by_material.push_back(std::make_shared<const LayeredMaterial>(leafish(), "leafish"));
@@ -170,11 +172,11 @@ TEST(TableCache, SecondSceneLoadsEveryTableAndMatchesTheBuild) {
   }
 }
 
-TEST(TableCache, UnusableDirectoryIsAClearError) {
+TEST(WalkCache, UnusableDirectoryIsAClearError) {
   testing::TempDir dir("table-cache-errors");
   std::ofstream(dir / "file") << "x";
   try {
-    TableCache cache((dir.path / "file" / "tables").string());
+    WalkCache cache((dir.path / "file" / "tables").string());
     FAIL() << "no error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("file/tables"), std::string::npos) << e.what();
@@ -182,9 +184,58 @@ TEST(TableCache, UnusableDirectoryIsAClearError) {
   if (::geteuid() != 0) {  // (root writes anywhere: as root only the case above is testable)
     fs::create_directories(dir.path / "ro");
     ::chmod((dir.path / "ro").c_str(), 0555);
-    EXPECT_THROW(TableCache((dir.path / "ro").string()), std::runtime_error);
+    EXPECT_THROW(WalkCache((dir.path / "ro").string()), std::runtime_error);
     ::chmod((dir.path / "ro").c_str(), 0755);
   }
+}
+
+// Records: the lambert albedo and the auto prediction come back exactly, with their keys
+// following the stack and the settings.
+TEST(WalkCache, AlbedoAndPredictionRecordsRoundTrip) {
+  testing::TempDir dir("walk-cache-records");
+  const WalkCache cache((dir.path / "c").string());
+  LayerStack thin;
+  thin.name = "thin";
+  thin.layers.push_back(make_layer("film", 1.0, 0.01, Spectrum(1.0), Spectrum(5.0), Spectrum(0.3)));
+  thin.below.ior = 1.0;
+  const auto computed = std::make_shared<const LayeredMaterial>(thin, "thin", 4096);
+  EXPECT_FALSE(load_lambert_albedo(cache, *computed));
+  const Spectrum a = computed->lambert_albedo(), se = computed->lambert_albedo_stderr();
+  EXPECT_TRUE(computed->lambert_albedo_computed());
+  store_lambert_albedo(cache, *computed);
+  const LayeredMaterial again(thin, "thin", 4096);
+  ASSERT_TRUE(load_lambert_albedo(cache, again));
+  EXPECT_FALSE(again.lambert_albedo_computed());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(again.lambert_albedo()[c], a[c]);
+    EXPECT_EQ(again.lambert_albedo_stderr()[c], se[c]);
+  }
+  const LayeredMaterial other_walks(thin, "thin", 2048);
+  EXPECT_FALSE(load_lambert_albedo(cache, other_walks)) << "another walk count is another albedo";
+
+  LayeredBindings b;
+  b.by_material.push_back(computed);
+  AutoSettings as;
+  as.tolerance = 0.2;
+  as.walks = as.max_walks = 2000;
+  const std::vector<AutoChoice> first = choose_subsurface_modes(b, as, nullptr, &cache);
+  const std::vector<AutoChoice> second = choose_subsurface_modes(b, as, nullptr, &cache);
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_FALSE(first[0].cached);
+  EXPECT_TRUE(second[0].cached);
+  EXPECT_EQ(second[0].mode, first[0].mode);
+  EXPECT_EQ(second[0].error_lambert, first[0].error_lambert);
+  EXPECT_EQ(second[0].error_first_order, first[0].error_first_order);
+  EXPECT_EQ(second[0].error_table, first[0].error_table);
+  EXPECT_EQ(second[0].noise_floor, first[0].noise_floor);
+  EXPECT_EQ(second[0].reason, first[0].reason);
+  as.tolerance = 0.1;
+  EXPECT_FALSE(choose_subsurface_modes(b, as, nullptr, &cache)[0].cached) << "another tolerance";
+  // A damaged record is a miss (with a warning), then rewritten.
+  for (const auto& e : fs::directory_iterator(dir.path / "c" / "auto")) std::ofstream(e.path()) << "{ not json";
+  as.tolerance = 0.2;
+  EXPECT_FALSE(choose_subsurface_modes(b, as, nullptr, &cache)[0].cached);
+  EXPECT_TRUE(choose_subsurface_modes(b, as, nullptr, &cache)[0].cached);
 }
 
 }  // namespace
