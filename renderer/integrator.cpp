@@ -101,7 +101,7 @@ struct WalkConnector {
       tmax = dist * (1.0 - 1e-6);
     }
     ++rays->event_shadow;
-    if (scene->occluded(shadow, tmax, rays)) return;
+    if (scene->occluded(shadow, tmax, *rays)) return;
     *radiance += prefix * e.throughput * cw * ls.li * (std::abs(wl.z) * mis / (pmf * ls.pdf));
   }
 };
@@ -130,7 +130,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
   double bsdf_pdf = 0.0;   // density of the last BSDF sample
   for (int depth = 0;; ++depth) {
     SurfaceHit hit;
-    if (!scene.intersect(ray, &hit, rays)) {
+    if (!scene.intersect(ray, &hit, *rays)) {
       if (const Light* env = lights.environment())
         radiance += beta * lights.environment_map().eval(ray.direction) *
                     emission_weight(lights, env, unweighted, bsdf_pdf, ray.origin, ray.direction, nullptr);
@@ -255,7 +255,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
             shadow.direction = v / dist;
             tmax = dist * (1.0 - 1e-6);  // stop short of the (offset) point on the light
           }
-          if (!scene.occluded(shadow, tmax, rays)) {
+          if (!scene.occluded(shadow, tmax, *rays)) {
             const double w = light->is_delta() ? 1.0 : power_heuristic(pmf * ls.pdf, surface.pdf(wo, wi));
             radiance += beta * f * ls.li * (w / (pmf * ls.pdf));
           }

@@ -70,9 +70,9 @@ Scene::~Scene() {
   if (device_) rtcReleaseDevice(dev(device_));
 }
 
-bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters* counters, double tmax) const {
-  ++counters->closest;
-  if (counters->log) counters->log->closest.push_back(ray);
+bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, double tmax) const {
+  ++counters.closest;
+  if (counters.log) counters.log->closest.push_back(ray);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -117,9 +117,9 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters* counters, do
   return true;
 }
 
-bool Scene::occluded(const Ray& ray, double tmax, RayCounters* counters) const {
-  ++counters->shadow;
-  if (counters->log) counters->log->shadow.emplace_back(ray, tmax);
+bool Scene::occluded(const Ray& ray, double tmax, RayCounters& counters) const {
+  ++counters.shadow;
+  if (counters.log) counters.log->shadow.emplace_back(ray, tmax);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;

@@ -61,10 +61,11 @@ class Scene {
   Scene& operator=(const Scene&) = delete;
 
   const SceneDesc& desc() const { return desc_; }
-  // Closest hit along the ray in (0, tmax). Counts one closest-hit ray.
-  bool intersect(const Ray& ray, SurfaceHit* hit, RayCounters* counters, double tmax = 1e300) const;
+  // Closest hit along the ray in (0, tmax). Counts one closest-hit ray (in the caller's
+  // counters: a reference, since every caller counts).
+  bool intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, double tmax = 1e300) const;
   // True if anything blocks the open segment (0, tmax) along the ray. Counts one shadow ray.
-  bool occluded(const Ray& ray, double tmax, RayCounters* counters) const;
+  bool occluded(const Ray& ray, double tmax, RayCounters& counters) const;
   // Bounding sphere of the geometry (for directional and environment lights).
   glm::dvec3 centre() const { return centre_; }
   double radius() const { return radius_; }

@@ -436,7 +436,7 @@ std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& cam
       // The centre of cell (i, j) of an nx x ny grid over the film, in pixels.
       const glm::dvec2 film((i + 0.5) * width / nx, (j + 0.5) * height / ny);
       SurfaceHit hit;
-      if (!scene.intersect(camera.generate_ray(film), &hit, &rays)) continue;
+      if (!scene.intersect(camera.generate_ray(film), &hit, rays)) continue;
       const int m = desc.meshes[hit.mesh].material;
       if (m >= 0 && m < static_cast<int>(seen.size())) seen[m] = true;
     }
