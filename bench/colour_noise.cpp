@@ -13,6 +13,7 @@
 // noise, smaller by its spp ratio). Everything is divided by the mean Y over the measured pixels,
 // so the numbers are relative. Measured pixels: those whose mean Y over the seeds is above 1 % of
 // the image's mean Y (drops the black background, whose zero noise would dilute the means).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -74,7 +75,9 @@ int main(int argc, char** argv) {
         image_mean += s / K;
       }
     image_mean /= static_cast<double>(w) * h;
-    double var[3] = {0, 0, 0}, se2[3] = {0, 0, 0}, sum_y = 0.0;
+    // var: sum over pixels of the per-pixel variance estimates; var2: of their squares (for the
+    // standard error of the mean variance, pixels being independent).
+    double var[3] = {0, 0, 0}, var2[3] = {0, 0, 0}, se2[3] = {0, 0, 0}, sum_y = 0.0;
     long n = 0;
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
@@ -91,14 +94,19 @@ int main(int argc, char** argv) {
         }
         Opponent r{0, 0, 0};
         if (!ref_path.empty()) r = opponent(ref.pixel(x, y));
+        double v[3] = {0, 0, 0};
         for (const auto& im : images) {
           const Opponent o = opponent(im.pixel(x, y));
-          var[0] += (o.y - m.y) * (o.y - m.y) / (K - 1.0);
-          var[1] += (o.rg - m.rg) * (o.rg - m.rg) / (K - 1.0);
-          var[2] += (o.bg - m.bg) * (o.bg - m.bg) / (K - 1.0);
+          v[0] += (o.y - m.y) * (o.y - m.y) / (K - 1.0);
+          v[1] += (o.rg - m.rg) * (o.rg - m.rg) / (K - 1.0);
+          v[2] += (o.bg - m.bg) * (o.bg - m.bg) / (K - 1.0);
           se2[0] += (o.y - r.y) * (o.y - r.y) / K;
           se2[1] += (o.rg - r.rg) * (o.rg - r.rg) / K;
           se2[2] += (o.bg - r.bg) * (o.bg - r.bg) / K;
+        }
+        for (int q = 0; q < 3; ++q) {
+          var[q] += v[q];
+          var2[q] += v[q] * v[q];
         }
       }
     if (n == 0) {
@@ -109,6 +117,13 @@ int main(int argc, char** argv) {
     std::printf("pixels %ld  images %zu  mean_Y %.6g\n", n, images.size(), my);
     std::printf("seed_sd   Y %.5f  R-G %.5f  B-G %.5f\n", std::sqrt(var[0] / n) / my, std::sqrt(var[1] / n) / my,
                 std::sqrt(var[2] / n) / my);
+    // Relative standard error of each sd: se(mean variance) / (2 mean variance) (delta method).
+    double rel[3];
+    for (int q = 0; q < 3; ++q) {
+      const double mv = var[q] / n, sv = std::sqrt(std::max(0.0, var2[q] / n - mv * mv) * n / (n - 1.0));
+      rel[q] = mv > 0.0 ? sv / std::sqrt(static_cast<double>(n)) / (2.0 * mv) : 0.0;
+    }
+    std::printf("seed_sd_relative_se  Y %.4f  R-G %.4f  B-G %.4f\n", rel[0], rel[1], rel[2]);
     if (!ref_path.empty())
       std::printf("ref_rmse  Y %.5f  R-G %.5f  B-G %.5f\n", std::sqrt(se2[0] / n) / my, std::sqrt(se2[1] / n) / my,
                   std::sqrt(se2[2] / n) / my);
