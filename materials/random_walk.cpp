@@ -337,7 +337,7 @@ double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const 
 }
 
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
-                       const EventCallback& on_event, const WalkSettings& settings) {
+                       const EventCallback& on_event, const WalkSettings& settings, int chosen_hero) {
   WalkResult result;
   const int n_layers = static_cast<int>(stack.layers.size());
 
@@ -360,8 +360,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   for (int k = 0; k < n_layers; ++k)
     cache[k] = {stack.layers[k].sigma_t(), stack.layers[k].sigma_s(), phase_is_grey(stack.layers[k])};
 
-  // The hero channel: every decision of this walk is sampled in its coefficients.
-  const int hero = std::min(kChannels - 1, static_cast<int>(rng.uniform() * kChannels));
+  // The hero channel: every decision of this walk is sampled in its coefficients. Uniform (the
+  // one-sample MIS weights of PathWeight assume probability 1/3 per channel), or the caller's
+  // (random_walk.h: it must be uniform marginally). The uniform is drawn in both cases so that the
+  // walk's later random numbers do not depend on who chose.
+  const double u_hero = rng.uniform();
+  const int hero = chosen_hero >= 0 && chosen_hero < kChannels
+                       ? chosen_hero
+                       : std::min(kChannels - 1, static_cast<int>(u_hero * kChannels));
 
   int l = 0;          // current layer
   double z = 0.0;     // depth below the top of layer l, mm

@@ -100,11 +100,21 @@ struct WalkSettings {
 
 using EventCallback = std::function<void(const ScatterEvent&)>;
 
+// The walk draws its hero channel itself (uniformly, from rng).
+constexpr int kRandomHero = -1;
+
 // Runs one walk. wi: unit, towards the light, wi.z > 0 (light arriving from above). on_event may
 // be empty. The result's weights are per unit incident power (the specular part R(wi) is not
 // included; see zeroth order / fresnel_dielectric).
+// hero: kRandomHero (the default, or any value outside 0..kChannels-1) draws the hero channel
+// uniformly from rng; 0..kChannels-1 uses the caller's channel. The weights are the one-sample
+// balance heuristic over UNIFORMLY chosen heroes, so a caller that chooses must make the hero
+// uniform over the channels marginally and independent of everything else the walk draws (the
+// renderer stratifies it over a pixel's samples: integrator.cpp). The walk's uniform for the
+// hero is drawn either way, so the rest of its random numbers come from the same place in rng.
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
-                       const EventCallback& on_event = {}, const WalkSettings& settings = {});
+                       const EventCallback& on_event = {}, const WalkSettings& settings = {},
+                       int hero = kRandomHero);
 
 // The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
 // towards the outside direction w (unit): f(wi -> w) += event.throughput * connection_weight.

@@ -40,6 +40,22 @@ struct LayeredShading {
   // ignored when they reach a light (unbiased, no MIS), to show what MIS buys at g -> 1.
   bool connections_only = false;
   const LayeredTables* tables = nullptr;  // SubsurfaceMode::Table
+  // random-walk mode: the hero channel of each walk stratified over the samples of a pixel
+  // (HeroStrata below; integrator.cpp has the derivation). false: every walk draws its hero
+  // independently (the library's default), kept for the tests and the noise measurements.
+  bool stratified_hero = true;
+};
+
+// Where a camera sample sits among the samples of its pixel, for the stratified hero channel:
+// the k-th random walk of sample `sample` in pixel `pixel` uses hero (sample + o_k) mod 3, where
+// the offset o_k is uniform on {0, 1, 2}, drawn from Rng(seed, pixel, kHeroStream + k): the same
+// for every sample of the pixel, independent of each sample's own stream.
+struct HeroStrata {
+  static constexpr std::uint64_t kHeroStream = 1ull << 62;  // far above any sample index
+  std::uint64_t seed = 0;
+  std::uint64_t pixel = 0;
+  std::uint64_t sample = 0;
+  int hero(int walk_index) const;
 };
 
 struct RenderSettings {
@@ -59,8 +75,11 @@ struct RenderStats {
 };
 
 // Radiance arriving at ray.origin along -ray.direction, estimated by one path.
+// strata: null, or the sample's place in its pixel (stratified hero channels, if
+// layered->stratified_hero); null makes every walk draw its own hero.
 Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
-                       RayCounters* rays, const LayeredShading* layered = nullptr);
+                       RayCounters* rays, const LayeredShading* layered = nullptr,
+                       const HeroStrata* strata = nullptr);
 
 // Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,

@@ -288,5 +288,29 @@ TEST(RandomWalk, ConnectionWeightDomain) {
   EXPECT_FALSE(connection_weight(rare, e, {0.5, 0.0, std::sqrt(0.75)}).is_black());
 }
 
+// The hero argument. Default: the walk's first uniform picks the hero, as it always did (so
+// `lamina brdf` and the tables keep their bits); a chosen hero is the one every event reports; and
+// a walk given the hero that its own first uniform would have picked is the same walk, bit for
+// bit (the uniform is drawn either way, so the later numbers come from the same place).
+TEST(RandomWalk, CallerChosenHero) {
+  const LayerStack s = coloured_stack();
+  const glm::dvec3 wi = incident_direction(40.0, 0.0);
+  for (int i = 0; i < 300; ++i) {
+    Rng probe(5, i);
+    const int drawn = std::min(kChannels - 1, static_cast<int>(probe.uniform() * kChannels));
+    std::vector<int> heroes;
+    Rng rng(5, i);
+    const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { heroes.push_back(e.hero); });
+    for (int h : heroes) ASSERT_EQ(h, drawn) << "walk " << i;
+    Rng rng_chosen(5, i);
+    const WalkResult same = random_walk(s, wi, rng_chosen, {}, {}, drawn);
+    ASSERT_EQ(r.end, same.end) << "walk " << i;
+    for (int c = 0; c < kChannels; ++c) ASSERT_EQ(r.weight[c], same.weight[c]) << "walk " << i;
+    const int other = (drawn + 1 + i % 2) % kChannels;
+    Rng rng_other(5, i);
+    random_walk(s, wi, rng_other, [&](const ScatterEvent& e) { ASSERT_EQ(e.hero, other); }, {}, other);
+  }
+}
+
 }  // namespace
 }  // namespace lamina

@@ -16,6 +16,8 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
@@ -76,6 +78,7 @@ struct RenderSetup {
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
   bool naive = false;
   bool connections_only = false;
+  bool stratified_hero = true;
   int width = 16, height = 16, spp = 16;
   int threads = 0;
   std::uint64_t seed = 11;
@@ -92,6 +95,7 @@ Image render_layered(const SceneDesc& desc, const LayeredBindings& bindings, con
   layered.mode = setup.mode;
   layered.naive = setup.naive;
   layered.connections_only = setup.connections_only;
+  layered.stratified_hero = setup.stratified_hero;
   layered.tables = setup.tables;
   RenderSettings s;
   s.width = setup.width;
@@ -142,7 +146,7 @@ LightDesc sun(const glm::dvec3& wl, double irradiance) {
 // with E f(wl -> wo) |cos theta_l|, f from the library's connection estimator on `stack` (a
 // flipped stack when the light is below, as the library wants light from above).
 void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm::dvec3 wo_world, SubsurfaceMode mode,
-                              double k_sigma, const char* what) {
+                              double k_sigma, const char* what, int spp = 16, int size = 16) {
   const double E = 3.0;
   SceneDesc d = make_scene({plane(0)});
   d.lights.push_back(sun(wl_world, E));
@@ -150,6 +154,8 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
   std::unique_ptr<LayeredTables> tables;
   RenderSetup setup;
   setup.mode = mode;
+  setup.spp = spp;
+  setup.width = setup.height = size;
   if (mode == SubsurfaceMode::Table) {
     TableSettings ts;
     ts.walks_per_node = 40000;
@@ -665,6 +671,110 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
       EXPECT_LT(st[0].stderr_[0], st[1].stderr_[0]) << "g " << g;
     }
   }
+}
+
+// ---- stratified hero channel (integrator.cpp, HeroStrata) ----
+
+// A slab whose scattering coefficients differ by 10x per channel (0.3, 3, 30 /mm; weak grey
+// absorption): each hero explores a different depth, so the walk's conditional means
+// E[X_c | hero] differ several-fold between heroes (measured with the library on an
+// index-matched version at normal incidence: the blue reflectance of hero-red, -green and -blue
+// walks averages 0.01, 0.14 and 2.7, against 0.95 over all walks).
+// This is where the hero's distribution over a pixel's samples matters most, for the bias
+// (if it were not uniform) and for the variance (if not stratified).
+LayerStack scattering_coloured_slab() {
+  LayerStack s;
+  s.name = "scattering-coloured";
+  s.above_ior = 1.0;
+  s.layers.push_back(make_layer("c", 1.3, 1.0, Spectrum(0.05), Spectrum(0.3, 3.0, 30.0), Spectrum(0.2)));
+  s.below.ior = 1.0;
+  return s;
+}
+
+// Each walk's hero is uniform marginally whatever the sample index, so the render is unbiased
+// at spp that are not multiples of 3 (where the channels cannot all be hero equally often in a
+// pixel). Had the hero been i mod 3 without the per-pixel offset, channel 0 would be the hero of
+// half the walks at spp 4 (and 2/5 at spp 5), and the one-sample MIS weights, which assume 1/3,
+// would be biased: on scattering_coloured_slab this fails by many standard errors (checked by
+// removing the offset). 4 standard errors: several comparisons of three channels.
+TEST(LayeredHero, StratifiedHeroUnbiasedAtAnySpp) {
+  for (int spp : {4, 5}) {
+    const std::string what = "stratified hero, spp " + std::to_string(spp);
+    expect_slab_matches_brdf(scattering_coloured_slab(), world_dir(30, 0), world_dir(50, 180),
+                             SubsurfaceMode::RandomWalk, 4.0, (what + " reflection, 10x slab").c_str(), spp, 32);
+    expect_slab_matches_brdf(scattering_coloured_slab(), world_dir(30, 0), world_dir(40, 180, true),
+                             SubsurfaceMode::RandomWalk, 4.0, (what + " transmission, 10x slab").c_str(), spp, 32);
+    expect_slab_matches_brdf(coloured_slab(), world_dir(30, 0), world_dir(50, 180), SubsurfaceMode::RandomWalk, 4.0,
+                             (what + " reflection").c_str(), spp, 32);
+  }
+}
+
+// Per-pixel variance of a quantity q over the pixels of an image and the standard error of that
+// variance estimate: V = mean_i d_i with d_i = (q_i - mean q)^2 n/(n-1), each pixel an
+// independent estimate (the offsets are drawn per pixel), so se(V) = sd(d_i) / sqrt(n) (the
+// plug-in mean changes it by O(1/n)).
+struct VarianceEstimate {
+  double value = 0.0, stderr_ = 0.0;
+};
+VarianceEstimate pixel_variance(const std::vector<double>& q) {
+  const double n = static_cast<double>(q.size());
+  double mean = 0.0;
+  for (double v : q) mean += v / n;
+  std::vector<double> d;
+  d.reserve(q.size());
+  for (double v : q) d.push_back((v - mean) * (v - mean) * n / (n - 1.0));
+  double m = 0.0, m2 = 0.0;
+  for (double v : d) m += v / n;
+  for (double v : d) m2 += (v - m) * (v - m) / (n - 1.0);
+  return {m, std::sqrt(m2 / n)};
+}
+
+// The stratified hero lowers the per-pixel chroma noise. It removes only the between-hero part
+// of a walk's variance, Var_h(E[X | h]); the rest, E_h[Var(X | h)], stays. That part is large
+// when the channels' mean free paths differ by ~10x (each hero then explores a different depth
+// and the conditional means E[X_c | h] differ several-fold) and small for skin-like stacks
+// (scattering coefficients within a factor 2: 0.5-2 % of the variance, docs/random_walk.md). So
+// the test uses scattering_coloured_slab in a uniform environment, at spp 3 (every channel the hero of the first
+// walk exactly once per pixel): the variance over pixels of the chroma differences R - G and
+// B - G (summed) must be lower with stratification than with independent heroes by more than 4
+// standard errors of the difference of the two estimates, the luminance variance must not be
+// higher by more than 4 standard errors, and both renders must agree in the mean (both are
+// unbiased). It fails if the heroes of a pixel's samples are not spread over the channels.
+TEST(LayeredHero, StratifiedHeroLowersChromaNoise) {
+  const LayeredBindings b = bind(scattering_coloured_slab());
+  SceneDesc d = make_scene({plane(0)});
+  VarianceEstimate chroma[2], luma[2];
+  ImageStats st[2];
+  for (int stratified = 0; stratified < 2; ++stratified) {
+    RenderSetup setup;
+    setup.width = setup.height = 32;
+    setup.spp = 3;
+    setup.stratified_hero = stratified == 1;
+    const Image im =
+        render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(world_dir(30, 180)), setup);
+    st[stratified] = stats_of(im);
+    std::vector<double> rg, bg, y;
+    for (int py = 0; py < im.height; ++py)
+      for (int px = 0; px < im.width; ++px) {
+        const float* p = im.pixel(px, py);
+        y.push_back(0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]);
+        rg.push_back(double(p[0]) - p[1]);
+        bg.push_back(double(p[2]) - p[1]);
+      }
+    // Chroma: the variance of R - G plus that of B - G.
+    const VarianceEstimate v_rg = pixel_variance(rg), v_bg = pixel_variance(bg);
+    // The two are estimated from the same pixels: se of the sum bounded by the sum of the se's.
+    chroma[stratified] = {v_rg.value + v_bg.value, v_rg.stderr_ + v_bg.stderr_};
+    luma[stratified] = pixel_variance(y);
+  }
+  if (std::getenv("LAMINA_TEST_VERBOSE"))
+    std::printf("chroma variance: independent %.4g +- %.2g, stratified %.4g +- %.2g; luminance: %.4g +- %.2g, %.4g +- %.2g\n",
+                chroma[0].value, chroma[0].stderr_, chroma[1].value, chroma[1].stderr_, luma[0].value, luma[0].stderr_,
+                luma[1].value, luma[1].stderr_);
+  EXPECT_LT(chroma[1].value + 4.0 * std::hypot(chroma[0].stderr_, chroma[1].stderr_), chroma[0].value);
+  EXPECT_LT(luma[1].value, luma[0].value + 4.0 * std::hypot(luma[0].stderr_, luma[1].stderr_));
+  for (int ch = 0; ch < 3; ++ch)
+    EXPECT_NEAR(st[1].mean[ch], st[0].mean[ch], 4.0 * std::hypot(st[0].stderr_[ch], st[1].stderr_[ch])) << ch;
 }
 
 }  // namespace
