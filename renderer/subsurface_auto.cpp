@@ -498,6 +498,7 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
     if (visible && (i >= visible->size() || !(*visible)[i])) {
       out[i].mode = SubsurfaceMode::Lambert;
       out[i].reason = "not visible to camera rays: lambert, no prediction";
+      out[i].visible = false;
       continue;
     }
     const LayeredMaterial& m = *bindings.by_material[i];

@@ -88,6 +88,7 @@ struct AutoChoice {
   // "chose first-order (predicted error 0.012 <= 0.05; lambert 0.31, first-order 0.012, table 0.021)"
   std::string reason;
   bool cached = false;  // read from a WalkCache (seconds is then the original prediction's)
+  bool visible = true;  // false: not seen by camera rays, not predicted (shaded as lambert)
 };
 
 // The prediction for one material (its base stack: texture-driven parameters are not varied).

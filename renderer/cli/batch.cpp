@@ -170,27 +170,32 @@ std::string meta_value(const Metadata& meta, const std::string& key) {
 }
 
 // What `--subsurface auto` chose per material, from the EXR header: `lamina render` writes
-// "lamina:auto:<glTF material name>" = its reason, "chose <mode> (predicted error ...)", or
-// "not visible to camera rays: ..." for a material it did not predict (shaded as lambert).
-// Sorted by material name (the metadata's order is the file's). Empty for fixed-mode jobs.
+// "lamina:auto_mode:<glTF material name>" = random-walk | first-order | table | lambert |
+// lambert-hidden (not seen by camera rays, not predicted). Files written before that header
+// existed have only the reason, "lamina:auto:<material>" = "chose <mode> (predicted error ...)"
+// or "not visible to camera rays: ...", which is read instead. Sorted by material name (the
+// metadata's order is the file's). Empty for fixed-mode jobs.
 struct AutoChoiceEntry {
   std::string material, mode;
 };
 std::vector<AutoChoiceEntry> auto_choices(const Metadata& meta) {
-  const std::string prefix = "lamina:auto:";
+  const std::string mode_prefix = "lamina:auto_mode:", reason_prefix = "lamina:auto:";
   std::vector<AutoChoiceEntry> out;
-  for (const auto& [k, v] : meta) {
-    if (k.compare(0, prefix.size(), prefix) != 0) continue;
-    std::string mode;
-    if (v.compare(0, 6, "chose ") == 0) {
-      mode = v.substr(6, v.find(' ', 6) == std::string::npos ? std::string::npos : v.find(' ', 6) - 6);
-    } else if (v.compare(0, 11, "not visible") == 0) {
-      mode = "lambert-hidden";
-    } else {
-      mode = "?";  // a reason this version does not know how to read
+  for (const auto& [k, v] : meta)
+    if (k.compare(0, mode_prefix.size(), mode_prefix) == 0) out.push_back({k.substr(mode_prefix.size()), v});
+  if (out.empty())
+    for (const auto& [k, v] : meta) {
+      if (k.compare(0, reason_prefix.size(), reason_prefix) != 0) continue;
+      std::string mode;
+      if (v.compare(0, 6, "chose ") == 0) {
+        mode = v.substr(6, v.find(' ', 6) == std::string::npos ? std::string::npos : v.find(' ', 6) - 6);
+      } else if (v.compare(0, 11, "not visible") == 0) {
+        mode = "lambert-hidden";
+      } else {
+        mode = "?";  // a reason this version does not know how to read
+      }
+      out.push_back({k.substr(reason_prefix.size()), mode});
     }
-    out.push_back({k.substr(prefix.size()), mode});
-  }
   std::sort(out.begin(), out.end(), [](const AutoChoiceEntry& a, const AutoChoiceEntry& b) { return a.material < b.material; });
   return out;
 }

@@ -265,7 +265,12 @@ int run_render(int argc, char** argv) {
       meta.emplace_back("lamina:tolerance", tol.str());
       for (std::size_t i = 0; i < choices.size(); ++i)
         if (bindings.by_material[i])
+        {
           meta.emplace_back("lamina:auto:" + desc_names[i], choices[i].reason);
+          // The same choice for programs (lamina batch's auto_choices column).
+          meta.emplace_back("lamina:auto_mode:" + desc_names[i],
+                            choices[i].visible ? subsurface_mode_name(choices[i].mode) : "lambert-hidden");
+        }
     }
     for (const std::string& kv : extra_meta) {
       const std::size_t eq = kv.find('=');

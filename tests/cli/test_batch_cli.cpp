@@ -330,6 +330,7 @@ TEST(BatchCli, AutoModeChoicesInSummaryAndResume) {
   for (const char* mode : {"random-walk", "first-order", "table", "lambert"})
     if (reason.rfind(std::string("chose ") + mode + " (", 0) == 0) chosen = mode;
   ASSERT_FALSE(chosen.empty()) << "lamina:auto:skin = '" << reason << "'";
+  EXPECT_EQ(meta["lamina:auto_mode:skin"], chosen) << "the machine-readable header agrees with the reason";
   for (const auto& [k, v] : read_metadata(b.exr(jobs[0].id))) EXPECT_NE(k.rfind("lamina:auto:", 0), 0u) << k;
 
   const std::string summary = slurp(b.dir / "out/summary.csv");

@@ -248,14 +248,18 @@ TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
                                 " --width 8 --height 8 --spp 2 --env 1 --subsurface auto --tolerance 0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("material ink"), std::string::npos) << r.out;
-  std::string ink, hidden, tol;
+  std::string ink, hidden, tol, ink_mode, hidden_mode;
   for (const auto& [k, v] : read_metadata(out)) {
     if (k == "lamina:auto:ink") ink = v;
     if (k == "lamina:auto:hidden") hidden = v;
+    if (k == "lamina:auto_mode:ink") ink_mode = v;
+    if (k == "lamina:auto_mode:hidden") hidden_mode = v;
     if (k == "lamina:tolerance") tol = v;
   }
   EXPECT_EQ(ink.rfind("chose first-order", 0), 0u) << ink;
   EXPECT_NE(hidden.find("not visible"), std::string::npos) << hidden;
+  EXPECT_EQ(ink_mode, "first-order");
+  EXPECT_EQ(hidden_mode, "lambert-hidden");
   EXPECT_EQ(tol, "0.05");
   for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
