@@ -18,33 +18,28 @@ void check_same_size(const Image& a, const Image& b) {
                                 std::to_string(b.height));
 }
 
-// Separable blur with a normalised Gaussian cut to the image (weights renormalised there).
-std::vector<double> gaussian_blur(const std::vector<double>& in, int w, int h, const std::vector<double>& kernel) {
+// One pass of a normalised 1-D kernel along x (or, with along_x false, along y), cut to the image with
+// the weights renormalised there.
+std::vector<double> blur_pass(const std::vector<double>& in, int w, int h, const std::vector<double>& kernel, bool along_x) {
   const int r = static_cast<int>(kernel.size() / 2);
-  std::vector<double> tmp(in.size()), out(in.size());
+  std::vector<double> out(in.size());
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       double sum = 0.0, norm = 0.0;
       for (int k = -r; k <= r; ++k) {
-        const int xx = x + k;
-        if (xx < 0 || xx >= w) continue;
-        sum += kernel[k + r] * in[static_cast<std::size_t>(y) * w + xx];
-        norm += kernel[k + r];
-      }
-      tmp[static_cast<std::size_t>(y) * w + x] = sum / norm;
-    }
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double sum = 0.0, norm = 0.0;
-      for (int k = -r; k <= r; ++k) {
-        const int yy = y + k;
-        if (yy < 0 || yy >= h) continue;
-        sum += kernel[k + r] * tmp[static_cast<std::size_t>(yy) * w + x];
+        const int xx = along_x ? x + k : x, yy = along_x ? y : y + k;
+        if (xx < 0 || xx >= w || yy < 0 || yy >= h) continue;
+        sum += kernel[k + r] * in[static_cast<std::size_t>(yy) * w + xx];
         norm += kernel[k + r];
       }
       out[static_cast<std::size_t>(y) * w + x] = sum / norm;
     }
   return out;
+}
+
+// Separable blur with a normalised Gaussian cut to the image (weights renormalised there).
+std::vector<double> gaussian_blur(const std::vector<double>& in, int w, int h, const std::vector<double>& kernel) {
+  return blur_pass(blur_pass(in, w, h, kernel, true), w, h, kernel, false);
 }
 
 }  // namespace

@@ -72,6 +72,8 @@ class LayeredMaterial {
   const LayerStack& stack_at(const ShadingPoint& sp, StackScratch& scratch) const;
 
   const LayerStack& base_stack() const { return stack_; }
+  // The base stack seen from below (flipped()); only for a stack that transmits.
+  const LayerStack& flipped_stack() const { return flipped_; }
   const std::string& source() const { return source_; }
   const StackBindings* bindings() const { return bindings_.get(); }
   bool transmits() const { return stack_.transmits(); }

@@ -55,34 +55,15 @@ double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::
   return t;
 }
 
-FirstOrderSurface::FirstOrderSurface(const LayerStack& stack, const glm::dvec3& wo)
-    : stack_(stack), zeroth_(zeroth_order(stack, std::clamp(wo.z, 0.0, 1.0))),
-      t_factor_(transmission_radiance_factor(stack)), transmits_(stack.transmits()) {
-  // Lobe choice by the channels' mean of each part of the energy (contracts.md: R_specular +
-  // T_ballistic + collided = 1), so that a lobe of weight w is chosen with probability ~ w.
-  p_specular_ = std::clamp(zeroth_.R_specular.average(), 0.0, 1.0);
-  p_ballistic_ = transmits_ && zeroth_.cos_below > 0.0 ? std::clamp(zeroth_.T_ballistic.average(), 0.0, 1.0) : 0.0;
-  p_diffuse_ = std::max(0.0, 1.0 - p_specular_ - p_ballistic_);
+ZerothOrderLobes::ZerothOrderLobes(const LayerStack& stack, const glm::dvec3& wo)
+    : zeroth(zeroth_order(stack, std::clamp(wo.z, 0.0, 1.0))), t_factor(transmission_radiance_factor(stack)),
+      transmits(stack.transmits()), ior_ratio(stack.above_ior / stack.below.ior) {
+  p_specular = std::clamp(zeroth.R_specular.average(), 0.0, 1.0);
+  p_ballistic = transmits && zeroth.cos_below > 0.0 ? std::clamp(zeroth.T_ballistic.average(), 0.0, 1.0) : 0.0;
+  p_diffuse = std::max(0.0, 1.0 - p_specular - p_ballistic);
 }
 
-Spectrum FirstOrderSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  if (wo.z <= 0.0) return Spectrum(0.0);
-  // Reflection is reciprocal: f_r(wi -> wo) = first_order_brdf(light at wi, viewer at wo).
-  if (wi.z > 0.0) return first_order_brdf(stack_, wi, wo);
-  // Transmission: the library gives f_t(wo -> wi) (light from above at wo); reciprocity with
-  // indices (layered_surface.h) turns it into f_t(wi -> wo).
-  if (wi.z < 0.0 && transmits_) return first_order_btdf(stack_, wo, wi) * t_factor_;
-  return Spectrum(0.0);
-}
-
-double FirstOrderSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
-  if (wi.z < 0.0 && !transmits_) return 0.0;
-  return p_diffuse_ * std::abs(wi.z) * kInvPi * (transmits_ ? 0.5 : 1.0);
-}
-
-bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zeroth, double p_specular,
-                               double p_ballistic, double t_factor, const glm::dvec3& wo, double u_x, BsdfSample* s) {
+bool ZerothOrderLobes::sample(const glm::dvec3& wo, double u_x, BsdfSample* s) const {
   if (u_x < p_specular) {
     // Mirror delta lobe: f |cos| / pdf = R_specular / p_specular (per delta).
     s->wi = {-wo.x, -wo.y, wo.z};
@@ -94,8 +75,7 @@ bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zerot
   if (u_x < p_specular + p_ballistic) {
     // Ballistic delta lobe: the unscattered light from below that leaves towards wo; Snell
     // between the outside media: n_above sin(theta_o) = n_below sin(theta_b).
-    const double r = stack.above_ior / stack.below.ior;
-    s->wi = {-wo.x * r, -wo.y * r, -zeroth.cos_below};
+    s->wi = {-wo.x * ior_ratio, -wo.y * ior_ratio, -zeroth.cos_below};
     s->pdf = p_ballistic;
     s->f = zeroth.T_ballistic * t_factor / zeroth.cos_below;
     s->delta = true;
@@ -104,13 +84,31 @@ bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zerot
   return false;
 }
 
+FirstOrderSurface::FirstOrderSurface(const LayerStack& stack, const glm::dvec3& wo) : stack_(stack), lobes_(stack, wo) {}
+
+Spectrum FirstOrderSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0) return Spectrum(0.0);
+  // Reflection is reciprocal: f_r(wi -> wo) = first_order_brdf(light at wi, viewer at wo).
+  if (wi.z > 0.0) return first_order_brdf(stack_, wi, wo);
+  // Transmission: the library gives f_t(wo -> wi) (light from above at wo); reciprocity with
+  // indices (layered_surface.h) turns it into f_t(wi -> wo).
+  if (wi.z < 0.0 && lobes_.transmits) return first_order_btdf(stack_, wo, wi) * lobes_.t_factor;
+  return Spectrum(0.0);
+}
+
+double FirstOrderSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
+  if (wi.z < 0.0 && !lobes_.transmits) return 0.0;
+  return lobes_.p_diffuse * std::abs(wi.z) * kInvPi * (lobes_.transmits ? 0.5 : 1.0);
+}
+
 bool FirstOrderSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
   if (wo.z <= 0.0) return false;
-  if (sample_zeroth_order_lobes(stack_, zeroth_, p_specular_, p_ballistic_, t_factor_, wo, u.x, s)) return true;
-  if (p_diffuse_ <= 0.0) return false;
-  const double v = std::min((u.x - p_specular_ - p_ballistic_) / p_diffuse_, 1.0 - 1e-16);
+  if (lobes_.sample(wo, u.x, s)) return true;
+  if (lobes_.p_diffuse <= 0.0) return false;
+  const double v = lobes_.diffuse_u(u.x);
   glm::dvec3 w;
-  if (transmits_) {
+  if (lobes_.transmits) {
     // Both sides with probability 1/2: reuse v.
     const bool down = v < 0.5;
     w = sample_cosine_hemisphere({down ? 2.0 * v : 2.0 * v - 1.0, u.y});

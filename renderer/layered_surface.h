@@ -17,6 +17,8 @@
 // (n_below), f_t(w -> wo) = f_t(wo -> w) (n_above / n_below)^2: transmission_radiance_factor().
 #pragma once
 
+#include <algorithm>
+
 #include <glm/vec3.hpp>
 
 #include "materials/random_walk.h"
@@ -45,12 +47,25 @@ double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, cons
 // estimator uses it, to remove the Fresnel factor from connection_weight.
 double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w);
 
-// The zeroth-order delta lobes of FirstOrderSurface and TableSurface, chosen by u_x: the mirror
-// reflection R_specular(wo) with probability p_specular, then the ballistic transmission
-// T_ballistic(wo) (times t_factor, above) with probability p_ballistic. True, with s filled, if
-// u_x chose one of them; false to sample the other lobes. Requires wo.z > 0.
-bool sample_zeroth_order_lobes(const LayerStack& stack, const ZerothOrder& zeroth, double p_specular,
-                               double p_ballistic, double t_factor, const glm::dvec3& wo, double u_x, BsdfSample* s);
+// The zeroth-order delta lobes that the first-order and table modes add, at the viewer's
+// direction wo (local frame, wo.z > 0), and how a sample chooses between them and the diffuse
+// rest by u_x: the mirror reflection R_specular(wo) with probability p_specular, then the
+// ballistic transmission T_ballistic(wo) (times t_factor, above) with probability p_ballistic --
+// the channels' means of those parts (contracts.md: R_specular + T_ballistic + collided = 1), so
+// a lobe of weight w is chosen with probability ~ w -- and the diffuse part with p_diffuse.
+struct ZerothOrderLobes {
+  ZerothOrderLobes(const LayerStack& stack, const glm::dvec3& wo);
+  // True, with s filled, if u_x chose a delta lobe; false to sample the diffuse part, whose
+  // random number is then diffuse_u(u_x), uniform in [0, 1).
+  bool sample(const glm::dvec3& wo, double u_x, BsdfSample* s) const;
+  double diffuse_u(double u_x) const { return std::min((u_x - p_specular - p_ballistic) / p_diffuse, 1.0 - 1e-16); }
+
+  ZerothOrder zeroth;
+  double t_factor = 1.0;   // transmission_radiance_factor(stack)
+  bool transmits = false;  // stack.transmits()
+  double ior_ratio = 1.0;  // n_above / n_below, for Snell between the outside media
+  double p_specular = 0.0, p_ballistic = 0.0, p_diffuse = 1.0;
+};
 
 // first-order mode: f = zeroth order (delta lobes) + first_order_brdf / first_order_btdf.
 // Built per hit for the viewer direction wo (local frame, wo.z > 0; +z the stack's top).
@@ -66,10 +81,7 @@ class FirstOrderSurface final : public Surface {
 
  private:
   const LayerStack& stack_;
-  ZerothOrder zeroth_;
-  double p_specular_ = 0.0, p_ballistic_ = 0.0, p_diffuse_ = 1.0;
-  double t_factor_ = 1.0;
-  bool transmits_ = false;
+  ZerothOrderLobes lobes_;
 };
 
 }  // namespace lamina

@@ -95,8 +95,7 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
     tables_[{m.get(), false}] = obtain(m->base_stack());
     if (m->transmits()) {
-      flipped_.push_back(std::make_unique<LayerStack>(flipped(m->base_stack())));
-      tables_[{m.get(), true}] = obtain(*flipped_.back());
+      tables_[{m.get(), true}] = obtain(m->flipped_stack());
     }
   }
 }
@@ -113,16 +112,12 @@ std::size_t LayeredTables::bytes() const {
 }
 
 TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo)
-    : table_(table), zeroth_(zeroth_order(*table.stack, std::clamp(wo.z, 0.0, 1.0))),
-      t_factor_(transmission_radiance_factor(*table.stack)), transmits_(table.stack->transmits()) {
+    : table_(table), lobes_(*table.stack, wo) {
   const TableNodes at = table_nodes_at(table.settings, wo.z);
   for (int i = 0; i < 2; ++i) {
     node_[i] = at.node[i];
     weight_[i] = at.weight[i];
   }
-  p_specular_ = std::clamp(zeroth_.R_specular.average(), 0.0, 1.0);
-  p_ballistic_ = transmits_ && zeroth_.cos_below > 0.0 ? std::clamp(zeroth_.T_ballistic.average(), 0.0, 1.0) : 0.0;
-  p_diffuse_ = std::max(0.0, 1.0 - p_specular_ - p_ballistic_);
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
@@ -137,16 +132,16 @@ int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
 }
 
 Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !transmits_)) return Spectrum(0.0);
+  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return Spectrum(0.0);
   const int b = bin_of(wo, wi);
   Spectrum f = table_.at(node_[0], b) * weight_[0] + table_.at(node_[1], b) * weight_[1];
   // Reciprocity (layered_surface.h): the table holds f(wo -> wi).
-  if (wi.z < 0.0) f *= t_factor_;
+  if (wi.z < 0.0) f *= lobes_.t_factor;
   return f;
 }
 
 double TableSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !transmits_)) return 0.0;
+  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return 0.0;
   const int b = bin_of(wo, wi);
   const int B = table_.bins();
   const int k = (b / table_.settings.bins_phi) % table_.settings.bins_theta;
@@ -157,14 +152,14 @@ double TableSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
     const double pb = table_.cdf[base + b] - (b > 0 ? table_.cdf[base + b - 1] : 0.0);
     p += weight_[i] * pb;
   }
-  return p_diffuse_ * p * std::abs(wi.z) / table_.projected_solid_angle(k);
+  return lobes_.p_diffuse * p * std::abs(wi.z) / table_.projected_solid_angle(k);
 }
 
 bool TableSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
   if (wo.z <= 0.0) return false;
-  if (sample_zeroth_order_lobes(*table_.stack, zeroth_, p_specular_, p_ballistic_, t_factor_, wo, u.x, s)) return true;
-  if (p_diffuse_ <= 0.0) return false;
-  double v = std::min((u.x - p_specular_ - p_ballistic_) / p_diffuse_, 1.0 - 1e-16);
+  if (lobes_.sample(wo, u.x, s)) return true;
+  if (lobes_.p_diffuse <= 0.0) return false;
+  double v = lobes_.diffuse_u(u.x);
   // Node by its interpolation weight (reusing v), then a bin by that node's CDF.
   int node = node_[0];
   if (v < weight_[0]) {

@@ -19,8 +19,8 @@
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
-#include "materials/zeroth_order.h"
 #include "renderer/layered_material.h"
+#include "renderer/layered_surface.h"
 #include "renderer/surface.h"
 
 namespace lamina {
@@ -87,7 +87,6 @@ class LayeredTables {
 
  private:
   std::map<std::pair<const LayeredMaterial*, bool>, std::unique_ptr<LayeredTable>> tables_;
-  std::vector<std::unique_ptr<LayerStack>> flipped_;
   double seconds_ = 0.0;
   int built_ = 0, loaded_ = 0;
 };
@@ -102,12 +101,9 @@ class TableSurface final : public Surface {
  private:
   int bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const;
   const LayeredTable& table_;
-  ZerothOrder zeroth_;
+  ZerothOrderLobes lobes_;
   int node_[2] = {0, 0};
   double weight_[2] = {1.0, 0.0};
-  double p_specular_ = 0.0, p_ballistic_ = 0.0, p_diffuse_ = 1.0;
-  double t_factor_ = 1.0;
-  bool transmits_ = false;
 };
 
 }  // namespace lamina

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <optional>
 #include <sstream>
 
@@ -304,8 +305,8 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   const int n = (table_nodes - 1) / stride + 1;
   // The stack from above, and from below if it transmits (a leaf lit from behind); at each
   // incidence: walk (pooled over rounds) and first order (exact).
-  std::vector<LayerStack> stacks{material.base_stack()};
-  if (material.transmits()) stacks.push_back(flipped(material.base_stack()));
+  std::vector<std::reference_wrapper<const LayerStack>> stacks{material.base_stack()};
+  if (material.transmits()) stacks.push_back(material.flipped_stack());
   struct Node {
     BrdfOptions options;
     Binned walk, first;
@@ -394,7 +395,7 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
 
 ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool from_below, const AutoSettings& settings,
                                std::uint64_t walks) {
-  const LayerStack stack = from_below && material.transmits() ? flipped(material.base_stack()) : material.base_stack();
+  const LayerStack& stack = from_below && material.transmits() ? material.flipped_stack() : material.base_stack();
   const std::uint64_t seed = settings.seed + (from_below ? 104729u : 0u);
   // The walk at mu and at the table nodes around it (one set of walks per distinct cosine).
   const TableNodes at = table_nodes_at(settings.table, mu);

@@ -13,6 +13,7 @@
 #include "materials/sampling.h"
 #include "materials/spectrum.h"
 #include "renderer/integrator.h"
+#include "renderer/scene_gltf.h"
 
 namespace lamina::test {
 
@@ -99,6 +100,35 @@ inline ImageStats stats_of(const Image& im) {
     s.stderr_[c] = std::sqrt(std::max(0.0, (sum2 - n * s.mean[c] * s.mean[c]) / (n - 1.0)) / n);
   }
   return s;
+}
+
+// ---- A flat slab seen along one direction (the layered and auto tests) ----
+
+// The plane y = 0, wound so that its normal (the stack's top) is +y.
+inline Mesh slab_plane(int material) {
+  Mesh m;
+  m.material = material;
+  add_quad(&m, {-1000, 0, 1000}, {1000, 0, 1000}, {1000, 0, -1000}, {-1000, 0, -1000});
+  return m;
+}
+
+// A camera at distance 5 looking at the origin from the unit direction `from` (towards the
+// camera), with a tiny field of view: every pixel sees the slab along the same direction (the
+// direction varies by < 1e-4 rad over the image).
+inline CameraDesc camera_towards(glm::dvec3 from) {
+  CameraDesc c;
+  c.position = 5.0 * from;
+  c.forward = -from;
+  c.up = std::abs(from.z) > 0.9 ? glm::dvec3(0.0, 1.0, 0.0) : glm::dvec3(0.0, 0.0, 1.0);
+  c.yfov = 0.01 * kPi / 180.0;
+  return c;
+}
+
+// World direction at polar angle theta (degrees) from +y (the slab's top normal), azimuth phi
+// from +x towards +z; below the slab if `below`.
+inline glm::dvec3 world_dir(double theta_deg, double phi_deg, bool below = false) {
+  const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
+  return {std::sin(t) * std::cos(p), below ? -std::cos(t) : std::cos(t), std::sin(t) * std::sin(p)};
 }
 
 }  // namespace lamina::test

@@ -45,32 +45,10 @@ using test::make_scene;
 using test::sphere;
 using test::stats_of;
 
-// The plane y = 0, wound so that its normal (the stack's top) is +y.
-Mesh plane(int material) {
-  Mesh m;
-  m.material = material;
-  add_quad(&m, {-1000, 0, 1000}, {1000, 0, 1000}, {1000, 0, -1000}, {-1000, 0, -1000});
-  return m;
-}
+using test::camera_towards;
+using test::world_dir;
+using test::slab_plane;
 
-// A camera at distance 5 looking at the origin from the unit direction `from` (towards the
-// camera), with a tiny field of view: every pixel sees the slab along the same direction (the
-// direction varies by < 1e-4 rad over the image).
-CameraDesc camera_towards(glm::dvec3 from) {
-  CameraDesc c;
-  c.position = 5.0 * from;
-  c.forward = -from;
-  c.up = std::abs(from.z) > 0.9 ? glm::dvec3(0.0, 1.0, 0.0) : glm::dvec3(0.0, 0.0, 1.0);
-  c.yfov = 0.01 * kPi / 180.0;
-  return c;
-}
-
-// World direction at polar angle theta (degrees) from +y (the slab's top normal) in the x-y
-// plane, azimuth 0 (+x) or 180 degrees (-x); below the slab if `below`.
-glm::dvec3 world_dir(double theta_deg, double phi_deg, bool below = false) {
-  const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
-  return {std::sin(t) * std::cos(p), below ? -std::cos(t) : std::cos(t), std::sin(t) * std::sin(p)};
-}
 // The same direction in the stack's local frame (+z = +y of the world).
 glm::dvec3 local_dir(const glm::dvec3& w) { return {w.x, w.z, w.y}; }
 
@@ -148,7 +126,7 @@ LightDesc sun(const glm::dvec3& wl, double irradiance) {
 void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm::dvec3 wo_world, SubsurfaceMode mode,
                               double k_sigma, const char* what, int spp = 16, int size = 16) {
   const double E = 3.0;
-  SceneDesc d = make_scene({plane(0)});
+  SceneDesc d = make_scene({slab_plane(0)});
   d.lights.push_back(sun(wl_world, E));
   const LayeredBindings b = bind(stack);
   std::unique_ptr<LayeredTables> tables;
@@ -362,7 +340,7 @@ TEST(LayeredModes, ExtremesAreFinite) {
     TableSettings ts;
     ts.walks_per_node = costly ? 200 : 2000;
     const LayeredTables tables(b, ts);
-    SceneDesc d = make_scene({plane(0)});
+    SceneDesc d = make_scene({slab_plane(0)});
     d.lights.push_back(sun(world_dir(89.9, 0), 1.0));
     for (SubsurfaceMode mode : {SubsurfaceMode::RandomWalk, SubsurfaceMode::FirstOrder, SubsurfaceMode::Lambert,
                                 SubsurfaceMode::Table}) {
@@ -458,7 +436,7 @@ TEST(LayeredModes, ExtremesEveryModeWithinEnergyAndAgreement) {
     const int scale = cs.costly ? 10 : 1;
     LayeredBindings b;
     b.by_material.push_back(std::make_shared<const LayeredMaterial>(cs.stack, "test", LayeredMaterial::kDefaultAlbedoWalks / 4 / scale));
-    SceneDesc d = make_scene({plane(0)});
+    SceneDesc d = make_scene({slab_plane(0)});
     AutoSettings as;
     as.table.walks_per_node = 5000 / scale;
     const LayeredTables tables(b, as.table);
@@ -546,7 +524,7 @@ TEST(LayeredBias, NaiveVariantIsBiasedOursIsNot) {
   s.below.kind = Below::Kind::Lambert;
   s.below.albedo = Spectrum(1.0);
   const LayeredBindings b = bind(s);
-  SceneDesc d = make_scene({plane(0)});
+  SceneDesc d = make_scene({slab_plane(0)});
   RenderSetup setup;
   setup.spp = 16;
   for (bool naive : {false, true}) {
@@ -651,7 +629,7 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
     s.layers.push_back(make_layer("w", 1.3, 0.5, Spectrum(0.2), Spectrum(10.0), Spectrum(g)));
     s.below.ior = 1.0;
     const LayeredBindings b = bind(s);
-    SceneDesc d = make_scene({plane(0)});
+    SceneDesc d = make_scene({slab_plane(0)});
     ImageStats st[2];
     for (int only = 0; only < 2; ++only) {
       RenderSetup setup;
@@ -742,7 +720,7 @@ VarianceEstimate pixel_variance(const std::vector<double>& q) {
 // unbiased). It fails if the heroes of a pixel's samples are not spread over the channels.
 TEST(LayeredHero, StratifiedHeroLowersChromaNoise) {
   const LayeredBindings b = bind(scattering_coloured_slab());
-  SceneDesc d = make_scene({plane(0)});
+  SceneDesc d = make_scene({slab_plane(0)});
   VarianceEstimate chroma[2], luma[2];
   ImageStats st[2];
   for (int stratified = 0; stratified < 2; ++stratified) {
