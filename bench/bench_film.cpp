@@ -6,8 +6,8 @@
 #include <filesystem>
 
 #include "materials/sampling.h"
-#include "renderer/environment.h"
-#include "renderer/image_io.h"
+#include "renderer/render/environment.h"
+#include "renderer/image/image_io.h"
 
 namespace {
 

@@ -43,12 +43,12 @@
 #include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
 
-#include "renderer/camera.h"
-#include "renderer/image.h"
-#include "renderer/integrator.h"
-#include "renderer/lights.h"
-#include "renderer/scene.h"
-#include "renderer/scene_gltf.h"
+#include "renderer/scene/camera.h"
+#include "renderer/image/image.h"
+#include "renderer/render/integrator.h"
+#include "renderer/render/lights.h"
+#include "renderer/scene/scene.h"
+#include "renderer/scene/scene_gltf.h"
 
 using namespace lamina;
 

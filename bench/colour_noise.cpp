@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "renderer/image.h"
-#include "renderer/image_io.h"
+#include "renderer/image/image.h"
+#include "renderer/image/image_io.h"
 
 namespace {
 

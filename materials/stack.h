@@ -83,7 +83,7 @@ LayerStack flipped(const LayerStack& stack);
 
 // Every number of the stack that affects light transport, exactly (hexadecimal floating point),
 // in a fixed order: equal fingerprints mean the same physics (names are left out). For cache
-// keys (renderer/walk_cache.h).
+// keys (renderer/layered/walk_cache.h).
 std::string stack_fingerprint(const LayerStack& stack);
 
 // Returns an empty string if the stack is physically valid, else the first problem found, in

@@ -14,7 +14,7 @@
 # Without --wait it exits once both are submitted (0, or 2 for bad arguments or a bad manifest).
 # With --wait it then blocks until the finalize job has ended and exits 0 only if every task and
 # the finalize job completed with exit code 0; otherwise it names what failed and exits 1.
-# Tested by tests/cli/test_batch_slurm.cpp on a private local cluster (scripts/lib/local_slurm.sh);
+# Tested by tests/renderer/cli/test_batch_slurm.cpp on a private local cluster (scripts/lib/local_slurm.sh);
 # see docs/batch.md.
 set -euo pipefail
 

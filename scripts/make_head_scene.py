@@ -31,7 +31,7 @@ def look_at_quat(eye, target, up=(0.0, 1.0, 0.0)):
 def add_portrait_rig(j, eye, target, key_position, key_color, key_intensity, rim_from, rim_intensity):
     """Adds to scene 0 of the glTF dict j a camera "portrait" at eye looking at target, a point key
     light and a directional rim light shining from rim_from towards the origin (KHR_lights_punctual).
-    Intensities are radiometric (W/sr, W/m^2; see renderer/scene_gltf.h)."""
+    Intensities are radiometric (W/sr, W/m^2; see renderer/scene/scene_gltf.h)."""
     j['cameras'] = [{'name': 'portrait', 'type': 'perspective', 'perspective': {'yfov': 0.75, 'znear': 0.1}}]
     j['extensionsUsed'] = ['KHR_lights_punctual']
     j['extensions'] = {'KHR_lights_punctual': {'lights': [

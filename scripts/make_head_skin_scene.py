@@ -3,7 +3,7 @@
 
   head_skin.gltf   the head (geometry and textures of ../lee_perry_smith_head, referenced, not
                    copied), a camera, a front key light and a rim light, and material extras that
-                   bind skin_oily.json's parameters to the maps below (renderer/stack_bindings.h)
+                   bind skin_oily.json's parameters to the maps below (renderer/layered/stack_bindings.h)
   blood.png        dermal blood volume fraction: the redness of the albedo map
                    (R - G) / (R + G + B), its 2nd..98th percentiles stretched to 0..1, so lips and
                    cheeks get more blood than the bearded chin and the scalp

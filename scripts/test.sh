@@ -3,7 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-# The Ray batch driver's test (tests/cli/test_batch_ray.cpp) needs the Python package ray: a
+# The Ray batch driver's test (tests/renderer/cli/test_batch_ray.cpp) needs the Python package ray: a
 # pinned version, installed here rather than in setup.sh so building and rendering never wait
 # for it. It fails (never skips silently) when ray is missing; LAMINA_SKIP_RAY=1 skips it.
 RAY_VERSION=2.60.0
@@ -14,7 +14,7 @@ if [ "${LAMINA_SKIP_RAY:-0}" != 1 ] && ! python3 -c "import ray" >/dev/null 2>&1
   python3 -m pip install --quiet "ray==${RAY_VERSION}" ||
     python3 -m pip install --quiet --break-system-packages "ray==${RAY_VERSION}"
 fi
-# The Slurm batch driver's test (tests/cli/test_batch_slurm.cpp) starts a private local cluster
+# The Slurm batch driver's test (tests/renderer/cli/test_batch_slurm.cpp) starts a private local cluster
 # (scripts/lib/local_slurm.sh): it needs slurm-wlm and munge (setup.sh installs them) and root.
 # It fails (never skips silently) without them; LAMINA_SKIP_SLURM=1 skips it.
 scripts/build.sh

@@ -21,13 +21,13 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "renderer/batch_manifest.h"
+#include "renderer/batch/batch_manifest.h"
 #include "renderer/cli/commands.h"
-#include "renderer/contact_sheet.h"
-#include "renderer/false_colour.h"
-#include "renderer/image_compare.h"
-#include "renderer/image_io.h"
-#include "renderer/progress.h"
+#include "renderer/image/contact_sheet.h"
+#include "renderer/image/false_colour.h"
+#include "renderer/image/image_compare.h"
+#include "renderer/image/image_io.h"
+#include "renderer/util/progress.h"
 
 namespace lamina {
 namespace {
@@ -142,7 +142,7 @@ int render_job(const std::string& out, const BatchJob& job, const Manifest& m, i
   if (!job.camera.empty()) args.insert(args.end(), {"--camera", job.camera});
   if (!job.materials.empty()) args.insert(args.end(), {"--materials", write_material_map(out, job)});
   // Tables, auto predictions and lambert albedos are shared by every job (and shard) of the
-  // batch whose stack and build match (renderer/walk_cache.h): each is computed once.
+  // batch whose stack and build match (renderer/layered/walk_cache.h): each is computed once.
   args.insert(args.end(), {"--cache", (fs::path(out) / "cache").string()});
   args.insert(args.end(), {"--meta", "lamina:job_id=" + job.id, "--meta", "lamina:job_hash=" + job.hash});
   std::vector<char*> argv;

@@ -14,9 +14,9 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/cli/commands.h"
-#include "renderer/false_colour.h"
-#include "renderer/image_compare.h"
-#include "renderer/image_io.h"
+#include "renderer/image/false_colour.h"
+#include "renderer/image/image_compare.h"
+#include "renderer/image/image_io.h"
 
 namespace lamina {
 namespace {

@@ -13,19 +13,19 @@
 
 #include <CLI/CLI.hpp>
 
-#include "renderer/camera.h"
+#include "renderer/scene/camera.h"
 #include "renderer/cli/commands.h"
-#include "renderer/environment.h"
-#include "renderer/image_io.h"
-#include "renderer/integrator.h"
-#include "renderer/layered_material.h"
-#include "renderer/layered_table.h"
-#include "renderer/walk_cache.h"
-#include "renderer/lights.h"
-#include "renderer/progress.h"
-#include "renderer/scene.h"
-#include "renderer/scene_gltf.h"
-#include "renderer/subsurface_auto.h"
+#include "renderer/render/environment.h"
+#include "renderer/image/image_io.h"
+#include "renderer/render/integrator.h"
+#include "renderer/layered/layered_material.h"
+#include "renderer/layered/layered_table.h"
+#include "renderer/layered/walk_cache.h"
+#include "renderer/render/lights.h"
+#include "renderer/util/progress.h"
+#include "renderer/scene/scene.h"
+#include "renderer/scene/scene_gltf.h"
+#include "renderer/layered/subsurface_auto.h"
 
 namespace lamina {
 namespace {
@@ -168,7 +168,7 @@ int run_render(int argc, char** argv) {
       std::fprintf(stderr, "lamina render: warning: %s: no lights, no emissive surfaces and a black environment: the image is black\n",
                    scene_path.c_str());
     const Camera camera(cam, settings.width, settings.height);
-    // --subsurface auto: a mode per material, predicted from its BSDF (renderer/subsurface_auto.h).
+    // --subsurface auto: a mode per material, predicted from its BSDF (renderer/layered/subsurface_auto.h).
     // Only materials that camera rays of a coarse grid hit are predicted.
     std::vector<AutoChoice> choices;
     std::vector<SubsurfaceMode> per_material;

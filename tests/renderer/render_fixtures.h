@@ -12,8 +12,8 @@
 
 #include "materials/sampling.h"
 #include "materials/spectrum.h"
-#include "renderer/integrator.h"
-#include "renderer/scene_gltf.h"
+#include "renderer/render/integrator.h"
+#include "renderer/scene/scene_gltf.h"
 
 namespace lamina::test {
 

@@ -1,0 +1,170 @@
+// Image files through OpenImageIO (see image_io.h).
+#include "renderer/image/image_io.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <OpenImageIO/imageio.h>
+
+namespace lamina {
+namespace {
+
+namespace OIIO = OIIO_NAMESPACE;
+
+// A temporary name beside `path` (same directory, so rename(2) is atomic on POSIX: it never
+// crosses a file system). Unique per process and call, so concurrent writers do not collide.
+std::string temporary_name(const std::string& path) {
+  static std::atomic<unsigned> counter{0};
+  return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+}
+
+// Writes `pixels` (width*height*channels values of `type`) with the OIIO plugin `format` to a
+// temporary file, then renames it over `path`. Any failure removes the temporary file and
+// throws ImageIoError naming `path`; `path` itself is then untouched.
+void write_atomically(const std::string& path, const std::string& format, const OIIO::ImageSpec& spec,
+                      const void* pixels) {
+  const std::string tmp = temporary_name(path);
+  auto fail = [&](const std::string& why) {
+    std::remove(tmp.c_str());
+    throw ImageIoError("cannot write '" + path + "': " + why);
+  };
+  auto out = OIIO::ImageOutput::create(format);
+  if (!out) fail("no " + format + " writer (" + OIIO::geterror() + ")");
+  if (!out->open(tmp, spec)) {
+    std::string why = out->geterror();
+    fail(why.empty() ? "cannot create file" : why);
+  }
+  if (!out->write_image(spec.format, pixels)) {
+    std::string why = out->geterror();
+    out->close();
+    fail(why);
+  }
+  if (!out->close()) fail(out->geterror());
+  // Flush the data to the disk before the rename makes it visible, so that after a crash the
+  // name points either to the old file or to the complete new one.
+  const int fd = ::open(tmp.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename failed");
+}
+
+void check_size(const std::string& path, const Image& image) {
+  if (image.width <= 0 || image.height <= 0 ||
+      image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
+    throw ImageIoError("cannot write '" + path + "': empty or inconsistent image");
+}
+
+// OpenImageIO reports the file's own colour space; integer files (PNG, JPEG) are sRGB-encoded
+// unless they say they are linear, float files (EXR, HDR) are linear.
+bool stored_as_srgb(const OIIO::ImageSpec& spec) {
+  const OIIO::TypeDesc::BASETYPE base = static_cast<OIIO::TypeDesc::BASETYPE>(spec.format.basetype);
+  const bool integer = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::UINT16 ||
+                       base == OIIO::TypeDesc::INT8 || base == OIIO::TypeDesc::INT16;
+  if (!integer) return false;
+  std::string space = spec.get_string_attribute("oiio:ColorSpace");
+  std::transform(space.begin(), space.end(), space.begin(), ::tolower);
+  return space != "linear";
+}
+
+}  // namespace
+
+// The IEC 61966-2-1 (sRGB) transfer function: linear below 0.0031308, a 2.4 power above.
+double srgb_encode(double linear) {
+  if (!(linear > 0.0)) return 0.0;  // also maps NaN to black
+  if (linear >= 1.0) return 1.0;
+  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1.0 / 2.4) - 0.055;
+}
+double srgb_decode(double encoded) {
+  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
+}
+
+void write_exr(const std::string& path, const Image& image, const Metadata& metadata) {
+  check_size(path, image);
+  OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::FLOAT);
+  spec.attribute("compression", "zip");
+  for (const auto& [key, value] : metadata) spec.attribute(key, value);
+  write_atomically(path, "openexr", spec, image.rgb.data());
+}
+
+void write_png(const std::string& path, const Image& image) {
+  check_size(path, image);
+  std::vector<unsigned char> bytes(image.rgb.size());
+  for (std::size_t i = 0; i < bytes.size(); ++i)
+    bytes[i] = static_cast<unsigned char>(std::lround(255.0 * srgb_encode(image.rgb[i])));
+  OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+  write_atomically(path, "png", spec, bytes.data());
+}
+
+Image read_image(const std::string& path, int* colour_channels) {
+  auto fail = [&](const std::string& why) -> void {
+    throw ImageIoError("cannot read '" + path + "': " + why);
+  };
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    std::string why = OIIO::geterror();
+    fail(why.empty() ? "cannot open file" : why);
+  }
+  const OIIO::ImageSpec& spec = in->spec();
+  const int nc = spec.nchannels;
+  if (spec.width <= 0 || spec.height <= 0 || nc <= 0) fail("empty image");
+  if (spec.depth > 1) fail("volume images are not supported");
+
+  // Which file channels become R, G, B: named R/G/B if present, grey (one channel, or grey +
+  // alpha) replicated, otherwise the first three channels.
+  int src[3] = {0, 1, 2};
+  auto find = [&](const char* name) {
+    for (int c = 0; c < nc; ++c)
+      if (spec.channelnames.size() > static_cast<std::size_t>(c) && spec.channelnames[c] == name) return c;
+    return -1;
+  };
+  const int r = find("R"), g = find("G"), b = find("B");
+  if (r >= 0 && g >= 0 && b >= 0) {
+    src[0] = r, src[1] = g, src[2] = b;
+  } else if (nc < 3) {
+    const int y = find("Y");
+    src[0] = src[1] = src[2] = (y >= 0 ? y : 0);
+  }
+  if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
+
+  std::vector<float> all(static_cast<std::size_t>(spec.width) * spec.height * nc);
+  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, all.data())) {
+    std::string why = in->geterror();
+    fail(why.empty() ? "read failed (truncated or corrupt file?)" : why);
+  }
+  const bool srgb = stored_as_srgb(spec);
+  in->close();
+
+  Image image(spec.width, spec.height);
+  const std::size_t n = static_cast<std::size_t>(spec.width) * spec.height;
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      const float v = all[i * nc + src[c]];
+      image.rgb[i * 3 + c] = srgb ? static_cast<float>(srgb_decode(v)) : v;
+    }
+  return image;
+}
+
+Metadata read_metadata(const std::string& path) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    std::string why = OIIO::geterror();
+    throw ImageIoError("cannot read '" + path + "': " + (why.empty() ? "cannot open file" : why));
+  }
+  Metadata metadata;
+  for (const OIIO::ParamValue& p : in->spec().extra_attribs)
+    if (p.type() == OIIO::TypeDesc::STRING) metadata.emplace_back(p.name().string(), p.get_string());
+  in->close();
+  return metadata;
+}
+
+}  // namespace lamina

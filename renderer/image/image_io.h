@@ -1,0 +1,38 @@
+// Image files through OpenImageIO: linear float EXR with metadata, sRGB PNG previews, and
+// reading EXR/HDR (environment maps, `lamina compare`).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "renderer/image/image.h"
+
+namespace lamina {
+
+// Thrown with a one-line message that names the file and the problem.
+struct ImageIoError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+using Metadata = std::vector<std::pair<std::string, std::string>>;  // EXR header attributes
+
+// Writes a linear RGB half/float EXR atomically: to a temporary file beside `path`, then
+// rename(2), so a failed or killed write never leaves a half-written `path`.
+void write_exr(const std::string& path, const Image& image, const Metadata& metadata = {});
+// Writes an 8-bit sRGB PNG (exposure 1, clamped), atomically as above.
+void write_png(const std::string& path, const Image& image);
+// Reads any image OpenImageIO reads (EXR, HDR, PNG, JPEG) as linear RGB (8-bit files are
+// decoded from sRGB). Alpha and extra channels are dropped; grey is expanded to RGB.
+// `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
+Image read_image(const std::string& path, int* colour_channels = nullptr);
+// The sRGB transfer function (IEC 61966-2-1) and its inverse, on [0, 1]; encode clamps and
+// maps NaN to 0.
+double srgb_encode(double linear);
+double srgb_decode(double encoded);
+
+// Reads the string attributes of an EXR header (e.g. a batch job's hash).
+Metadata read_metadata(const std::string& path);
+
+}  // namespace lamina

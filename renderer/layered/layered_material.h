@@ -1,0 +1,130 @@
+// Layered (Hanrahan-Krueger) materials bound to a glTF scene, and how the renderer shades them.
+//
+// Binding (README, "Layered materials in the renderer"): a glTF material names its stack file in
+// its extras, {"lamina": {"stack": "skin.json"}} (Blender exports custom properties there), or a
+// material map given by `lamina render --materials MAP.json` maps glTF material names to stack
+// files: {"Skin": "materials/skin.json", ...}. A relative path resolves against the directory of
+// the file that names it (the glTF, or the map). The map wins over extras.
+//
+// One place gives the stack at a hit: LayeredMaterial::stack_at(). It returns the material's
+// base stack today; texture-driven parameters (blood, melanin, oil, freckles) are computed there
+// into the caller's per-thread scratch, so the integrator and every --subsurface mode see them.
+#pragma once
+
+#include <cstdint>
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+struct SceneDesc;
+class StackBindings;
+
+// How layered materials are shaded (contracts.md, `lamina render --subsurface`).
+enum class SubsurfaceMode { RandomWalk, FirstOrder, Table, Lambert };
+// Parses "random-walk" | "first-order" | "table" | "lambert"; false if unknown.
+bool parse_subsurface_mode(const std::string& name, SubsurfaceMode* mode);
+const char* subsurface_mode_name(SubsurfaceMode mode);
+
+// What stack_at() may look at: the hit as the integrator sees it.
+struct ShadingPoint {
+  glm::dvec3 p{0.0};      // world position
+  glm::dvec2 uv{0.0};     // texture coordinates (TEXCOORD_0)
+  int mesh = -1;
+  int triangle = -1;
+  // The viewer is on the back side (against the triangle's wound normal) of a stack that
+  // transmits: the stack is seen from below and stack_at returns it flipped (a leaf lit from
+  // behind). For a stack that does not transmit (skin over flesh, a closed mesh) the side the
+  // ray comes from is always the top, and this is false.
+  bool from_below = false;
+};
+
+// Per-thread scratch in which stack_at() may build a stack for this hit (texture-driven
+// parameters), so that no allocation happens per hit once its vectors have grown.
+struct StackScratch {
+  LayerStack stack;
+  LayerStack flipped;
+};
+
+class LayeredMaterial {
+ public:
+  // `stack` must be valid (validate_stack() empty). `source` is the stack file, for messages.
+  // `albedo_walks`: the walks of lambert_albedo() (tests of costly stacks use fewer).
+  LayeredMaterial(LayerStack stack, std::string source, int albedo_walks = kDefaultAlbedoWalks);
+  // 2^15 walks: a standard error of about 0.003 on an albedo of 0.5 (printed by lamina render).
+  static constexpr int kDefaultAlbedoWalks = 1 << 15;
+  // With texture-driven parameters (renderer/layered/stack_bindings.h): stack_at() evaluates them at
+  // the hit's uv. The Lambert albedo stays that of the base stack.
+  LayeredMaterial(LayerStack stack, std::string source, std::shared_ptr<const StackBindings> bindings);
+
+  // The stack at this hit, seen from the viewer's side (flipped when sp.from_below). The result
+  // refers either to this material's own stacks or to `scratch`; valid until the next call with
+  // the same scratch.
+  const LayerStack& stack_at(const ShadingPoint& sp, StackScratch& scratch) const;
+
+  const LayerStack& base_stack() const { return stack_; }
+  // The base stack seen from below (flipped()); only for a stack that transmits.
+  const LayerStack& flipped_stack() const { return flipped_; }
+  const std::string& source() const { return source_; }
+  const StackBindings* bindings() const { return bindings_.get(); }
+  bool transmits() const { return stack_.transmits(); }
+
+  // The stack's diffuse bihemispherical reflectance (white-sky albedo of R_diffuse: the light
+  // that scattered at least once and left through the top, averaged over cosine-weighted
+  // incidence), estimated by the random walk when the material is made. The `lambert` mode's
+  // albedo. lambert_albedo_stderr is its standard error.
+  // Computed on first use (thread-safe), so that modes that do not need it do not pay for it.
+  const Spectrum& lambert_albedo() const;
+  const Spectrum& lambert_albedo_stderr() const;
+  int albedo_walks() const { return albedo_walks_; }
+  static constexpr std::uint64_t kAlbedoSeed = 0x1a3bULL;
+  // A value computed earlier for this stack and walk count (renderer/layered/walk_cache.h), set before
+  // first use; false (and ignored) if the albedo is already known.
+  bool preset_lambert_albedo(const Spectrum& albedo, const Spectrum& standard_error) const;
+  // True once the albedo has been computed by this material's own walks (not preset).
+  bool lambert_albedo_computed() const { return albedo_state_.load() == 1; }
+
+ private:
+  LayerStack stack_;
+  LayerStack flipped_;  // flipped(stack_) if it transmits, else unused
+  std::shared_ptr<const StackBindings> bindings_;  // null: the base stack everywhere
+  std::string source_;
+  int albedo_walks_ = kDefaultAlbedoWalks;
+  mutable std::once_flag albedo_once_;
+  mutable std::atomic<int> albedo_state_{0};  // 0 unknown, 1 computed, 2 preset
+  mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
+};
+
+// The diffuse bihemispherical reflectance of a stack by `walks` random walks with cosine-weighted
+// incidence (mu_i = sqrt(u): density 2 mu_i on [0,1], so the walks' mean top exit weight after
+// >= 1 scattering is 2 int R_diffuse(mu) mu dmu). Deterministic: walk i uses Rng(seed, i).
+Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
+                                        Spectrum* standard_error = nullptr);
+
+// The layered materials of a scene, one slot per glTF material (null: not layered).
+struct LayeredBindings {
+  std::vector<std::shared_ptr<const LayeredMaterial>> by_material;
+  const LayeredMaterial* get(int material) const {
+    return material >= 0 && material < static_cast<int>(by_material.size()) ? by_material[material].get() : nullptr;
+  }
+  int count() const;
+};
+
+// Binds stacks to the scene's materials: the map file (if not empty) first, then each
+// material's extras["lamina.stack"]. A map entry may also be an object {"stack": ..., "bind":
+// [...], "freckles": {...}}, and the extras' "lamina" object may hold "bind" and "freckles":
+// texture-driven parameters (renderer/layered/stack_bindings.h). Throws SceneError with one line naming the glTF (or map)
+// and the stack file: a missing stack file, a map naming no material of the scene, or the
+// StackFileError message of a bad stack file.
+LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path);
+
+}  // namespace lamina

@@ -1,0 +1,333 @@
+#include "renderer/layered/stack_bindings.h"
+#include "renderer/scene/texture_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include <OpenImageIO/imageio.h>
+#include <nlohmann/json.hpp>
+
+#include "materials/sampling.h"
+#include "renderer/image/image_io.h"
+#include "renderer/scene/scene_gltf.h"
+
+namespace lamina {
+namespace {
+
+using nlohmann::json;
+
+constexpr int kLuminance = 4;
+constexpr int kRgb = 5;
+// The profile's cut: w is taken to 0 at d = 3r, where exp(-d^2/2r^2) = e^-4.5 ~ 0.011.
+constexpr double kCutSquared = 9.0;  // (d/r)^2 at the cut
+const double kExpCut = std::exp(-0.5 * kCutSquared);
+// Mean spots per cell above which a freckle configuration is rejected: the Poisson draw below
+// multiplies uniforms (Knuth), O(mean) per cell, and such a density is a wash, not freckles.
+constexpr double kMaxSpotsPerCell = 64.0;
+
+std::string resolve(const std::string& path, const std::string& relative_to_file) {
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  if (p.is_absolute()) return p.string();
+  return (fs::path(relative_to_file).parent_path() / p).lexically_normal().string();
+}
+
+// Knuth's Poisson sampler (TAOCP vol. 2, 3.4.1): multiply uniforms until the product drops
+// below e^-mean. Exact; O(mean) uniforms, and mean <= kMaxSpotsPerCell here.
+int sample_poisson(double mean, Rng& rng) {
+  const double limit = std::exp(-mean);
+  double product = rng.uniform_open0();
+  int k = 0;
+  while (product > limit) {
+    ++k;
+    product *= rng.uniform_open0();
+  }
+  return k;
+}
+
+}  // namespace
+
+double ParameterMap::lookup(glm::dvec2 uv, int channel) const {
+  // The same sampling as Texture::lookup (renderer/scene/texture_filter.h).
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return 0.0;
+  double s = 0.0;
+  for (int k = 0; k < 4; ++k) s += f.weight[k] * values[f.texel[k] * channels + channel];
+  return s;
+}
+
+ParameterMap read_parameter_map(const std::string& path) {
+  // Unassociated alpha: a data map's channels are independent values, so OpenImageIO must not
+  // premultiply the colour channels by alpha on reading (its default for PNG).
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
+  if (!in) throw SceneError(path + ": cannot read the parameter map (" + OIIO::geterror() + ")");
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
+    throw SceneError(path + ": unsupported parameter map (empty, or a volume)");
+  ParameterMap m;
+  m.width = spec.width;
+  m.height = spec.height;
+  m.channels = std::min(spec.nchannels, 4);
+  std::vector<float> all(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
+  // FLOAT conversion of integer files is value / max (0..255 -> 0..1) with no colour
+  // transform: the stored values, which is what a data map means.
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
+    throw SceneError(path + ": cannot decode the parameter map (" + in->geterror() + ")");
+  m.values.resize(static_cast<std::size_t>(m.width) * m.height * m.channels);
+  for (std::size_t p = 0; p < static_cast<std::size_t>(m.width) * m.height; ++p)
+    for (int c = 0; c < m.channels; ++c) {
+      const float v = all[p * spec.nchannels + c];
+      m.values[p * m.channels + c] = std::isfinite(v) ? v : 0.0f;
+    }
+  return m;
+}
+
+double freckle_profile_integral(double r) {
+  // int_0^{3r} (exp(-d^2/2r^2) - c) 2 pi d dd / (1 - c) with c = e^-4.5:
+  // = 2 pi r^2 [(1 - c) - 4.5 c] / (1 - c).
+  return 2.0 * kPi * r * r * ((1.0 - kExpCut) - 0.5 * kCutSquared * kExpCut) / (1.0 - kExpCut);
+}
+
+void Freckles::prepare() {
+  if (!(radius > 0.0 && radius <= 1.0 / 6.0)) throw std::invalid_argument("radius must lie in (0, 1/6] (UV units)");
+  if (!(density >= 0.0) || !std::isfinite(density)) throw std::invalid_argument("density must be >= 0");
+  if (!std::isfinite(amplitude)) throw std::invalid_argument("amplitude must be finite");
+  // Cells of side 1/n >= 3r (the profile's support), so the 3 x 3 neighbourhood holds every
+  // spot that reaches a point.
+  cells = std::max(1, static_cast<int>(std::floor(1.0 / (std::sqrt(kCutSquared) * radius))));
+  const double mean = density / (static_cast<double>(cells) * cells);
+  if (mean > kMaxSpotsPerCell)
+    throw std::invalid_argument("density " + std::to_string(density) + " is too high for radius " +
+                                std::to_string(radius) + " (more than 64 spots per cell of side 3r)");
+}
+
+double Freckles::value(glm::dvec2 uv) const {
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y) || density <= 0.0) return 0.0;
+  const int n = cells;
+  const double side = 1.0 / n;
+  const double mean = density * side * side;
+  const double u = uv.x - std::floor(uv.x), v = uv.y - std::floor(uv.y);
+  const int cx = std::min(static_cast<int>(u * n), n - 1), cy = std::min(static_cast<int>(v * n), n - 1);
+  const double inv_2r2 = 1.0 / (2.0 * radius * radius);
+  const double cut2 = kCutSquared * radius * radius;
+  double sum = 0.0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      // Periodic cell index; the spot positions are placed relative to the unwrapped cell so
+      // distances are measured across the seam.
+      const int ix = cx + dx, iy = cy + dy;
+      const int wx = (ix % n + n) % n, wy = (iy % n + n) % n;
+      Rng rng(seed, static_cast<std::uint64_t>(wy) * static_cast<std::uint64_t>(n) + wx, 0xF4EC1E5ULL);
+      const int count = sample_poisson(mean, rng);
+      for (int k = 0; k < count; ++k) {
+        const double px = (ix + rng.uniform()) * side, py = (iy + rng.uniform()) * side;
+        const double a = amplitude * (0.5 + 0.5 * rng.uniform());
+        const double d2 = (u - px) * (u - px) + (v - py) * (v - py);
+        if (d2 < cut2) sum += a * (std::exp(-d2 * inv_2r2) - kExpCut) / (1.0 - kExpCut);
+      }
+    }
+  return sum;
+}
+
+double StackBindings::Source::sample(glm::dvec2 uv, int c) const {
+  double t;
+  if (channel == kLuminance)
+    t = 0.2126 * map->lookup(uv, 0) + 0.7152 * map->lookup(uv, std::min(1, map->channels - 1)) +
+        0.0722 * map->lookup(uv, std::min(2, map->channels - 1));
+  else if (channel == kRgb)
+    t = map->lookup(uv, std::min(c, map->channels - 1));
+  else
+    t = map->lookup(uv, channel);
+  return std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
+}
+
+StackBindings::Source StackBindings::parse_source(const json& j, const std::string& where, bool allow_rgb) {
+  auto fail = [&](const std::string& key, const std::string& why) {
+    throw SceneError(named_in_ + ": material '" + material_ + "': " + where + "." + key + ": " + why);
+  };
+  Source s;
+  if (!j.contains("texture")) fail("texture", "missing (a file path or a glTF texture index)");
+  const json& t = j["texture"];
+  bool gltf = false;
+  if (t.is_string()) {
+    const std::string path = resolve(t.get<std::string>(), base_file_);
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) fail("texture", "file '" + t.get<std::string>() + "' not found (" + path + ")");
+    s.map = std::make_shared<const ParameterMap>(read_parameter_map(path));
+    map_files_.push_back(path);
+  } else if (t.is_number_integer()) {
+    const int index = t.get<int>();
+    auto it = scene_->gltf_textures.find(index);
+    if (it == scene_->gltf_textures.end()) fail("texture", "glTF texture " + std::to_string(index) + " does not exist");
+    const Texture& tex = scene_->textures[it->second];
+    ParameterMap m;
+    m.width = tex.width;
+    m.height = tex.height;
+    m.channels = 3;
+    m.clamp_s = tex.clamp_s;
+    m.clamp_t = tex.clamp_t;
+    // The loader decoded the 8-bit values from sRGB; encoding gives back the stored values.
+    m.values.resize(tex.rgb.size());
+    for (std::size_t i = 0; i < tex.rgb.size(); ++i) m.values[i] = static_cast<float>(srgb_encode(tex.rgb[i]));
+    s.map = std::make_shared<const ParameterMap>(std::move(m));
+    gltf = true;
+  } else {
+    fail("texture", "expected a file path (string) or a glTF texture index (integer)");
+  }
+  const std::string channel = j.contains("channel") && j["channel"].is_string() ? j["channel"].get<std::string>() : "";
+  if (j.contains("channel") && !j["channel"].is_string()) fail("channel", "expected a string");
+  const int nch = s.map->channels;
+  if (channel == "r" || channel.empty()) s.channel = 0;
+  else if (channel == "g") s.channel = nch >= 3 ? 1 : 0;
+  else if (channel == "b") s.channel = nch >= 3 ? 2 : 0;
+  else if (channel == "a") {
+    if (gltf) fail("channel", "the alpha of glTF textures is not kept by the loader: use a file");
+    if (nch != 2 && nch != 4) fail("channel", "the map has no alpha channel");
+    s.channel = nch - 1;
+  } else if (channel == "luminance") s.channel = kLuminance;
+  else if (channel == "rgb" && allow_rgb) s.channel = kRgb;
+  else fail("channel", "'" + channel + "': expected r, g, b, a, luminance" + std::string(allow_rgb ? " or rgb" : ""));
+  return s;
+}
+
+StackBindings::StackBindings(const json& spec, std::shared_ptr<const StackTemplate> stack, const SceneDesc& scene,
+                             const std::string& named_in, const std::string& material, const std::string& base_file)
+    : template_(std::move(stack)), scene_(&scene), named_in_(named_in), material_(material), base_file_(base_file) {
+  auto fail = [&](const std::string& where, const std::string& why) {
+    throw SceneError(named_in_ + ": material '" + material_ + "': " + where + ": " + why);
+  };
+  auto parameter = [&](const json& j, const std::string& where) {
+    if (!j.contains("parameter") || !j["parameter"].is_string())
+      fail(where + ".parameter", "missing (a stack path such as layers[1].components[0].fraction)");
+    try {
+      return parse_stack_parameter(*template_, j["parameter"].get<std::string>());
+    } catch (const StackParameterError& e) {
+      fail(where + ".parameter", e.what());
+    }
+    return StackParameter{};  // not reached: fail() throws
+  };
+  auto check_keys = [&](const json& j, const std::string& where, std::initializer_list<const char*> allowed) {
+    if (!j.is_object()) fail(where, "expected an object");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      bool ok = false;
+      for (const char* a : allowed) ok |= it.key() == a;
+      if (!ok) fail(where + "." + it.key(), "unknown key");
+    }
+  };
+  auto number = [&](const json& j, const std::string& where) {
+    if (!j.is_number() || !std::isfinite(j.get<double>())) fail(where, "expected a finite number");
+    return j.get<double>();
+  };
+
+  if (spec.contains("bind")) {
+    const json& binds = spec["bind"];
+    if (!binds.is_array()) fail("bind", "expected an array of bindings");
+    for (std::size_t i = 0; i < binds.size(); ++i) {
+      const std::string where = "bind[" + std::to_string(i) + "]";
+      const json& b = binds[i];
+      check_keys(b, where, {"parameter", "texture", "channel", "range"});
+      const StackParameter p = parameter(b, where);
+      Binding binding;
+      binding.source = parse_source(b, where, p.spectral());
+      if (!b.contains("range") || !b["range"].is_array() || b["range"].size() != 2)
+        fail(where + ".range", "expected [value at 0, value at 1]");
+      for (int e = 0; e < 2; ++e) {
+        const json& r = b["range"][e];
+        const std::string rp = where + ".range[" + std::to_string(e) + "]";
+        Spectrum v;
+        if (r.is_array() && p.spectral() && r.size() == 3) {
+          for (int c = 0; c < 3; ++c) v[c] = number(r[c], rp + "[" + std::to_string(c) + "]");
+        } else {
+          v = Spectrum(number(r, rp));
+        }
+        for (int c = 0; c < 3; ++c)
+          if (v[c] < p.min_value() || v[c] > p.max_value())
+            fail(rp, "outside the range of " + p.path + " [" + std::to_string(p.min_value()) + ", " +
+                         std::to_string(p.max_value()) + "]");
+        (e == 0 ? binding.lo : binding.hi) = v;
+      }
+      parameters_.push_back(p);
+      bindings_.push_back(binding);
+    }
+  }
+  if (spec.contains("freckles")) {
+    const json& f = spec["freckles"];
+    check_keys(f, "freckles", {"parameter", "density", "radius", "amplitude", "seed", "mask"});
+    const StackParameter p = parameter(f, "freckles");
+    for (const char* key : {"density", "radius", "amplitude"})
+      if (!f.contains(key)) fail(std::string("freckles.") + key, "missing");
+    freckles_.density = number(f["density"], "freckles.density");
+    freckles_.radius = number(f["radius"], "freckles.radius");
+    freckles_.amplitude = number(f["amplitude"], "freckles.amplitude");
+    if (f.contains("seed")) {
+      if (!f["seed"].is_number_unsigned()) fail("freckles.seed", "expected a non-negative integer");
+      freckles_.seed = f["seed"].get<std::uint64_t>();
+    }
+    try {
+      freckles_.prepare();
+    } catch (const std::invalid_argument& e) {
+      fail("freckles", e.what());
+    }
+    if (f.contains("mask")) {
+      check_keys(f["mask"], "freckles.mask", {"texture", "channel"});
+      mask_ = parse_source(f["mask"], "freckles.mask", false);
+      has_mask_ = true;
+    }
+    has_freckles_ = true;
+    for (std::size_t k = 0; k < parameters_.size(); ++k)
+      if (parameters_[k].path == p.path) freckle_parameter_ = static_cast<int>(k);
+    if (freckle_parameter_ < 0) {
+      // Not bound to a map: the freckles vary the stack's own value.
+      freckle_parameter_ = static_cast<int>(parameters_.size());
+      parameters_.push_back(p);
+    }
+  }
+  try {
+    check_parameter_set(parameters_);
+  } catch (const StackParameterError& e) {
+    fail("bind", e.what());
+  }
+}
+
+void StackBindings::values(glm::dvec2 uv, Spectrum* out) const {
+  for (std::size_t k = 0; k < parameters_.size(); ++k) {
+    if (k < bindings_.size()) {
+      const Binding& b = bindings_[k];
+      Spectrum v;
+      if (b.source.channel == kRgb) {
+        for (int c = 0; c < kChannels; ++c) v[c] = b.lo[c] + (b.hi[c] - b.lo[c]) * b.source.sample(uv, c);
+      } else {
+        const double t = b.source.sample(uv, 0);
+        v = b.lo + (b.hi - b.lo) * t;
+      }
+      out[k] = v;
+    } else {
+      out[k] = parameters_[k].template_value(*template_);
+    }
+  }
+  if (has_freckles_) {
+    double f = freckles_.value(uv);
+    if (has_mask_) f *= mask_.sample(uv, 0);
+    out[freckle_parameter_] += Spectrum(f);
+  }
+}
+
+void StackBindings::evaluate(glm::dvec2 uv, LayerStack* out) const {
+  // A handful of parameters: a fixed array avoids a per-hit allocation.
+  constexpr std::size_t kMax = 16;
+  Spectrum small[kMax];
+  std::vector<Spectrum> large;
+  Spectrum* v = small;
+  if (parameters_.size() > kMax) {
+    large.resize(parameters_.size());
+    v = large.data();
+  }
+  values(uv, v);
+  apply_parameters(*template_, parameters_, v, out);
+}
+
+}  // namespace lamina

@@ -1,0 +1,119 @@
+// `lamina render --subsurface auto --tolerance E`: per layered material, the cheapest shading
+// model whose predicted error against the full random walk is within E.
+//
+// The prediction (no image is rendered). A pixel that sees a flat patch of the stack from a
+// direction of cosine mu shows L = sum_B P(mu -> B) Lbar_in(B) + D(mu) L_in(mirror), where
+// P(mu -> B) = f(B) Omega_proj(B) is the fraction of the power arriving from the viewer's
+// direction that leaves into bin B (by reciprocity, the weight of the light from B in the
+// pixel; across an index change up to the constant (n_v / n_l)^2, the same for every model),
+// Lbar_in(B) the mean incident radiance over B, and D = R_specular + T_ballistic the delta
+// parts. So the models are compared through P and D at incidences mu, from both sides of a
+// stack that transmits:
+//   walk:        brdf_table_monte_carlo on a coarse grid of bins, with standard errors;
+//   lambert:     albedo/pi on the reflect side (the mode's albedo: lambert_albedo()), 0 on the
+//                transmit side, and no delta parts;
+//   first-order: brdf_table_first_order (exact single-scattering bin averages) plus the exact D;
+//   table:       the walk, linearly interpolated between the table's nodes, with the noise of a
+//                table of TableSettings' size; D exact.
+// Two relative errors per incidence and model m, both over the three channels:
+//   shape (a point light: the pixel is one bin):
+//      sqrt( sum_B,c (P_m - P)^2 ) / sqrt( sum_B,c P^2 )
+//   uniform (a uniform environment: the pixel is the directional albedo):
+//      sqrt( sum_c (A_m + D_m - A - D)^2 ) / sqrt( sum_c (A + D)^2 ),  A = sum_B P,
+// and the model's predicted error is the larger of
+//   uniform: the worst view (incidences at the table's nodes, 89.9 degrees to normal, and both
+//            sides): well resolved per view (the albedo's noise is small), and a bound on what
+//            any pixel under broad light sees;
+//   shape:   the RMS over those views (sums over views in numerator and reference): per view it
+//            would need ~10^6 walks to resolve a few percent over 2 x 6 x 12 bins; and through a
+//            Fresnel interface almost no light enters at grazing incidence (T ~ mu), where an
+//            error relative to that view's own nothing would say nothing about the image. Each sum is corrected for the walk's
+// noise: E[(P_m - P_hat)^2] = (P_m - P)^2 + sigma^2, so sigma^2 (the bins' squared standard
+// errors; for A the variance of R_diffuse + T_diffuse) is subtracted from both the numerator
+// and the reference sum (clamped at 0).
+// The table's interpolation error, at the midpoints next to node j of evenly spaced nodes, is
+// (P_{j-1} - 2 P_j + P_{j+1}) / 8 (linear interpolation of a smooth function: h^2 |P''| / 8
+// with P'' ~ second difference / h^2); its own statistical error is the walk's noise scaled to
+// the table's walks per node and, for the shape, to its finer bins (sum of sigma_b^2 ~ power / N
+// whatever the bins; sum of P_b^2 falls as 1 / bin count).
+// Cost order (README "Speed and accuracy"): lambert < first-order < table < random-walk.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "renderer/scene/camera.h"
+#include "renderer/layered/layered_material.h"
+#include "renderer/layered/layered_table.h"
+#include "renderer/scene/scene.h"
+#include "renderer/layered/walk_cache.h"
+
+namespace lamina {
+
+struct AutoSettings {
+  double tolerance = 0.05;
+  TableSettings table;   // the table mode's settings; its nodes are the prediction's incidences
+  int bins_theta = 6;    // coarse grid of the prediction
+  int bins_phi = 12;
+  std::uint64_t walks = 10000;      // per incidence, first round (then doubled)
+  std::uint64_t max_walks = 40000;  // per incidence, in all rounds
+  std::uint64_t seed = 11;
+};
+
+// Predicted relative errors of the cheaper models against the walk (whose own error is 0).
+struct ModeErrors {
+  double lambert = 0.0, first_order = 0.0, table = 0.0;
+  // The prediction's resolution (1 sigma of the estimates above where they are near 0, the
+  // larger of the shape's and the uniform's): errors below it are not resolved.
+  double noise = 0.0;
+  // The part of `table` that is the table's own statistical error (1 sigma).
+  double table_noise = 0.0;
+};
+
+// The two metrics of one view (or the worst over views): shape (a point light) and uniform (a
+// uniform environment).
+struct ViewErrors {
+  ModeErrors shape, uniform;
+};
+
+struct AutoChoice {
+  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
+  // Predicted relative errors (the largest over incidences and sides); random-walk is 0.
+  double error_lambert = 0.0, error_first_order = 0.0, error_table = 0.0;
+  // The prediction's relative noise (the largest over incidences and sides).
+  double noise_floor = 0.0;
+  std::uint64_t walks = 0;  // per incidence and side, in all rounds
+  double seconds = 0.0;  // time of the prediction
+  // "chose first-order (predicted error 0.012 <= 0.05; lambert 0.31, first-order 0.012, table 0.021)"
+  std::string reason;
+  bool cached = false;  // read from a WalkCache (seconds is then the original prediction's)
+  bool visible = true;  // false: not seen by camera rays, not predicted (shaded as lambert)
+};
+
+// The prediction for one material (its base stack: texture-driven parameters are not varied).
+AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSettings& settings);
+
+// The predicted errors for one view: incidence cosine mu on the top of the stack (or, with
+// from_below, of the flipped stack), from `walks` walks at mu and at the table nodes around it
+// (the table's error is its actual interpolation there). Used by the tests of every mode
+// against the walk, and to explain a choice.
+ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool from_below,
+                               const AutoSettings& settings, std::uint64_t walks);
+
+// Which glTF material slots the camera sees directly: camera rays through a grid of at most
+// grid x grid film positions over the whole image (pixel centres of a coarse grid; all pixels
+// if the image is smaller). Materials seen only indirectly (through a transmitting stack, in
+// reflections, by their light on other surfaces) are NOT found.
+std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid = 64);
+
+// One choice per glTF material slot (default-constructed for non-layered slots). A slot whose
+// `visible` entry is false (when `visible` is given) is not predicted: it costs nothing and is
+// shaded as lambert (its albedo walks run only if some path reaches it), reason "not visible".
+// With a cache (renderer/layered/walk_cache.h), predictions made before for the same stack and settings
+// by the same lamina build are read from it, and new ones are stored.
+std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings, const AutoSettings& settings,
+                                                const std::vector<bool>* visible = nullptr,
+                                                const WalkCache* cache = nullptr);
+
+}  // namespace lamina

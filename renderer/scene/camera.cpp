@@ -1,0 +1,29 @@
+#include "renderer/scene/camera.h"
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace lamina {
+
+Camera::Camera(const CameraDesc& desc, int width, int height)
+    : origin_(desc.position),
+      forward_(glm::normalize(desc.forward)),
+      tan_half_y_(std::tan(0.5 * desc.yfov)),
+      aspect_(static_cast<double>(width) / height) {
+  scale_x_ = 2.0 * tan_half_y_ * aspect_ / width;
+  scale_y_ = 2.0 * tan_half_y_ / height;
+  right_ = glm::cross(forward_, desc.up);
+  if (glm::length(right_) < 1e-9) right_ = glm::cross(forward_, glm::dvec3(1.0, 0.0, 0.0));  // up || forward
+  right_ = glm::normalize(right_);
+  up_ = glm::cross(right_, forward_);
+}
+
+Ray Camera::generate_ray(glm::dvec2 film) const {
+  // Screen window [-aspect, aspect] x [-1, 1] at unit distance, scaled by tan(yfov/2).
+  const double sx = film.x * scale_x_ - tan_half_y_ * aspect_;
+  const double sy = tan_half_y_ - film.y * scale_y_;
+  return {origin_, glm::normalize(forward_ + sx * right_ + sy * up_)};
+}
+
+}  // namespace lamina

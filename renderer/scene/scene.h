@@ -1,0 +1,88 @@
+// The scene as the integrator sees it: an Embree 3 BVH over the glTF meshes (one triangle
+// geometry per mesh, geometry id = mesh index), and the surface data at a hit.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "renderer/scene/scene_gltf.h"
+
+namespace lamina {
+
+struct Ray {
+  glm::dvec3 origin;
+  glm::dvec3 direction;  // unit length
+};
+
+// Every ray traced, for the benchmark's replay (bench/bench_render.cpp); normally absent.
+struct RayLog {
+  std::vector<Ray> closest;
+  std::vector<std::pair<Ray, double>> shadow;  // with tmax
+};
+
+// Rays traced, counted by the caller's thread (one RayCounters per tile) and summed after.
+struct RayCounters {
+  std::uint64_t closest = 0;  // rtcIntersect1: camera and bounce rays
+  std::uint64_t camera = 0;   // of which camera rays
+  std::uint64_t shadow = 0;   // rtcOccluded1
+  // Layered materials (random-walk mode): scattering events of the walks, and the shadow rays
+  // traced from them (also counted in `shadow`).
+  std::uint64_t scatter_events = 0;
+  std::uint64_t event_shadow = 0;
+  RayLog* log = nullptr;      // if set, every ray is also recorded (single-threaded use only)
+  RayCounters& operator+=(const RayCounters& o) {
+    closest += o.closest; camera += o.camera; shadow += o.shadow;
+    scatter_events += o.scatter_events; event_shadow += o.event_shadow;
+    return *this;
+  }
+};
+
+// What the integrator needs at a hit point.
+struct SurfaceHit {
+  double t = 0.0;
+  glm::dvec3 p;    // on the triangle (barycentric), not origin + t d: tighter error bound
+  glm::dvec3 ng;   // geometric normal, unit, as wound (not flipped towards the ray)
+  glm::dvec3 ns;   // shading normal, unit, on the same side as ng
+  glm::dvec2 uv{0.0};
+  int mesh = -1;
+  int triangle = -1;
+};
+
+class Scene {
+ public:
+  explicit Scene(SceneDesc desc);
+  ~Scene();
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+
+  const SceneDesc& desc() const { return desc_; }
+  // Closest hit along the ray in (0, tmax). Counts one closest-hit ray (in the caller's
+  // counters: a reference, since every caller counts).
+  bool intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, double tmax = 1e300) const;
+  // True if anything blocks the open segment (0, tmax) along the ray. Counts one shadow ray.
+  bool occluded(const Ray& ray, double tmax, RayCounters& counters) const;
+  // Bounding sphere of the geometry (for directional and environment lights).
+  glm::dvec3 centre() const { return centre_; }
+  double radius() const { return radius_; }
+  // The raw Embree scene handle (RTCScene) for the benchmark's ceiling loop.
+  void* embree_scene() const { return scene_; }
+
+ private:
+  SceneDesc desc_;
+  void* device_ = nullptr;  // RTCDevice
+  void* scene_ = nullptr;   // RTCScene
+  glm::dvec3 centre_{0.0};
+  double radius_ = 0.0;
+};
+
+// A ray origin just off the surface at p, on the side of `n` (Waechter and Binder, "A Fast and
+// Robust Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6): the offset grows
+// with |p| in floating-point ulps, so it is enough at any scale yet never skips thin features.
+glm::dvec3 offset_ray_origin(const glm::dvec3& p, const glm::dvec3& n);
+
+}  // namespace lamina

@@ -1,0 +1,485 @@
+#include "renderer/scene/scene_gltf.h"
+#include "renderer/scene/texture_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <tiny_gltf.h>
+
+#include "materials/sampling.h"
+
+namespace lamina {
+namespace {
+
+// One line: tinygltf's messages can span lines.
+std::string one_line(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\r')) s.pop_back();
+  return s;
+}
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw SceneError(path + ": " + one_line(what));
+}
+
+// sRGB electro-optical transfer function (IEC 61966-2-1), glTF's encoding of colour textures.
+float srgb_to_linear(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+class Loader {
+ public:
+  Loader(const std::string& path, const tinygltf::Model& model, SceneDesc* out)
+      : path_(path), m_(model), out_(out) {}
+
+  void run();
+
+ private:
+  void visit(int node, const glm::dmat4& parent, int depth);
+  void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world);
+  std::vector<double> read_accessor(int index, int want_components, const char* what);
+  int texture(int gltf_texture);
+  void warn(const std::string& w) {
+    if (warned_.insert(w).second) out_->warnings.push_back(w);
+  }
+
+  const std::string& path_;
+  const tinygltf::Model& m_;
+  SceneDesc* out_;
+  std::set<std::string> warned_;
+  std::map<int, int> textures_;  // glTF texture index -> SceneDesc::textures index
+};
+
+glm::dmat4 local_transform(const tinygltf::Node& n) {
+  if (n.matrix.size() == 16) return glm::make_mat4(n.matrix.data());  // column-major, as glm
+  glm::dmat4 t(1.0), r(1.0), s(1.0);
+  if (n.translation.size() == 3)
+    t = glm::translate(glm::dmat4(1.0), glm::dvec3(n.translation[0], n.translation[1], n.translation[2]));
+  if (n.rotation.size() == 4) {
+    // glTF stores (x, y, z, w); glm's constructor takes (w, x, y, z). Normalise: exporters
+    // write quaternions off unit length by ~1e-6 (Khronos Cameras.gltf).
+    glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+    r = glm::mat4_cast(glm::normalize(q));
+  }
+  if (n.scale.size() == 3) s = glm::scale(glm::dmat4(1.0), glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
+  return t * r * s;  // glTF: M = T * R * S
+}
+
+std::vector<double> Loader::read_accessor(int index, int want, const char* what) {
+  if (index < 0 || index >= static_cast<int>(m_.accessors.size()))
+    fail(path_, std::string("accessor for ") + what + " is out of range");
+  const tinygltf::Accessor& a = m_.accessors[index];
+  const int comps = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+  const int size = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(a.componentType));
+  if (comps <= 0 || size <= 0 || (want > 0 && comps != want))
+    fail(path_, std::string("accessor ") + std::to_string(index) + " (" + what + ") has an unexpected type");
+  std::vector<double> v(a.count * comps, 0.0);
+
+  auto decode = [&](const unsigned char* p, int type, bool normalized) -> double {
+    switch (type) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: { float f; std::memcpy(&f, p, 4); return f; }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0 : p[0];
+      case TINYGLTF_COMPONENT_TYPE_BYTE: { auto b = static_cast<std::int8_t>(p[0]); return normalized ? std::max(b / 127.0, -1.0) : b; }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { std::uint16_t u; std::memcpy(&u, p, 2); return normalized ? u / 65535.0 : u; }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: { std::int16_t s; std::memcpy(&s, p, 2); return normalized ? std::max(s / 32767.0, -1.0) : s; }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { std::uint32_t u; std::memcpy(&u, p, 4); return u; }
+      default: fail(path_, std::string("accessor (") + what + ") has an unsupported component type");
+    }
+  };
+  // Reads `count` elements of `comps` components from a buffer view, bounds-checked.
+  auto read_view = [&](int view_index, std::size_t offset, std::size_t count, int n, int type, int stride_default,
+                       bool normalized, double* dst) {
+    if (view_index < 0 || view_index >= static_cast<int>(m_.bufferViews.size()))
+      fail(path_, std::string("buffer view for ") + what + " is out of range");
+    const tinygltf::BufferView& bv = m_.bufferViews[view_index];
+    if (bv.buffer < 0 || bv.buffer >= static_cast<int>(m_.buffers.size()))
+      fail(path_, std::string("buffer for ") + what + " is missing");
+    const std::vector<unsigned char>& data = m_.buffers[bv.buffer].data;
+    const std::size_t csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(type));
+    const std::size_t stride = bv.byteStride ? bv.byteStride : static_cast<std::size_t>(stride_default);
+    const std::size_t begin = bv.byteOffset + offset;
+    if (count > 0) {
+      const std::size_t end = begin + (count - 1) * stride + n * csize;
+      if (end > bv.byteOffset + bv.byteLength || end > data.size())
+        fail(path_, std::string("accessor data for ") + what + " runs past the end of its buffer (truncated file?)");
+    }
+    for (std::size_t i = 0; i < count; ++i)
+      for (int c = 0; c < n; ++c) dst[i * n + c] = decode(&data[begin + i * stride + c * csize], type, normalized);
+  };
+  if (a.bufferView >= 0)
+    read_view(a.bufferView, a.byteOffset, a.count, comps, a.componentType, comps * size, a.normalized, v.data());
+  if (a.sparse.isSparse) {  // glTF 2.0 section 3.6.2.3: substitute `count` elements
+    const std::size_t n = static_cast<std::size_t>(a.sparse.count);
+    std::vector<double> idx(n), val(n * comps);
+    const int itype = a.sparse.indices.componentType;
+    read_view(a.sparse.indices.bufferView, a.sparse.indices.byteOffset, n, 1, itype,
+              tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(itype)), false, idx.data());
+    read_view(a.sparse.values.bufferView, a.sparse.values.byteOffset, n, comps, a.componentType, comps * size,
+              a.normalized, val.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto k = static_cast<std::size_t>(idx[i]);
+      if (k >= a.count) fail(path_, std::string("sparse index out of range in ") + what);
+      for (int c = 0; c < comps; ++c) v[k * comps + c] = val[i * comps + c];
+    }
+  }
+  return v;
+}
+
+int Loader::texture(int t) {
+  if (t < 0) return -1;
+  auto it = textures_.find(t);
+  if (it != textures_.end()) return it->second;
+  if (t >= static_cast<int>(m_.textures.size())) fail(path_, "texture index " + std::to_string(t) + " is out of range");
+  const tinygltf::Texture& gt = m_.textures[t];
+  if (gt.source < 0 || gt.source >= static_cast<int>(m_.images.size()))
+    fail(path_, "texture " + std::to_string(t) + " has no image");
+  const tinygltf::Image& im = m_.images[gt.source];
+  if (im.width <= 0 || im.height <= 0 || im.image.empty())
+    fail(path_, "image '" + (im.uri.empty() ? im.name : im.uri) + "' could not be decoded");
+  Texture tex;
+  tex.width = im.width;
+  tex.height = im.height;
+  tex.rgb.resize(static_cast<std::size_t>(im.width) * im.height * 3);
+  const int bytes = im.bits == 16 ? 2 : 1;
+  const std::size_t needed = static_cast<std::size_t>(im.width) * im.height * im.component * bytes;
+  if (im.image.size() < needed || im.component < 1) fail(path_, "image '" + im.uri + "' has inconsistent size");
+  for (std::size_t p = 0; p < static_cast<std::size_t>(im.width) * im.height; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      const int src = im.component >= 3 ? c : 0;  // grey (and grey+alpha) expands to RGB
+      const std::size_t o = (p * im.component + src) * bytes;
+      const float x = bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
+      tex.rgb[p * 3 + c] = srgb_to_linear(x);
+    }
+  }
+  if (gt.sampler >= 0 && gt.sampler < static_cast<int>(m_.samplers.size())) {
+    tex.clamp_s = m_.samplers[gt.sampler].wrapS == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+    tex.clamp_t = m_.samplers[gt.sampler].wrapT == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+  }
+  out_->textures.push_back(std::move(tex));
+  return textures_[t] = static_cast<int>(out_->textures.size()) - 1;
+}
+
+void flatten_extras(const tinygltf::Value& v, const std::string& prefix, std::map<std::string, std::string>* out) {
+  if (v.IsObject()) {
+    for (const std::string& k : v.Keys()) flatten_extras(v.Get(k), prefix.empty() ? k : prefix + "." + k, out);
+  } else if (v.IsString()) {
+    (*out)[prefix] = v.Get<std::string>();
+  } else if (v.IsNumber()) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v.GetNumberAsDouble();
+    (*out)[prefix] = s.str();
+  } else if (v.IsBool()) {
+    (*out)[prefix] = v.Get<bool>() ? "true" : "false";
+  } else if (!prefix.empty()) {
+    (*out)[prefix] = "";  // arrays and nulls: present but not representable as one string
+  }
+}
+
+// tinygltf's Value as JSON text (numbers with 17 digits, so doubles round-trip).
+void write_json(const tinygltf::Value& v, std::ostringstream* out) {
+  if (v.IsObject()) {
+    *out << '{';
+    bool first = true;
+    for (const std::string& k : v.Keys()) {
+      if (!first) *out << ',';
+      first = false;
+      write_json(tinygltf::Value(k), out);
+      *out << ':';
+      write_json(v.Get(k), out);
+    }
+    *out << '}';
+  } else if (v.IsArray()) {
+    *out << '[';
+    for (std::size_t i = 0; i < v.ArrayLen(); ++i) {
+      if (i) *out << ',';
+      write_json(v.Get(static_cast<int>(i)), out);
+    }
+    *out << ']';
+  } else if (v.IsString()) {
+    *out << '"';
+    for (char c : v.Get<std::string>()) {
+      if (c == '"' || c == '\\') *out << '\\' << c;
+      else if (static_cast<unsigned char>(c) < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", c);
+        *out << buf;
+      } else *out << c;
+    }
+    *out << '"';
+  } else if (v.IsNumber()) {
+    *out << v.GetNumberAsDouble();
+  } else if (v.IsBool()) {
+    *out << (v.Get<bool>() ? "true" : "false");
+  } else {
+    *out << "null";
+  }
+}
+
+void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world) {
+  if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
+    warn("primitives that are not TRIANGLES (points, lines, strips, fans) are skipped");
+    return;
+  }
+  auto pos_it = prim.attributes.find("POSITION");
+  if (pos_it == prim.attributes.end()) {
+    warn("a primitive without POSITION is skipped");
+    return;
+  }
+  if (!prim.targets.empty()) warn("morph targets are ignored (the base mesh is rendered)");
+  if (prim.attributes.count("JOINTS_0")) warn("skins are ignored (the rest pose is rendered)");
+  if (prim.attributes.count("COLOR_0")) warn("vertex colours (COLOR_0) are ignored");
+
+  const std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
+  const std::size_t nv = p.size() / 3;
+  std::vector<double> n, uv;
+  if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
+  if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
+  if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv))
+    fail(path_, "mesh '" + gmesh.name + "' has attributes of different lengths");
+
+  std::vector<std::uint32_t> idx;
+  if (prim.indices >= 0) {
+    for (double d : read_accessor(prim.indices, 1, "indices")) {
+      if (d >= static_cast<double>(nv)) fail(path_, "mesh '" + gmesh.name + "' has a vertex index out of range");
+      idx.push_back(static_cast<std::uint32_t>(d));
+    }
+  } else {
+    for (std::size_t i = 0; i < nv; ++i) idx.push_back(static_cast<std::uint32_t>(i));
+  }
+  if (idx.size() % 3 != 0) fail(path_, "mesh '" + gmesh.name + "' has an index count that is not a multiple of 3");
+
+  // Normals transform with the inverse transpose of the upper 3x3 (pbrt-v4 section 3.10.3).
+  const glm::dmat3 m3(world);
+  const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(m3));
+  // A mirroring transform (negative determinant) reverses the winding; glTF says to flip it
+  // back so faces keep their front side (glTF 2.0 section 3.7.4).
+  const bool mirrored = glm::determinant(m3) < 0.0;
+
+  Mesh mesh;
+  mesh.name = gmesh.name;
+  mesh.material = prim.material;
+  if (prim.material >= static_cast<int>(m_.materials.size())) fail(path_, "mesh '" + gmesh.name + "' uses a missing material");
+  mesh.positions.resize(nv);
+  for (std::size_t i = 0; i < nv; ++i) {
+    const glm::dvec3 w = glm::dvec3(world * glm::dvec4(p[3 * i], p[3 * i + 1], p[3 * i + 2], 1.0));
+    if (!std::isfinite(w.x) || !std::isfinite(w.y) || !std::isfinite(w.z) || std::abs(w.x) > 1e30 ||
+        std::abs(w.y) > 1e30 || std::abs(w.z) > 1e30)
+      fail(path_, "mesh '" + gmesh.name + "' has a non-finite vertex position (vertex " + std::to_string(i) + ")");
+    mesh.positions[i] = glm::vec3(w);
+  }
+  if (!n.empty()) {
+    mesh.normals.resize(nv);
+    for (std::size_t i = 0; i < nv; ++i) {
+      glm::dvec3 w = normal_matrix * glm::dvec3(n[3 * i], n[3 * i + 1], n[3 * i + 2]);
+      const double len = glm::length(w);
+      if (!(len > 0.0) || !std::isfinite(len)) {  // unusable normal: fall back to flat shading
+        warn("invalid vertex normals replaced by flat shading");
+        mesh.normals.clear();
+        break;
+      }
+      mesh.normals[i] = glm::vec3(w / len);
+    }
+  }
+  if (!uv.empty()) {
+    mesh.texcoords.resize(nv);
+    for (std::size_t i = 0; i < nv; ++i) mesh.texcoords[i] = glm::vec2(uv[2 * i], uv[2 * i + 1]);
+  }
+  for (std::size_t t = 0; t < idx.size(); t += 3) {
+    std::uint32_t a = idx[t], b = idx[t + 1], c = idx[t + 2];
+    if (mirrored) std::swap(b, c);
+    const glm::dvec3 e1 = glm::dvec3(mesh.positions[b]) - glm::dvec3(mesh.positions[a]);
+    const glm::dvec3 e2 = glm::dvec3(mesh.positions[c]) - glm::dvec3(mesh.positions[a]);
+    // Degenerate: the edges are parallel to within 1e-12 (sin of the angle between them), or
+    // an edge has zero length. Such triangles have no area to hit or to emit from.
+    const double cross = glm::length(glm::cross(e1, e2));
+    if (!(cross > 1e-12 * glm::length(e1) * glm::length(e2))) {
+      ++out_->degenerate_triangles;
+      continue;
+    }
+    mesh.indices.insert(mesh.indices.end(), {a, b, c});
+  }
+  out_->triangles += mesh.indices.size() / 3;
+  if (!mesh.indices.empty()) out_->meshes.push_back(std::move(mesh));
+}
+
+void Loader::visit(int index, const glm::dmat4& parent, int depth) {
+  if (index < 0 || index >= static_cast<int>(m_.nodes.size())) fail(path_, "node index " + std::to_string(index) + " is out of range");
+  if (depth > 256) fail(path_, "node hierarchy is deeper than 256 levels (a cycle?)");
+  const tinygltf::Node& node = m_.nodes[index];
+  const glm::dmat4 world = parent * local_transform(node);
+  const glm::dmat3 m3(world);
+
+  if (node.mesh >= 0) {
+    if (node.mesh >= static_cast<int>(m_.meshes.size())) fail(path_, "node '" + node.name + "' refers to a missing mesh");
+    const tinygltf::Mesh& mesh = m_.meshes[node.mesh];
+    for (const tinygltf::Primitive& prim : mesh.primitives) add_primitive(mesh, prim, world);
+  }
+  if (node.camera >= 0 && node.camera < static_cast<int>(m_.cameras.size())) {
+    const tinygltf::Camera& c = m_.cameras[node.camera];
+    if (c.type != "perspective") {
+      warn("orthographic cameras are skipped");
+    } else {
+      CameraDesc cam;
+      cam.name = c.name.empty() ? node.name : c.name;
+      cam.node_name = node.name;
+      cam.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+      cam.forward = glm::normalize(m3 * glm::dvec3(0.0, 0.0, -1.0));
+      cam.up = glm::normalize(m3 * glm::dvec3(0.0, 1.0, 0.0));
+      cam.yfov = c.perspective.yfov;
+      if (!(cam.yfov > 0.0 && cam.yfov < 3.14)) fail(path_, "camera '" + cam.name + "' has an invalid yfov");
+      out_->cameras.push_back(cam);
+    }
+  }
+  if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end() && it->second.Has("light")) {
+    const int li = it->second.Get("light").GetNumberAsInt();
+    if (li < 0 || li >= static_cast<int>(m_.lights.size())) fail(path_, "node '" + node.name + "' refers to a missing light");
+    const tinygltf::Light& gl = m_.lights[li];
+    LightDesc l;
+    l.name = gl.name;
+    Spectrum colour(1.0);
+    if (gl.color.size() == 3) colour = Spectrum(gl.color[0], gl.color[1], gl.color[2]);
+    l.intensity = colour * gl.intensity;
+    l.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+    l.direction = glm::normalize(m3 * glm::dvec3(0.0, 0.0, -1.0));
+    if (gl.type == "point") {
+      l.type = LightType::kPoint;
+    } else if (gl.type == "spot") {
+      l.type = LightType::kSpot;
+      l.cos_inner = std::cos(gl.spot.innerConeAngle);
+      l.cos_outer = std::cos(gl.spot.outerConeAngle);
+    } else if (gl.type == "directional") {
+      l.type = LightType::kDirectional;
+    } else {
+      fail(path_, "light '" + gl.name + "' has unknown type '" + gl.type + "'");
+    }
+    if (gl.range > 0.0) warn("light range is ignored (physical inverse-square falloff is used)");
+    if (!l.intensity.is_finite() || l.intensity.min() < 0.0) fail(path_, "light '" + gl.name + "' has an invalid intensity");
+    out_->lights.push_back(l);
+  }
+  for (int child : node.children) visit(child, world, depth + 1);
+}
+
+void Loader::run() {
+  static const std::set<std::string> supported = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
+  std::string unsupported;
+  for (const std::string& e : m_.extensionsRequired)
+    if (!supported.count(e)) fail(path_, "requires unsupported extension " + e);
+  for (const std::string& e : m_.extensionsUsed)
+    if (!supported.count(e)) unsupported += (unsupported.empty() ? "" : ", ") + e;
+  if (!unsupported.empty()) warn("unsupported extensions ignored: " + unsupported);
+
+  for (const tinygltf::Material& gm : m_.materials) {
+    Material mat;
+    mat.name = gm.name;
+    const std::vector<double>& bc = gm.pbrMetallicRoughness.baseColorFactor;
+    if (bc.size() >= 3) mat.base_color = Spectrum(bc[0], bc[1], bc[2]);
+    mat.base_color_texture = texture(gm.pbrMetallicRoughness.baseColorTexture.index);
+    double strength = 1.0;
+    if (auto it = gm.extensions.find("KHR_materials_emissive_strength"); it != gm.extensions.end() &&
+                                                                           it->second.Has("emissiveStrength"))
+      strength = it->second.Get("emissiveStrength").GetNumberAsDouble();
+    if (gm.emissiveFactor.size() == 3)
+      mat.emission = Spectrum(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]) * strength;
+    mat.emissive_texture = texture(gm.emissiveTexture.index);
+    mat.double_sided = gm.doubleSided;
+    if (gm.pbrMetallicRoughness.metallicFactor > 0.0 && !gm.pbrMetallicRoughness.baseColorFactor.empty())
+      warn("metallic-roughness is not modelled: every material is shaded as Lambert with its base colour");
+    if (!mat.base_color.is_finite() || mat.base_color.min() < 0.0 || !mat.emission.is_finite() || mat.emission.min() < 0.0)
+      fail(path_, "material '" + gm.name + "' has a negative or non-finite colour");
+    flatten_extras(gm.extras, "", &mat.extras);
+    if (gm.extras.IsObject()) {
+      std::ostringstream js;
+      js.precision(17);
+      write_json(gm.extras, &js);
+      mat.extras_json = js.str();
+    }
+    out_->materials.push_back(std::move(mat));
+  }
+
+  for (int t = 0; t < static_cast<int>(m_.textures.size()); ++t) out_->gltf_textures[t] = texture(t);
+
+  int scene = m_.defaultScene >= 0 ? m_.defaultScene : 0;
+  if (m_.scenes.empty()) fail(path_, "has no scene");
+  if (scene >= static_cast<int>(m_.scenes.size())) fail(path_, "default scene index is out of range");
+  for (int n : m_.scenes[scene].nodes) visit(n, glm::dmat4(1.0), 0);
+  if (out_->meshes.empty()) fail(path_, "the scene has no triangles to render");
+  if (out_->degenerate_triangles > 0)
+    warn(std::to_string(out_->degenerate_triangles) + " degenerate triangle(s) skipped");
+  out_->compute_bounds();
+}
+
+}  // namespace
+
+Spectrum Texture::lookup(glm::dvec2 uv) const {
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return Spectrum(0.0);
+  Spectrum s;
+  for (int k = 0; k < 4; ++k) {
+    const float* p = &rgb[f.texel[k] * 3];
+    s += Spectrum(p[0], p[1], p[2]) * f.weight[k];
+  }
+  return s;
+}
+
+const Material& SceneDesc::material(int index) const {
+  // glTF's default material is white metal; Lamina has no metal, so the default is grey Lambert.
+  static const Material kDefault{};
+  return index >= 0 && index < static_cast<int>(materials.size()) ? materials[index] : kDefault;
+}
+
+void SceneDesc::compute_bounds() {
+  const double inf = std::numeric_limits<double>::infinity();
+  bounds_min = glm::dvec3(inf);
+  bounds_max = glm::dvec3(-inf);
+  for (const Mesh& m : meshes)
+    for (std::uint32_t i : m.indices) {
+      bounds_min = glm::min(bounds_min, glm::dvec3(m.positions[i]));
+      bounds_max = glm::max(bounds_max, glm::dvec3(m.positions[i]));
+    }
+}
+
+SceneDesc load_gltf(const std::string& path) {
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  const bool binary = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".glb") == 0 ||
+                                           path.compare(path.size() - 4, 4, ".GLB") == 0);
+  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
+                         : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+  if (!ok || !err.empty()) fail(path, err.empty() ? "cannot be read as glTF" : err);
+  SceneDesc scene;
+  scene.path = path;
+  if (!warn.empty()) scene.warnings.push_back(one_line(warn));
+  Loader(path, model, &scene).run();
+  return scene;
+}
+
+CameraDesc framing_camera(const SceneDesc& scene, double aspect) {
+  CameraDesc cam;
+  cam.name = "(framing)";
+  cam.yfov = 40.0 * kPi / 180.0;
+  const glm::dvec3 centre = 0.5 * (scene.bounds_min + scene.bounds_max);
+  const glm::dvec3 half = 0.5 * (scene.bounds_max - scene.bounds_min);
+  // Distance from the box's front face (+Z) at which its front fits the vertical and
+  // horizontal field of view, plus 10% margin.
+  const double t = std::tan(0.5 * cam.yfov);
+  const double fit = 1.1 * std::max(half.y, half.x / std::max(aspect, 1e-6)) / t;
+  cam.position = glm::dvec3(centre.x, centre.y, scene.bounds_max.z + std::max(fit, 1e-3));
+  cam.forward = glm::dvec3(0.0, 0.0, -1.0);
+  cam.up = glm::dvec3(0.0, 1.0, 0.0);
+  return cam;
+}
+
+}  // namespace lamina

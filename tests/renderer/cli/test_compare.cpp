@@ -1,0 +1,180 @@
+// `lamina compare` end to end: outputs, metrics, colours, exit codes, errors.
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "renderer/image/image_io.h"
+#include "tests/renderer/cli/cli_runner.h"
+
+namespace fs = std::filesystem;
+namespace lamina {
+namespace {
+
+// A fresh directory per test, so tests may run in parallel (ctest -j) without sharing files.
+fs::path dir() {
+  static fs::path d;
+  const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  if (d.empty() || d.filename() != name) {
+    d = fs::path(::testing::TempDir()) / "lamina_cli_compare" / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+  }
+  return d;
+}
+
+using CommandResult = test::CliResult;
+using test::slurp;
+
+// `lamina ARGS`, run in this test's directory.
+CommandResult lamina(const std::string& args) { return test::run_lamina(dir(), args); }
+
+std::string grey_exr(const std::string& name, int w, int h, std::initializer_list<float> values) {
+  Image image(w, h);
+  std::size_t i = 0;
+  for (float v : values) {
+    image.rgb[3 * i] = image.rgb[3 * i + 1] = image.rgb[3 * i + 2] = v;
+    ++i;
+  }
+  const std::string path = (dir() / name).string();
+  write_exr(path, image);
+  return path;
+}
+
+TEST(CliCompare, HelpExitsZero) {
+  const CommandResult r = lamina("compare --help");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("--fail-above"), std::string::npos);
+}
+
+TEST(CliCompare, MetricsDiffAndSign) {
+  // REF = 1; TEST = 1.5 (left column) and 0.5 (right column): relative +0.5 and -0.5, so the
+  // mean is 0, the RMS 0.5, MAE 0.5, MSE 0.25.
+  const std::string ref = grey_exr("ref.exr", 2, 2, {1, 1, 1, 1});
+  const std::string test = grey_exr("test.exr", 2, 2, {1.5f, 0.5f, 1.5f, 0.5f});
+  const fs::path exr = dir() / "diff.exr", png = dir() / "diff.png", json = dir() / "m.json";
+  const CommandResult r = lamina("compare " + ref + " " + test + " -o " + exr.string() + " --png " + png.string() +
+                       " --json " + json.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("RMS relative difference"), std::string::npos);
+
+  const nlohmann::json m = nlohmann::json::parse(slurp(json));
+  EXPECT_NEAR(m["mean_relative"].get<double>(), 0.0, 1e-7);
+  EXPECT_NEAR(m["rms_relative"].get<double>(), 0.5, 1e-7);
+  EXPECT_NEAR(m["mae"].get<double>(), 0.5, 1e-7);
+  EXPECT_NEAR(m["mse"].get<double>(), 0.25, 1e-7);
+  EXPECT_NEAR(m["rmse"].get<double>(), 0.5, 1e-7);
+  EXPECT_LT(m["ssim"].get<double>(), 1.0);
+
+  const Image diff = read_image(exr.string());
+  EXPECT_NEAR(diff.pixel(0, 1)[0], 0.5, 1e-7);
+  EXPECT_NEAR(diff.pixel(1, 1)[2], -0.5, 1e-7);
+
+  // With the default range +-50%, +0.5 is full red and -0.5 full blue (the bytes, not decoded).
+  auto in = OIIO::ImageInput::open(png.string());
+  ASSERT_TRUE(in);
+  const OIIO::ImageSpec spec = in->spec();
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, bytes.data()));
+  const unsigned char* left = &bytes[0];
+  const unsigned char* right = &bytes[spec.nchannels];
+  EXPECT_EQ(left[0], 255);
+  EXPECT_EQ(left[1], 0);
+  EXPECT_EQ(left[2], 0);
+  EXPECT_EQ(right[0], 0);
+  EXPECT_EQ(right[1], 0);
+  EXPECT_EQ(right[2], 255);
+  EXPECT_GT(spec.height, 2);  // the legend is below the map
+
+  // --range 1: +0.5 is half way to red: (1, 0.5, 0.5) in display values -> bytes 255, 128, 128.
+  const CommandResult r2 = lamina("compare " + ref + " " + test + " --png " + png.string() + " --range 1");
+  ASSERT_EQ(r2.exit_code, 0) << r2.err;
+  EXPECT_EQ(read_image(png.string()).width, spec.width);
+  auto in2 = OIIO::ImageInput::open(png.string());
+  ASSERT_TRUE(in2->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, bytes.data()));
+  EXPECT_EQ(bytes[0], 255);
+  EXPECT_NEAR(bytes[1], 128, 1);
+  EXPECT_NEAR(bytes[2], 128, 1);
+}
+
+TEST(CliCompare, GuardNearZeroReference) {
+  // mean(REF) = 1 -> floor 0.01; REF 0, TEST 0.005 -> 0.5 instead of infinity.
+  const std::string ref = grey_exr("gref.exr", 2, 1, {0.0f, 2.0f});
+  const std::string test = grey_exr("gtest.exr", 2, 1, {0.005f, 2.0f});
+  const fs::path exr = dir() / "gdiff.exr";
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " -o " + exr.string()).exit_code, 0);
+  const Image diff = read_image(exr.string());
+  EXPECT_NEAR(diff.pixel(0, 0)[1], 0.5, 1e-6);
+  EXPECT_EQ(diff.pixel(1, 0)[1], 0.0f);
+}
+
+TEST(CliCompare, FailAboveSetsTheExitStatus) {
+  const std::string ref = grey_exr("fref.exr", 2, 1, {1, 1});
+  const std::string test = grey_exr("ftest.exr", 2, 1, {1.2f, 0.8f});  // RMS relative 0.2
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --fail-above 0.25").exit_code, 0);
+  const CommandResult r = lamina("compare " + ref + " " + test + " --fail-above 0.15");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("exceeds"), std::string::npos);
+}
+
+TEST(CliCompare, CropRestrictsTheMetrics) {
+  const std::string ref = grey_exr("cref.exr", 3, 1, {1, 1, 1});
+  const std::string test = grey_exr("ctest.exr", 3, 1, {1, 1, 3});
+  const fs::path json = dir() / "c.json";
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " --crop 0,0,2,1 --json " + json.string()).exit_code, 0);
+  EXPECT_EQ(nlohmann::json::parse(slurp(json))["rms_relative"].get<double>(), 0.0);
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 2,0,2,1").exit_code, 2);
+  EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 1,2").exit_code, 2);
+}
+
+TEST(CliCompare, BadInputGivesOneLineErrors) {
+  const std::string ref = grey_exr("eref.exr", 2, 2, {1, 1, 1, 1});
+  const std::string small = grey_exr("esmall.exr", 1, 1, {1});
+  const std::string missing = (dir() / "missing.exr").string();
+
+  CommandResult r = lamina("compare " + ref + " " + missing);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(missing), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+
+  r = lamina("compare " + ref + " " + small);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("2x2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1x1"), std::string::npos) << r.err;
+
+  // A one-channel image against an RGB one.
+  const std::string one = (dir() / "one.exr").string();
+  {
+    auto out = OIIO::ImageOutput::create(one);
+    OIIO::ImageSpec spec(2, 2, 1, OIIO::TypeDesc::FLOAT);
+    ASSERT_TRUE(out->open(one, spec));
+    const float px[4] = {1, 1, 1, 1};
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
+    out->close();
+  }
+  r = lamina("compare " + ref + " " + one);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("channel"), std::string::npos) << r.err;
+
+  r = lamina("compare " + ref);  // missing TEST
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(lamina("compare " + ref + " " + ref + " --range 0").exit_code, 2);  // range must be > 0
+  // An unwritable output names the file.
+  const std::string bad_out = (dir() / "no_dir" / "d.exr").string();
+  r = lamina("compare " + ref + " " + ref + " -o " + bad_out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(bad_out), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace lamina

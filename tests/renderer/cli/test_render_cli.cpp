@@ -1,0 +1,293 @@
+// `lamina render` as a user runs it: bad input gives one line on stderr naming the file and the
+// problem, a non-zero exit, no crash and no output file; good input writes the EXR (and PNG)
+// with its metadata.
+#include <sys/wait.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "renderer/image/image_io.h"
+#include "tests/renderer/cli/cli_runner.h"
+#include "tests/renderer/gltf_fixture.h"
+
+namespace lamina {
+namespace {
+
+using testing::GltfBuilder;
+using testing::TempDir;
+
+using Result = test::CliResult;
+using test::slurp;
+
+// `lamina render ARGS`.
+Result run(const TempDir& dir, const std::string& args) { return test::run_lamina(dir.path, "render " + args); }
+
+// A unit quad facing +Z, in front of the default framing camera.
+void write_quad(const std::string& path, bool glb = false) {
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  glb ? b.write_glb(path) : b.write_gltf(path);
+}
+
+// The error is one line, names `file`, and mentions `what`; nothing was written.
+void expect_failure(const Result& r, const std::string& file, const std::string& what, const std::string& out) {
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_LT(r.exit_code, 128) << "crashed: " << r.err;
+  std::string err = r.err;
+  while (!err.empty() && err.back() == '\n') err.pop_back();
+  EXPECT_EQ(err.find('\n'), std::string::npos) << "more than one line: " << r.err;
+  EXPECT_NE(err.find(file), std::string::npos) << r.err;
+  EXPECT_NE(err.find(what), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out)) << out;
+}
+
+TEST(RenderCli, RendersAndWritesMetadata) {
+  TempDir dir("cli-ok");
+  write_quad(dir / "quad.gltf");
+  const Result r = run(dir, dir / "quad.gltf" + " -o " + dir / "q.exr" + " --png " + dir / "q.png" +
+                                " --width 16 --height 12 --spp 2 --env 1 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image im = read_image(dir / "q.exr");
+  EXPECT_EQ(im.width, 16);
+  EXPECT_EQ(im.height, 12);
+  EXPECT_TRUE(std::filesystem::exists(dir / "q.png"));
+  bool spp = false, rays = false, seconds = false, command = false, version = false;
+  for (const auto& [k, v] : read_metadata(dir / "q.exr")) {
+    spp |= k == "lamina:spp" && v == "2";
+    rays |= k == "lamina:rays_closest" && std::stod(v) >= 16 * 12 * 2;
+    seconds |= k == "lamina:seconds";
+    command |= k == "lamina:command" && v.find("--spp 2") != std::string::npos;
+    version |= k == "lamina:version";
+  }
+  EXPECT_TRUE(spp && rays && seconds && command && version);
+  EXPECT_NE(r.out.find("spp"), std::string::npos);
+  EXPECT_NE(r.out.find("peak memory"), std::string::npos);
+}
+
+// --camera picks a camera by name; --env reads an equirectangular EXR. The quad is emissive-free
+// and lit by a uniform EXR environment, so every pixel is finite and non-negative.
+TEST(RenderCli, NamedCameraAndEnvironmentFile) {
+  TempDir dir("cli-camera");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.json()["cameras"] = {{{"name", "near"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}},
+                         {{"name", "far"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
+  b.add_node({{"camera", 0}, {"translation", {0, 0, 2}}});
+  b.add_node({{"camera", 1}, {"translation", {0, 0, 50}}});
+  b.write_gltf(dir / "cams.gltf");
+  Image sky(8, 4);
+  for (float& v : sky.rgb) v = 0.5f;
+  write_exr(dir / "sky.exr", sky);
+  const Result r = run(dir, dir / "cams.gltf -o " + dir / "far.exr" + " --camera far --env " + dir / "sky.exr" +
+                                " --width 8 --height 8 --spp 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  bool far = false;
+  for (const auto& [k, v] : read_metadata(dir / "far.exr")) far |= k == "lamina:camera" && v == "far";
+  EXPECT_TRUE(far);
+  const Image im = read_image(dir / "far.exr");
+  // From 50 units a 2-unit quad covers ~0.07 of the view: the corner pixel sees the sky (0.5).
+  EXPECT_NEAR(im.pixel(0, 0)[0], 0.5, 1e-3);
+  for (float v : im.rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+}
+
+TEST(RenderCli, BadScenesFailCleanly) {
+  TempDir dir("cli-bad");
+  const std::string out = dir / "out.exr";
+  write_quad(dir / "ok.glb", true);
+  {
+    std::ifstream in(dir / "ok.glb", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.glb", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+    expect_failure(run(dir, dir / "cut.glb -o " + out), dir / "cut.glb", "", out);
+  }
+  {
+    std::ofstream(dir / "garbage.glb") << "this is not a glTF file";
+    expect_failure(run(dir, dir / "garbage.glb -o " + out), dir / "garbage.glb", "", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0})}});
+    b.write_gltf(dir / "ext.gltf", "ext.bin");
+    std::filesystem::remove(dir / "ext.bin");
+    expect_failure(run(dir, dir / "ext.gltf -o " + out), dir / "ext.gltf", "ext.bin", out);
+  }
+  {
+    GltfBuilder b;
+    b.json()["images"] = {{{"uri", "gone.png"}}};
+    b.json()["textures"] = {{{"source", 0}}};
+    b.json()["materials"].push_back({{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+    b.write_gltf(dir / "tex.gltf");
+    expect_failure(run(dir, dir / "tex.gltf -o " + out), dir / "tex.gltf", "gone.png", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"name", "nothing here"}});
+    b.write_gltf(dir / "empty.gltf");
+    expect_failure(run(dir, dir / "empty.gltf -o " + out), dir / "empty.gltf", "no triangles", out);
+  }
+  {
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, NAN, 0, 0, 0, 1, 0})}});
+    b.write_gltf(dir / "nan.gltf");
+    expect_failure(run(dir, dir / "nan.gltf -o " + out), dir / "nan.gltf", "non-finite", out);
+  }
+  expect_failure(run(dir, dir / "missing.gltf -o " + out), dir / "missing.gltf", "", out);
+}
+
+TEST(RenderCli, DegenerateTrianglesAreSkippedAndCounted) {
+  TempDir dir("cli-degenerate");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2})}});
+  b.write_gltf(dir / "d.gltf");
+  const Result r = run(dir, dir / "d.gltf -o " + dir / "d.exr" + " --width 8 --height 8 --spp 1 --env 1");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("1 degenerate triangle"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "d.exr"));
+}
+
+TEST(RenderCli, BadOptionsFailCleanly) {
+  TempDir dir("cli-options");
+  const std::string scene = dir / "quad.gltf";
+  const std::string out = dir / "out.exr";
+  write_quad(scene);
+  expect_failure(run(dir, scene + " -o " + out + " --camera nosuch"), scene, "no camera named 'nosuch'", out);
+  expect_failure(run(dir, scene + " -o " + out + " --width 100000"), "--width", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --height 0"), "--height", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp 0"), "--spp", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp -3"), "--spp", "between", out);
+  expect_failure(run(dir, scene + " -o " + out + " --spp lots"), "--spp", "", out);
+  expect_failure(run(dir, scene + " -o " + out + " --width 16384 --height 16384 --spp 1000000"), "--spp", "1e12", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface dipole"), "--subsurface 'dipole'", "random-walk", out);
+  expect_failure(run(dir, scene + " -o " + out + " --tolerance 0.05"), "--tolerance", "--subsurface auto", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface first-order --tolerance 0.05"), "--tolerance", "--subsurface auto", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto"), "--subsurface auto", "--tolerance", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance 0"), "--tolerance", "(0, 1]", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance 2"), "--tolerance", "(0, 1]", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance nan"), "--tolerance", "", out);
+  expect_failure(run(dir, scene + " -o " + out + " --subsurface auto --tolerance lots"), "--tolerance", "", out);
+  expect_failure(run(dir, scene + " -o " + out + " --env not-a-file.exr"), "not-a-file.exr", "", out);
+  const std::string nodir = dir / "no/such/dir/out.exr";
+  expect_failure(run(dir, scene + " -o " + nodir), nodir, "does not exist", nodir);
+  expect_failure(run(dir, scene + " -o " + dir.path.string()), dir.path.string(), "is a directory", out);
+  expect_failure(run(dir, scene + " -o " + out + " --png " + nodir), nodir, "does not exist", out);
+}
+
+}  // namespace
+}  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// A glTF with one quad z = 0 in [-1, 1]^2 facing +z whose material is `material`, bound by
+// DIR/map.json to DIR/<stack_file> holding `stack_json`: the scene of the layered CLI tests.
+void write_layered_quad(const TempDir& dir, const std::string& gltf, const std::string& material,
+                        const std::string& stack_file, const std::string& stack_json) {
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", material}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(dir / gltf);
+  std::filesystem::create_directories((dir.path / stack_file).parent_path());
+  std::ofstream(dir / stack_file) << stack_json;
+  std::ofstream(dir / "map.json") << nlohmann::json{{material, stack_file}}.dump();
+}
+
+// A quad whose material "leaf" is bound to a stack by --materials (path relative to the map),
+// rendered in every --subsurface mode; the EXR records the layered counters. A map naming a
+// missing stack file fails with one line naming the map, the material and the file.
+TEST(RenderCliLayered, MaterialsMapAndModes) {
+  TempDir dir("cli-layered");
+  write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": [0.5, 0.1, 0.8], "sigma_s": 20, "g": 0.3}], "below": {"ior": 1.0}})");
+  // (table mode builds its tables from 4e5 walks: tested in tests/renderer, not here, for time)
+  for (const char* mode : {"random-walk", "first-order", "lambert"}) {
+    const std::string out = dir / (std::string(mode) + ".exr");
+    const Result r = run(dir, dir / "leaf.gltf -o " + out + " --materials " + dir / "map.json" +
+                                  " --width 6 --height 4 --spp 2 --env 1 --subsurface " + mode);
+    ASSERT_EQ(r.exit_code, 0) << mode << ": " << r.err;
+    bool bound = false, events = false;
+    for (const auto& [k, v] : read_metadata(out)) {
+      bound |= k == "lamina:layered_materials" && v == "1";
+      events |= k == "lamina:scatter_events" && (std::string(mode) != "random-walk" || std::stod(v) > 0);
+    }
+    EXPECT_TRUE(bound && events) << mode;
+    for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f) << mode;
+  }
+  std::ofstream(dir / "bad_map.json") << R"({"leaf": "m/nothere.json"})";
+  expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + " --materials " + dir / "bad_map.json"),
+                 dir / "bad_map.json", "nothere.json", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// --subsurface auto: a strongly absorbing stack (first order is within 5%: see
+// tests/renderer/test_subsurface_auto) on a visible quad, and a second layered material on a
+// quad hidden behind it (no camera ray reaches it). The choice and its reason are printed and
+// stored per material in the EXR metadata; the hidden one is not predicted.
+TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {
+  TempDir dir("cli-auto");
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "ink"}});
+  b.json()["materials"].push_back({{"name", "hidden"}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.add_node({{"mesh", b.add_mesh({-0.5, -0.5, -0.2, 0.5, -0.5, -0.2, 0.5, 0.5, -0.2, -0.5, 0.5, -0.2}, {0, 1, 2, 0, 2, 3}, {}, 1)}});
+  b.write_gltf(dir / "auto.gltf");
+  std::ofstream(dir / "ink.json") << R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})";
+  std::ofstream(dir / "map.json") << R"({"ink": "ink.json", "hidden": "ink.json"})";
+  const std::string out = dir / "auto.exr";
+  const Result r = run(dir, dir / "auto.gltf -o " + out + " --materials " + dir / "map.json" +
+                                " --width 8 --height 8 --spp 2 --env 1 --subsurface auto --tolerance 0.05");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("material ink"), std::string::npos) << r.out;
+  std::string ink, hidden, tol, ink_mode, hidden_mode;
+  for (const auto& [k, v] : read_metadata(out)) {
+    if (k == "lamina:auto:ink") ink = v;
+    if (k == "lamina:auto:hidden") hidden = v;
+    if (k == "lamina:auto_mode:ink") ink_mode = v;
+    if (k == "lamina:auto_mode:hidden") hidden_mode = v;
+    if (k == "lamina:tolerance") tol = v;
+  }
+  EXPECT_EQ(ink.rfind("chose first-order", 0), 0u) << ink;
+  EXPECT_NE(hidden.find("not visible"), std::string::npos) << hidden;
+  EXPECT_EQ(ink_mode, "first-order");
+  EXPECT_EQ(hidden_mode, "lambert-hidden");
+  EXPECT_EQ(tol, "0.05");
+  for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+}
+
+// --cache: the first table-mode render builds the table and stores it, the second loads
+// it (prints "0 built ... 2 loaded") and writes the same pixels; a cache path that cannot be a
+// directory fails before rendering, naming it. The stack is a strongly absorbing 100 mm slab in
+// air, so the table's 9 x 50000 walks are short (about a second); it is symmetric, so its
+// flipped table (seen from below) is the same table: built once, loaded for the other side.
+TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
+  TempDir dir("cli-table-cache");
+  write_layered_quad(dir, "ink.gltf", "ink", "ink.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 100, "sigma_a": 19, "sigma_s": 1, "g": 0}]})");
+  const std::string common = dir / "ink.gltf" + " --materials " + dir / "map.json" +
+                             " --width 6 --height 4 --spp 2 --env 1 --subsurface table --cache " + dir / "cache";
+  const Result first = run(dir, common + " -o " + dir / "first.exr");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find(": 1 built by the walk"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find(", 1 loaded"), std::string::npos) << first.out;
+  const Result second = run(dir, common + " -o " + dir / "second.exr");
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_NE(second.out.find(": 0 built by the walk in 0.00 s, 2 loaded"), std::string::npos) << second.out;
+  EXPECT_EQ(read_image(dir / "first.exr").rgb, read_image(dir / "second.exr").rgb);
+  std::ofstream(dir / "plain") << "x";
+  expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --cache " +
+                              dir / "plain/cache -o " + dir / "x.exr"),
+                 dir / "plain/cache", "cache directory", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina

@@ -1,0 +1,358 @@
+// Texture-driven stack parameters: maps are read as data, bindings map channels through their
+// range into the stack, freckles follow their Poisson intensity (Campbell's theorem), and the
+// demo scenes (head_skin, leaves) load, bind and find their maps.
+#include "renderer/layered/stack_bindings.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "materials/stack_file.h"
+#include "renderer/image/image_io.h"
+#include "renderer/layered/layered_material.h"
+#include "renderer/scene/scene_gltf.h"
+
+namespace lamina {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string source(const std::string& rel) { return std::string(LAMINA_SOURCE_DIR) + "/" + rel; }
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("lamina_test_stack_bindings_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// A 4 x 1 grey 8-bit PNG with stored values 0, 64, 128, 255 (no colour transform on write).
+std::string write_ramp_png(const fs::path& dir, int channels = 1) {
+  const std::string path = (dir / "ramp.png").string();
+  const unsigned char v[4] = {0, 64, 128, 255};
+  std::vector<unsigned char> px;
+  for (int i = 0; i < 4; ++i)
+    for (int c = 0; c < channels; ++c) px.push_back(c == 0 ? v[i] : static_cast<unsigned char>(255 - v[i]));
+  auto out = OIIO::ImageOutput::create(path);
+  OIIO::ImageSpec spec(4, 1, channels, OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // store the values as given
+  EXPECT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close());
+  return path;
+}
+
+TEST(ParameterMap, ReadsStoredValuesWithoutSrgbDecoding) {
+  const fs::path dir = temp_dir("ramp");
+  const ParameterMap m = read_parameter_map(write_ramp_png(dir));
+  ASSERT_EQ(m.width, 4);
+  ASSERT_EQ(m.channels, 1);
+  // Texel centres at (i + 0.5) / 4: the stored value / 255 exactly (sRGB decoding would give
+  // 0.0513 for 64).
+  EXPECT_NEAR(m.lookup({0.125, 0.5}, 0), 0.0, 1e-7);
+  EXPECT_NEAR(m.lookup({0.375, 0.5}, 0), 64.0 / 255.0, 1e-7);
+  EXPECT_NEAR(m.lookup({0.625, 0.5}, 0), 128.0 / 255.0, 1e-7);
+  EXPECT_NEAR(m.lookup({0.875, 0.5}, 0), 1.0, 1e-7);
+  // Bilinear halfway between texels 1 and 2; clamped outside [0, 1].
+  EXPECT_NEAR(m.lookup({0.5, 0.5}, 0), 96.0 / 255.0, 1e-7);
+  EXPECT_NEAR(m.lookup({-3.0, 0.5}, 0), 0.0, 1e-7);
+  EXPECT_THROW(read_parameter_map((dir / "missing.png").string()), SceneError);
+}
+
+TEST(Freckles, MeanFollowsTheIntensityAndTheProfileIntegral) {
+  // Over the unit torus every spot contributes its whole profile integral I (the cut at 3r is
+  // within a cell), so the UV mean is sum_k a_k I / 1 with K ~ Poisson(density) spots:
+  // E = density E[a] I, Var = density E[a^2] I^2 (Campbell), E[a] = 0.75 A,
+  // E[a^2] = A^2 E[(0.5 + 0.5 U)^2] = (7/12) A^2.
+  const double density = 500.0, radius = 0.01, amplitude = 1.0;
+  const int seeds = 10;
+  const double integral = freckle_profile_integral(radius);
+  // The quadrature of the grid (spacing r/5, midpoints) is exact to ~1e-4 relative for this
+  // smooth, periodic field; small against the statistical error below.
+  const int n = static_cast<int>(std::round(5.0 / radius));
+  double sum = 0.0;
+  for (int s = 0; s < seeds; ++s) {
+    Freckles f;
+    f.density = density;
+    f.radius = radius;
+    f.amplitude = amplitude;
+    f.seed = 100 + s;
+    f.prepare();
+    double mean = 0.0;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) mean += f.value({(x + 0.5) / n, (y + 0.5) / n});
+    sum += mean / (static_cast<double>(n) * n);
+  }
+  const double estimate = sum / seeds;
+  const double expected = density * 0.75 * amplitude * integral;
+  const double sigma = std::sqrt(density * (7.0 / 12.0) * amplitude * amplitude * integral * integral / seeds);
+  EXPECT_NEAR(estimate, expected, 4.0 * sigma) << "expected " << expected << ", sigma " << sigma;
+}
+
+TEST(Freckles, ProfileIntegralMatchesQuadrature) {
+  // Independent check of the closed form: midpoint rule in d on [0, 3r].
+  const double r = 0.02, c = std::exp(-4.5);
+  double q = 0.0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const double d = (i + 0.5) * 3.0 * r / n;
+    q += (std::exp(-d * d / (2 * r * r)) - c) / (1 - c) * 2 * 3.14159265358979323846 * d * (3.0 * r / n);
+  }
+  EXPECT_NEAR(freckle_profile_integral(r), q, 1e-9);
+}
+
+TEST(Freckles, PeriodicDeterministicBoundedAndContinuous) {
+  Freckles f;
+  f.density = 500.0;
+  f.radius = 0.02;
+  f.amplitude = 0.3;
+  f.seed = 9;
+  f.prepare();
+  double max_value = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    const glm::dvec2 uv((i * 0.618034) - std::floor(i * 0.618034), (i * 0.414214) - std::floor(i * 0.414214));
+    const double v = f.value(uv);
+    EXPECT_EQ(v, f.value(uv));                                     // deterministic
+    EXPECT_NEAR(v, f.value(uv + glm::dvec2(1.0, -2.0)), 1e-12);    // periodic in u and v
+    EXPECT_GE(v, 0.0);
+    max_value = std::max(max_value, v);
+    // Continuous: a step of 1e-6 UV changes the field by at most |grad| 1e-6; the steepest
+    // slope of one spot is A / (r sqrt(e)) / (1 - e^-4.5), times a few overlapping spots.
+    EXPECT_NEAR(f.value(uv + glm::dvec2(1e-6, 0.0)), v, 10.0 * 0.3 / 0.02 * 1e-6);
+  }
+  EXPECT_GT(max_value, 0.1);  // there are spots
+  f.density = 0.0;
+  EXPECT_EQ(f.value({0.3, 0.3}), 0.0);
+  Freckles bad;
+  bad.radius = 0.2;
+  EXPECT_THROW(bad.prepare(), std::invalid_argument);
+  bad.radius = 0.001;
+  bad.density = 1e8;
+  EXPECT_THROW(bad.prepare(), std::invalid_argument);
+  EXPECT_EQ(f.value({std::nan(""), 0.5}), 0.0);
+}
+
+// A minimal SceneDesc for bindings that name files only.
+SceneDesc empty_scene() {
+  SceneDesc s;
+  s.path = "scene.gltf";
+  return s;
+}
+
+TEST(StackBindings, ChannelThroughRangeIntoTheStack) {
+  const fs::path dir = temp_dir("range");
+  write_ramp_png(dir, 2);  // grey + alpha (alpha = 255 - grey)
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin_oily.json")));
+  const SceneDesc scene = empty_scene();
+  const json spec = json::parse(R"({"bind": [
+      {"parameter": "layers[2].components[0].fraction", "texture": "ramp.png", "channel": "r", "range": [0.005, 0.05]},
+      {"parameter": "layers[0].thickness", "texture": "ramp.png", "channel": "a", "range": [0.01, 0.0]}]})");
+  const StackBindings b(spec, t, scene, (dir / "map.json").string(), "skin", (dir / "map.json").string());
+  ASSERT_EQ(b.parameters().size(), 2u);
+  Spectrum v[2];
+  b.values({0.375, 0.5}, v);
+  EXPECT_NEAR(v[0][0], 0.005 + 0.045 * 64.0 / 255.0, 1e-7);
+  EXPECT_NEAR(v[1][0], 0.01 * (64.0 / 255.0), 1e-9);  // inverted range, alpha = 1 - 64/255
+  LayerStack got, expected;
+  b.evaluate({0.375, 0.5}, &got);
+  apply_parameters(*t, b.parameters(), v, &expected);
+  EXPECT_EQ(got.layers[2].sigma_a, expected.layers[2].sigma_a);
+  EXPECT_EQ(got.layers[0].thickness, expected.layers[0].thickness);
+  EXPECT_EQ(validate_stack(got), "");
+}
+
+TEST(StackBindings, GltfTexturesAreReencodedToTheirStoredValues) {
+  SceneDesc scene = empty_scene();
+  Texture tex;
+  tex.width = 2;
+  tex.height = 1;
+  for (int k : {10, 200})
+    for (int c = 0; c < 3; ++c) tex.rgb.push_back(static_cast<float>(srgb_decode(k / 255.0)));
+  scene.textures.push_back(tex);
+  scene.gltf_textures[3] = 0;
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin.json")));
+  const json spec = json::parse(R"({"bind": [{"parameter": "layers[1].components[0].fraction", "texture": 3,
+                                              "channel": "luminance", "range": [0, 1]}]})");
+  const StackBindings b(spec, t, scene, "scene.gltf", "skin", "scene.gltf");
+  Spectrum v[1];
+  b.values({0.25, 0.5}, v);
+  EXPECT_NEAR(v[0][0], 10.0 / 255.0, 1e-6);
+  b.values({0.75, 0.5}, v);
+  EXPECT_NEAR(v[0][0], 200.0 / 255.0, 1e-6);
+}
+
+void expect_binding_error(const std::string& spec_text, const std::string& what) {
+  const fs::path dir = temp_dir("errors");
+  write_ramp_png(dir);
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin_oily.json")));
+  const SceneDesc scene = empty_scene();
+  try {
+    StackBindings b(json::parse(spec_text), t, scene, "map.json", "skin", (dir / "map.json").string());
+    ADD_FAILURE() << "accepted " << spec_text;
+  } catch (const SceneError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("map.json: material 'skin': ", 0), 0u) << m;
+    EXPECT_NE(m.find(what), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}
+
+TEST(StackBindings, BadBindingsAreRejectedWithTheirPlace) {
+  expect_binding_error(R"({"bind": [{"parameter": "layers[9].thickness", "texture": "ramp.png", "range": [0, 1]}]})",
+                       "bind[0].parameter: layers[9].thickness: the stack has 3 layer(s)");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[0].thickness", "texture": "nope.png", "range": [0, 1]}]})",
+                       "bind[0].texture: file 'nope.png' not found");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[1].components[0].fraction", "texture": "ramp.png",
+                                     "range": [0, 2]}]})",
+                       "bind[0].range[1]: outside the range");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[0].thickness", "texture": "ramp.png", "channel": "a",
+                                     "range": [0, 1]}]})",
+                       "bind[0].channel: the map has no alpha channel");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[0].thickness", "texture": "ramp.png", "channel": "rgb",
+                                     "range": [0, 1]}]})",
+                       "bind[0].channel: 'rgb'");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[0].thickness", "texture": 0, "range": [0, 1]}]})",
+                       "bind[0].texture: glTF texture 0 does not exist");
+  expect_binding_error(R"({"bind": [{"parameter": "layers[0].thickness", "texture": "ramp.png", "range": [0, 1],
+                                     "chanel": "r"}]})",
+                       "bind[0].chanel: unknown key");
+  expect_binding_error(R"({"bind": [
+      {"parameter": "layers[1].components[0].fraction", "texture": "ramp.png", "range": [0, 1]},
+      {"parameter": "layers[1].components[1].fraction", "texture": "ramp.png", "range": [0, 1]}]})",
+                       "only one fraction per layer");
+  expect_binding_error(R"({"freckles": {"parameter": "layers[1].components[0].fraction", "density": 10,
+                                         "radius": 0.5, "amplitude": 0.1}})",
+                       "freckles: radius must lie in (0, 1/6]");
+  expect_binding_error(R"({"freckles": {"parameter": "layers[1].components[0].fraction", "radius": 0.01,
+                                         "amplitude": 0.1}})",
+                       "freckles.density: missing");
+}
+
+TEST(StackBindings, FrecklesAddToTheBoundOrTheTemplateValue) {
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin.json")));
+  const SceneDesc scene = empty_scene();
+  const json spec = json::parse(R"({"freckles": {"parameter": "layers[0].components[0].fraction",
+      "density": 800, "radius": 0.01, "amplitude": 0.05, "seed": 3}})");
+  const StackBindings b(spec, t, scene, "scene.gltf", "skin", "scene.gltf");
+  Freckles f;
+  f.density = 800;
+  f.radius = 0.01;
+  f.amplitude = 0.05;
+  f.seed = 3;
+  f.prepare();
+  for (double u : {0.1, 0.37, 0.52, 0.9}) {
+    Spectrum v[1];
+    b.values({u, 0.4}, v);
+    EXPECT_NEAR(v[0][0], 0.02 + f.value({u, 0.4}), 1e-15);
+  }
+}
+
+// The demo scenes load, their layered material binds, every map exists, and the maps vary the
+// parameters (so the renders are driven by them).
+struct Varies {
+  std::string parameter;
+  glm::dvec2 a, b;
+};
+
+void check_scene(const std::string& rel, int expected_maps, const std::vector<Varies>& varies) {
+  SCOPED_TRACE(rel);
+  const SceneDesc desc = load_gltf(source(rel));
+  const LayeredBindings bound = bind_layered_materials(desc, "");
+  ASSERT_EQ(bound.count(), 1);
+  const LayeredMaterial* m = bound.get(0);
+  ASSERT_NE(m, nullptr);
+  ASSERT_NE(m->bindings(), nullptr);
+  EXPECT_EQ(static_cast<int>(m->bindings()->map_files().size()), expected_maps);
+  for (const std::string& f : m->bindings()->map_files()) EXPECT_TRUE(fs::is_regular_file(f)) << f;
+  for (const Varies& v : varies) {
+    int k = -1;
+    for (std::size_t i = 0; i < m->bindings()->parameters().size(); ++i)
+      if (m->bindings()->parameters()[i].path == v.parameter) k = static_cast<int>(i);
+    ASSERT_GE(k, 0) << v.parameter;
+    std::vector<Spectrum> va(m->bindings()->parameters().size()), vb(va.size());
+    m->bindings()->values(v.a, va.data());
+    m->bindings()->values(v.b, vb.data());
+    EXPECT_GT(std::abs(va[k][0] - vb[k][0]), 1e-3) << v.parameter << " does not vary between the two points";
+  }
+  StackScratch scratch;
+  ShadingPoint sp;
+  sp.uv = varies.front().a;
+  EXPECT_EQ(validate_stack(m->stack_at(sp, scratch)), "");
+  sp.from_below = m->transmits();
+  EXPECT_EQ(validate_stack(m->stack_at(sp, scratch)), "");
+}
+
+TEST(DemoScenes, HeadSkinBindsBloodOilAndFreckles) {
+  // Lips (red: more blood) against the scalp; the T-zone (forehead) against a cheek for oil; a
+  // freckled cheek varies the melanin fraction somewhere along a short row of points.
+  check_scene("scenes/head_skin/head_skin.gltf", 3,
+              {{"layers[2].components[0].fraction", {0.5, 0.47}, {0.5, 0.03}},
+               {"layers[0].ior", {0.5, 0.15}, {0.3, 0.45}}});
+}
+
+TEST(DemoScenes, LeavesBindTheirPigmentMap) {
+  // On the midrib (v = 0.5) against the blade between veins.
+  check_scene("scenes/leaves/leaves_front.gltf", 1, {{"layers[1].components[0].fraction", {0.5, 0.5}, {0.2, 0.8}}});
+  check_scene("scenes/leaves/leaves_back.gltf", 1, {{"layers[1].components[0].fraction", {0.5, 0.5}, {0.2, 0.8}}});
+}
+
+TEST(DemoScenes, MaterialMapEntriesMayCarryBindings) {
+  // A --materials map entry given as an object overrides the glTF extras, with its own maps
+  // (resolved against the map's directory).
+  const fs::path dir = temp_dir("map");
+  const std::string ramp = write_ramp_png(dir);
+  const std::string map = (dir / "materials.json").string();
+  std::ofstream(map) << json{{"leaf", {{"stack", source("scenes/materials/leaf.json")},
+                                       {"bind", json::array({{{"parameter", "layers[0].thickness"},
+                                                              {"texture", "ramp.png"},
+                                                              {"range", {0.0, 0.05}}}})}}}}
+                            .dump();
+  const SceneDesc desc = load_gltf(source("scenes/leaves/leaves_front.gltf"));
+  const LayeredBindings bound = bind_layered_materials(desc, map);
+  const LayeredMaterial* m = bound.get(0);
+  ASSERT_NE(m, nullptr);
+  ASSERT_NE(m->bindings(), nullptr);
+  ASSERT_EQ(m->bindings()->map_files().size(), 1u);
+  EXPECT_EQ(fs::path(m->bindings()->map_files()[0]), fs::path(ramp).lexically_normal());
+  ASSERT_EQ(m->bindings()->parameters().size(), 1u);
+  EXPECT_EQ(m->bindings()->parameters()[0].path, "layers[0].thickness");
+  // An unknown key in an object entry is an error naming the map.
+  std::ofstream(map) << R"({"leaf": {"stack": "x.json", "bnd": []}})";
+  try {
+    bind_layered_materials(desc, map);
+    ADD_FAILURE() << "accepted an unknown key";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("leaf.bnd: unknown key"), std::string::npos) << e.what();
+  }
+}
+
+TEST(DemoScenes, MisspeltExtrasKeysAreRejected) {
+  // One triangle whose material's extras misspell "freckles".
+  const fs::path dir = temp_dir("extras");
+  const std::string gltf = (dir / "t.gltf").string();
+  std::ofstream(gltf) << R"({"asset": {"version": "2.0"},
+    "buffers": [{"uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA",
+                 "byteLength": 36}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}],
+    "materials": [{"name": "skin", "extras": {"lamina": {"stack": ")" +
+                             source("scenes/materials/skin.json") + R"(", "frekles": {"density": 10}}}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})";
+  const SceneDesc desc = load_gltf(gltf);
+  try {
+    bind_layered_materials(desc, "");
+    ADD_FAILURE() << "accepted extras.lamina.frekles; extras_json: " << desc.materials[0].extras_json;
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("material 'skin': extras.lamina.frekles: unknown key"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace lamina

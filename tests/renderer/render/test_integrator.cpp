@@ -1,0 +1,253 @@
+// The path tracer against answers known in closed form. Scenes are built in code (the glTF
+// loader has its own tests). Tolerances: the image mean of N pixels, each an independent
+// estimate of the same expected radiance, has standard error s/sqrt(N) with s the sample
+// standard deviation of the pixels; we allow 4 standard errors (two-sided false alarm 6e-5).
+#include <cmath>
+#include <cstring>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include "materials/sampling.h"
+#include "renderer/render/integrator.h"
+#include "tests/renderer/render_fixtures.h"
+
+namespace lamina {
+namespace {
+
+using test::add_quad;
+using test::cube;
+using test::ImageStats;
+using test::make_scene;
+using test::sphere;
+using test::stats_of;
+
+CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
+  CameraDesc c;
+  c.position = position;
+  c.forward = forward;
+  c.up = std::abs(forward.y) > 0.9 ? glm::dvec3(0.0, 0.0, -1.0) : glm::dvec3(0.0, 1.0, 0.0);
+  c.yfov = yfov_deg * kPi / 180.0;
+  return c;
+}
+
+Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp,
+             int max_depth = 1000, int threads = 0, RenderStats* stats_out = nullptr) {
+  const Scene scene{SceneDesc(desc)};
+  const LightSet lights(scene, env);
+  const Camera camera(cam, w, h);
+  RenderSettings s;
+  s.width = w;
+  s.height = h;
+  s.spp = spp;
+  s.seed = 7;
+  s.max_depth = max_depth;
+  s.threads = threads;
+  RenderStats stats;
+  Image im = render_image(scene, lights, camera, s, &stats);
+  EXPECT_EQ(stats.invalid_samples, 0u);
+  if (stats_out) *stats_out = stats;
+  return im;
+}
+
+// Closed Lambert enclosure of albedo a whose walls all emit Le: L = Le + a L everywhere (the
+// irradiance inside a closed uniform-radiance enclosure is pi L, for any shape), so
+// L = Le / (1 - a). Exercises triangle lights, MIS at every bounce and Russian roulette.
+TEST(Integrator, EmissiveFurnaceEnclosure) {
+  for (double a : {0.0, 0.5, 0.8}) {
+    Material mat;
+    mat.base_color = Spectrum(a);
+    mat.emission = Spectrum(1.0, 0.5, 2.0);
+    mat.double_sided = true;
+    const SceneDesc d = make_scene({cube(0)}, {mat});
+    const Image im = render(d, EnvironmentMap(), camera_at({0.1, 0.2, 0.3}, {0.3, -0.2, -1.0}, 70.0), 24, 16, 16);
+    const ImageStats s = stats_of(im);
+    for (int c = 0; c < 3; ++c) {
+      const double expected = mat.emission[c] / (1.0 - a);
+      EXPECT_NEAR(s.mean[c], expected, 4.0 * s.stderr_[c] + 1e-6 * expected) << "a=" << a << " channel " << c;
+    }
+  }
+}
+
+// A convex Lambert object of albedo a under a uniform environment Le: every bounce escapes,
+// so L = a Le (a = 1: the white furnace, L = Le). Exercises environment light sampling + MIS.
+TEST(Integrator, EnvironmentFurnaceConvexObject) {
+  for (double a : {0.3, 1.0}) {
+    Material mat;
+    mat.base_color = Spectrum(a);
+    const SceneDesc d = make_scene({cube(0)}, {mat});
+    const EnvironmentMap env = EnvironmentMap::constant(Spectrum(0.5, 1.0, 2.0));
+    // From z = 3, a 10 degree field of view sees only the front face (half-height 0.17 < 1).
+    const Image im = render(d, env, camera_at({0.0, 0.0, 3.0}, {0.0, 0.0, -1.0}, 10.0), 16, 16, 64);
+    const ImageStats s = stats_of(im);
+    for (int c = 0; c < 3; ++c) {
+      const double expected = a * env.eval({0.0, 1.0, 0.0})[c];
+      EXPECT_NEAR(s.mean[c], expected, 4.0 * s.stderr_[c] + 1e-6) << "a=" << a << " channel " << c;
+    }
+  }
+}
+
+// A point light of intensity pi at the centre of a unit sphere of albedo 1/2: direct
+// irradiance pi, so L = (a/pi)(pi + pi L) gives L = 1 on an exact sphere (all bounces). The
+// tessellated sphere's facets lie at distances h_f in [h, 1] from the centre, so direct
+// irradiance I h_f / d^3 lies in [I h, I / h^2] and, by the same balance, L in [h, 1/h^2].
+TEST(Integrator, PointLightInsideSphere) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  SceneDesc d = make_scene({sphere(0, 48, 96)}, {mat});
+  LightDesc light;
+  light.type = LightType::kPoint;
+  light.intensity = Spectrum(kPi);
+  d.lights.push_back(light);
+  double h = 1.0;
+  const Mesh& m = d.meshes[0];
+  for (std::size_t t = 0; t < m.indices.size(); t += 3) {
+    const glm::dvec3 p0(m.positions[m.indices[t]]), p1(m.positions[m.indices[t + 1]]), p2(m.positions[m.indices[t + 2]]);
+    h = std::min(h, std::abs(glm::dot(glm::normalize(glm::cross(p1 - p0, p2 - p0)), p0)));
+  }
+  ASSERT_GT(h, 0.99);
+  const Image im = render(d, EnvironmentMap(), camera_at({0.0, 0.0, 0.0}, {0.2, 0.1, -1.0}, 80.0), 24, 16, 16);
+  const ImageStats s = stats_of(im);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_GE(s.mean[c], h - 4.0 * s.stderr_[c]);
+    EXPECT_LE(s.mean[c], 1.0 / (h * h) + 4.0 * s.stderr_[c]);
+  }
+}
+
+// A Lambert plane of albedo a under a directional light of irradiance E at 60 degrees from the
+// normal: L = a E cos(theta) / pi, with zero variance (one delta light, the bounce escapes).
+TEST(Integrator, LambertPlaneUnderDirectionalLight) {
+  Material mat;
+  mat.base_color = Spectrum(0.6, 0.3, 0.9);
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  SceneDesc d = make_scene({plane}, {mat});
+  LightDesc sun;
+  sun.type = LightType::kDirectional;
+  sun.intensity = Spectrum(2.0);
+  const double theta = kPi / 3.0;
+  sun.direction = glm::normalize(glm::dvec3(std::sin(theta), -std::cos(theta), 0.0));
+  d.lights.push_back(sun);
+  const Image im = render(d, EnvironmentMap(), camera_at({0.0, 5.0, 0.0}, {0.0, -1.0, 0.0}, 40.0), 8, 8, 4);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double expected = mat.base_color[c] * 2.0 * std::cos(theta) / kPi;
+        EXPECT_NEAR(im.pixel(x, y)[c], expected, 1e-6 * expected);
+      }
+}
+
+// Point and spot lights of intensity I straight above a Lambert plane at height h: L = a I/(pi h^2)
+// at the foot of the light (one pixel of a 0.001 degree field of view, symmetric about the foot: cos and 1/d^2 vary
+// by < 1e-8 over it); a spot aimed away from the plane gives 0; halfway through the falloff
+// ramp, t = 1/2 gives attenuation 1/4.
+TEST(Integrator, PointAndSpotLightsAbovePlane) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  const double h = 5.0, intensity = 7.0;
+  auto radiance_below = [&](LightType type, glm::dvec3 direction, double cos_inner, double cos_outer) {
+    SceneDesc d = make_scene({plane}, {mat});
+    LightDesc l;
+    l.type = type;
+    l.intensity = Spectrum(intensity);
+    l.position = {0.0, h, 0.0};
+    l.direction = direction;
+    l.cos_inner = cos_inner;
+    l.cos_outer = cos_outer;
+    d.lights.push_back(l);
+    const Image im = render(d, EnvironmentMap(), camera_at({0.0, 2.0 * h, 0.0}, {0.0, -1.0, 0.0}, 0.001), 1, 1, 4);
+    return static_cast<double>(im.pixel(0, 0)[0]);
+  };
+  const double expected = 0.5 * intensity / (kPi * h * h);
+  EXPECT_NEAR(radiance_below(LightType::kPoint, {0, -1, 0}, 1, 0), expected, 1e-6 * expected);
+  EXPECT_NEAR(radiance_below(LightType::kSpot, {0, -1, 0}, std::cos(0.3), std::cos(0.5)), expected, 1e-6 * expected);
+  EXPECT_EQ(radiance_below(LightType::kSpot, {0, 1, 0}, std::cos(0.3), std::cos(0.5)), 0.0);
+  // Aim the spot so the plane's foot point sits at cos = (cos_inner + cos_outer)/2.
+  const double ci = std::cos(0.3), co = std::cos(0.5), c = 0.5 * (ci + co);
+  const glm::dvec3 tilted(std::sqrt(1.0 - c * c), -c, 0.0);
+  // On the ramp, attenuation t^2 changes by 2 dt/t = 2 sin(theta) d(theta) / (t (ci - co)); the
+  // pixel's samples reach at most 1.5 pixel widths (2h tan(fov/2) each, seen from distance 2h)
+  // from the foot, i.e. d(theta) <= 3 h tan(fov/2) / h, seen from the light at distance h.
+  const double dtheta = 3.0 * std::tan(0.5 * 0.001 * kPi / 180.0) * 2.0 * h / h;
+  const double rel = 2.0 * std::sqrt(1.0 - c * c) * dtheta / (0.5 * (ci - co));
+  EXPECT_NEAR(radiance_below(LightType::kSpot, tilted, ci, co), 0.25 * expected, rel * 0.25 * expected);
+}
+
+// An emissive quad seen directly shows its radiance exactly, from the front only.
+TEST(Integrator, EmissiveQuadSeenDirectly) {
+  Material mat;
+  mat.base_color = Spectrum(0.0);
+  mat.emission = Spectrum(1.0, 2.0, 3.0);
+  Mesh quad;
+  add_quad(&quad, {-10, -10, 0}, {10, -10, 0}, {10, 10, 0}, {-10, 10, 0});  // normal +z
+  quad.material = 0;
+  const SceneDesc d = make_scene({quad}, {mat});
+  const Image front = render(d, EnvironmentMap(), camera_at({0, 0, 5}, {0, 0, -1}, 30.0), 8, 8, 2);
+  const Image back = render(d, EnvironmentMap(), camera_at({0, 0, -5}, {0, 0, 1}, 30.0), 8, 8, 2);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_FLOAT_EQ(front.pixel(x, y)[c], static_cast<float>(mat.emission[c]));
+        EXPECT_EQ(back.pixel(x, y)[c], 0.0f);
+      }
+}
+
+// Bit-identical images for 1 and 2 threads (and the same ray counts).
+TEST(Integrator, DeterministicAcrossThreadCounts) {
+  Material wall;
+  wall.base_color = Spectrum(0.7, 0.5, 0.3);
+  Material lamp;
+  lamp.emission = Spectrum(5.0);
+  Mesh box = cube(0);
+  Mesh light;
+  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
+  light.material = 1;
+  lamp.double_sided = true;
+  const SceneDesc d = make_scene({box, light}, {wall, lamp});
+  const CameraDesc cam = camera_at({0.0, 0.0, 0.9}, {0.0, 0.0, -1.0}, 60.0);
+  RenderStats s1, s2;
+  const Image a = render(d, EnvironmentMap(), cam, 40, 36, 4, 64, 1, &s1);
+  const Image b = render(d, EnvironmentMap(), cam, 40, 36, 4, 64, 2, &s2);
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)));
+  EXPECT_EQ(s1.rays.closest, s2.rays.closest);
+  EXPECT_EQ(s1.rays.shadow, s2.rays.shadow);
+  EXPECT_EQ(s1.rays.camera, 40u * 36u * 4u);
+}
+
+// The tent filter sampler: the sample mean of x is 0 and E[x^2] = 1/6 for f(x) = 1 - |x|.
+TEST(Integrator, TentFilterMoments) {
+  const int n = 200000;
+  double m1 = 0.0, m2 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    Rng rng(1, i);
+    const double x = sample_tent_filter({rng.uniform(), rng.uniform()}).x;
+    ASSERT_LE(std::abs(x), 1.0);
+    m1 += x;
+    m2 += x * x;
+  }
+  m1 /= n;
+  m2 /= n;
+  // Var(x) = 1/6, Var(x^2) = E[x^4] - E[x^2]^2 = 1/15 - 1/36.
+  EXPECT_NEAR(m1, 0.0, 4.0 * std::sqrt(1.0 / 6.0 / n));
+  EXPECT_NEAR(m2, 1.0 / 6.0, 4.0 * std::sqrt((1.0 / 15.0 - 1.0 / 36.0) / n));
+}
+
+// Self-intersection offset: moves off the surface at any magnitude, by a few ulps only.
+TEST(Integrator, RayOffsetScalesWithMagnitude) {
+  for (double scale : {1e-3, 1.0, 1e3, 1e6}) {
+    const glm::dvec3 p(scale, -scale, 0.5 * scale);
+    const glm::dvec3 n(0.0, 0.0, 1.0);
+    const glm::dvec3 o = offset_ray_origin(p, n);
+    EXPECT_GT(o.z, static_cast<float>(p.z));
+    EXPECT_LT(o.z - p.z, 1e-4 * scale + 1e-4);
+    EXPECT_EQ(o.x, static_cast<float>(p.x));
+  }
+}
+
+}  // namespace
+}  // namespace lamina

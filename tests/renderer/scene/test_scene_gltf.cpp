@@ -1,0 +1,278 @@
+// The glTF loader on fixtures written here (known transforms, cameras, lights, materials, bad
+// input) and on the Khronos sample files in the shared assets.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include "materials/sampling.h"
+#include "renderer/image/image_io.h"
+#include "renderer/scene/scene_gltf.h"
+#include "tests/renderer/gltf_fixture.h"
+
+namespace lamina {
+namespace {
+
+using testing::GltfBuilder;
+using testing::TempDir;
+using nlohmann::json;
+
+const std::vector<float> kTriangle = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+
+void expect_vec(const glm::dvec3& a, const glm::dvec3& b, double tol = 1e-6) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+// Expects load_gltf(path) to throw a one-line SceneError naming the file and containing `what`.
+void expect_error(const std::string& path, const std::string& what) {
+  try {
+    load_gltf(path);
+    ADD_FAILURE() << "no error for " << path;
+  } catch (const SceneError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find(what), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+}
+
+TEST(SceneGltf, HierarchyWithTrsAndMatrix) {
+  TempDir dir("gltf-trs");
+  GltfBuilder b;
+  const int mesh = b.add_mesh(kTriangle, {0, 1, 2}, {0, 0, 1, 0, 0, 1, 0, 0, 1});
+  // Child: a column-major matrix translating by (0, 0, 1).
+  const int child = b.add_node({{"mesh", mesh}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 1}}}, false);
+  // Parent: T (1,2,3) R (90 deg about +Y: quaternion (0, sin 45, 0, cos 45)) S 2.
+  const double s45 = std::sqrt(0.5);
+  b.add_node({{"children", {child}}, {"translation", {1, 2, 3}}, {"rotation", {0, s45, 0, s45}}, {"scale", {2, 2, 2}}});
+  b.write_gltf(dir / "trs.gltf");
+  const SceneDesc s = load_gltf(dir / "trs.gltf");
+  ASSERT_EQ(s.meshes.size(), 1u);
+  const Mesh& m = s.meshes[0];
+  // By hand: child moves to z = 1; scale 2; Ry(90) maps (x, y, z) -> (z, y, -x); translate.
+  expect_vec(glm::dvec3(m.positions[0]), {3, 2, 3}, 1e-5);
+  expect_vec(glm::dvec3(m.positions[1]), {3, 2, 1}, 1e-5);
+  expect_vec(glm::dvec3(m.positions[2]), {3, 4, 3}, 1e-5);
+  ASSERT_EQ(m.normals.size(), 3u);
+  expect_vec(glm::dvec3(m.normals[0]), {1, 0, 0}, 1e-6);
+  expect_vec(s.bounds_min, {3, 2, 1}, 1e-5);
+  expect_vec(s.bounds_max, {3, 4, 3}, 1e-5);
+}
+
+// Normals transform with the inverse transpose: under a non-uniform scale they stay
+// perpendicular to the transformed face.
+TEST(SceneGltf, NormalsUseInverseTranspose) {
+  TempDir dir("gltf-normals");
+  GltfBuilder b;
+  const float r = static_cast<float>(std::sqrt(0.5));
+  const int mesh = b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, -1}, {}, {0, r, r, 0, r, r, 0, r, r});
+  b.add_node({{"mesh", mesh}, {"scale", {1, 4, 1}}});
+  b.write_gltf(dir / "n.gltf");
+  const SceneDesc s = load_gltf(dir / "n.gltf");
+  const Mesh& m = s.meshes[0];
+  const glm::dvec3 face = glm::normalize(glm::cross(glm::dvec3(m.positions[1] - m.positions[0]),
+                                                    glm::dvec3(m.positions[2] - m.positions[0])));
+  expect_vec(glm::dvec3(m.normals[0]), face, 1e-6);
+  expect_vec(face, glm::normalize(glm::dvec3(0, 1, 4)), 1e-6);
+}
+
+TEST(SceneGltf, NonIndexedWithoutNormalsAndDegenerates) {
+  TempDir dir("gltf-degenerate");
+  GltfBuilder b;
+  // One good triangle, one with three collinear points, one with a repeated vertex.
+  const int mesh = b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 5, 5, 5, 5, 5, 5, 6, 5, 5});
+  b.add_node({{"mesh", mesh}});
+  const int lines = b.add_mesh(kTriangle, {0, 1}, {}, -1, 1);  // LINES: skipped
+  b.add_node({{"mesh", lines}});
+  b.write_glb(dir / "d.glb");
+  const SceneDesc s = load_gltf(dir / "d.glb");
+  ASSERT_EQ(s.meshes.size(), 1u);
+  EXPECT_EQ(s.triangles, 1u);
+  EXPECT_EQ(s.degenerate_triangles, 2u);
+  EXPECT_TRUE(s.meshes[0].normals.empty());  // flat shading
+  bool warned_lines = false, warned_degenerate = false;
+  for (const std::string& w : s.warnings) {
+    warned_lines |= w.find("TRIANGLES") != std::string::npos;
+    warned_degenerate |= w.find("2 degenerate") != std::string::npos;
+  }
+  EXPECT_TRUE(warned_lines);
+  EXPECT_TRUE(warned_degenerate);
+}
+
+TEST(SceneGltf, CamerasLightsAndMaterials) {
+  TempDir dir("gltf-cam");
+  GltfBuilder b;
+  json& j = b.json();
+  j["materials"].push_back({{"name", "glow"},
+                            {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 1.0}}, {"metallicFactor", 0.0}}},
+                            {"emissiveFactor", {1.0, 0.5, 0.0}},
+                            {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}}},
+                            {"extras", {{"lamina", {{"stack", "skin.json"}, {"scale", 2}}}}}});
+  j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_sheen"};
+  const int mesh = b.add_mesh(kTriangle, {0, 1, 2}, {}, 0);
+  b.add_node({{"mesh", mesh}});
+  j["cameras"] = {{{"name", "main"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}},
+                  {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.1}}}}};
+  const double s45 = std::sqrt(0.5);
+  b.add_node({{"name", "cam0"}, {"camera", 0}, {"translation", {0, 0, 5}}});
+  b.add_node({{"name", "sideNode"}, {"camera", 1}, {"translation", {5, 0, 0}}, {"rotation", {0, s45, 0, s45}}});
+  j["extensions"]["KHR_lights_punctual"]["lights"] = {
+      {{"name", "bulb"}, {"type", "point"}, {"color", {1.0, 0.5, 0.25}}, {"intensity", 10.0}},
+      {{"name", "spot"}, {"type", "spot"}, {"intensity", 3.0}, {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.5}}}},
+      {{"name", "sun"}, {"type", "directional"}, {"intensity", 2.0}}};
+  b.add_node({{"translation", {1, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  // Rotated -90 degrees about X: local -Z (the light's direction) turns to -Y, straight down.
+  b.add_node({{"translation", {0, 4, 0}}, {"rotation", {-s45, 0, 0, s45}}, {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+  b.add_node({{"rotation", {-s45, 0, 0, s45}}, {"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}});
+  b.write_gltf(dir / "c.gltf");
+  const SceneDesc s = load_gltf(dir / "c.gltf");
+
+  ASSERT_EQ(s.cameras.size(), 2u);
+  EXPECT_EQ(s.cameras[0].name, "main");
+  expect_vec(s.cameras[0].position, {0, 0, 5});
+  expect_vec(s.cameras[0].forward, {0, 0, -1});
+  EXPECT_DOUBLE_EQ(s.cameras[0].yfov, 0.5);
+  EXPECT_EQ(s.cameras[1].name, "sideNode");  // unnamed camera: its node's name
+  expect_vec(s.cameras[1].position, {5, 0, 0});
+  expect_vec(s.cameras[1].forward, {-1, 0, 0});  // Ry(90) maps -Z to -X
+  expect_vec(s.cameras[1].up, {0, 1, 0});
+
+  ASSERT_EQ(s.lights.size(), 3u);
+  EXPECT_EQ(s.lights[0].type, LightType::kPoint);
+  expect_vec(s.lights[0].position, {1, 2, 3});
+  EXPECT_DOUBLE_EQ(s.lights[0].intensity[1], 5.0);
+  EXPECT_DOUBLE_EQ(s.lights[0].intensity[2], 2.5);
+  EXPECT_EQ(s.lights[1].type, LightType::kSpot);
+  expect_vec(s.lights[1].direction, {0, -1, 0});
+  EXPECT_DOUBLE_EQ(s.lights[1].cos_inner, std::cos(0.2));
+  EXPECT_DOUBLE_EQ(s.lights[1].cos_outer, std::cos(0.5));
+  EXPECT_EQ(s.lights[2].type, LightType::kDirectional);
+  expect_vec(s.lights[2].direction, {0, -1, 0});
+  EXPECT_DOUBLE_EQ(s.lights[2].intensity[0], 2.0);
+
+  ASSERT_EQ(s.materials.size(), 1u);
+  const Material& m = s.materials[0];
+  EXPECT_DOUBLE_EQ(m.base_color[2], 0.6);
+  EXPECT_DOUBLE_EQ(m.emission[0], 4.0);
+  EXPECT_DOUBLE_EQ(m.emission[1], 2.0);
+  EXPECT_DOUBLE_EQ(m.emission[2], 0.0);
+  EXPECT_EQ(m.extras.at("lamina.stack"), "skin.json");
+  EXPECT_EQ(m.extras.at("lamina.scale"), "2");
+  int sheen_warnings = 0;
+  for (const std::string& w : s.warnings) sheen_warnings += w.find("KHR_materials_sheen") != std::string::npos;
+  EXPECT_EQ(sheen_warnings, 1);
+}
+
+// Base colour textures are decoded from sRGB; lookups at texel centres return the texel.
+TEST(SceneGltf, TextureIsSrgbDecoded) {
+  TempDir dir("gltf-tex");
+  Image im(2, 1);
+  im.pixel(0, 0)[0] = 0.5f;  // linear; the PNG stores it sRGB-encoded in 8 bits
+  im.pixel(1, 0)[1] = 0.2f;
+  write_png(dir / "tex.png", im);
+  GltfBuilder b;
+  json& j = b.json();
+  j["images"] = {{{"uri", "tex.png"}}};
+  j["samplers"] = {{{"wrapS", 33071}, {"wrapT", 33071}}};
+  j["textures"] = {{{"source", 0}, {"sampler", 0}}};
+  j["materials"].push_back({{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  b.add_node({{"mesh", b.add_mesh(kTriangle, {}, {}, 0)}});
+  b.write_gltf(dir / "t.gltf");
+  const SceneDesc s = load_gltf(dir / "t.gltf");
+  ASSERT_EQ(s.textures.size(), 1u);
+  const Spectrum left = s.textures[0].lookup({0.25, 0.5}), right = s.textures[0].lookup({0.75, 0.5});
+  // 8-bit sRGB quantisation: half a code step is at most 0.5/255 * dL/dV <= 0.5/255 * 2.4 in linear.
+  EXPECT_NEAR(left[0], 0.5, 0.5 / 255 * 2.4);
+  EXPECT_NEAR(right[1], 0.2, 0.5 / 255 * 2.4);
+  EXPECT_EQ(left[1], 0.0);
+  std::filesystem::remove(dir / "tex.png");
+  expect_error(dir / "t.gltf", "tex.png");
+}
+
+TEST(SceneGltf, BadInputIsAOneLineError) {
+  TempDir dir("gltf-bad");
+  {  // NaN and infinite positions.
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, NAN, 0, 0, 0, 1, 0})}});
+    b.write_gltf(dir / "nan.gltf");
+    expect_error(dir / "nan.gltf", "non-finite vertex position");
+    GltfBuilder c;
+    c.add_node({{"mesh", c.add_mesh({0, 0, 0, INFINITY, 0, 0, 0, 1, 0})}});
+    c.write_glb(dir / "inf.glb");
+    expect_error(dir / "inf.glb", "non-finite vertex position");
+  }
+  {  // No geometry: a scene with a node but no mesh.
+    GltfBuilder b;
+    b.add_node({{"name", "empty"}});
+    b.write_gltf(dir / "empty.gltf");
+    expect_error(dir / "empty.gltf", "no triangles");
+  }
+  {  // A missing external buffer.
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh(kTriangle)}});
+    b.write_gltf(dir / "buf.gltf", "buf.bin");
+    EXPECT_NO_THROW(load_gltf(dir / "buf.gltf"));
+    std::filesystem::remove(dir / "buf.bin");
+    expect_error(dir / "buf.gltf", "buf.bin");
+  }
+  {  // Truncated and corrupt .glb files.
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh(kTriangle, {0, 1, 2})}});
+    b.write_glb(dir / "ok.glb");
+    std::ifstream in(dir / "ok.glb", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (std::size_t keep : {bytes.size() - 10, bytes.size() / 2, std::size_t{30}, std::size_t{5}}) {
+      std::ofstream(dir / "cut.glb", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(keep));
+      expect_error(dir / "cut.glb", "");
+    }
+    std::string corrupt = bytes;
+    for (std::size_t i = 20; i < 60 && i < corrupt.size(); ++i) corrupt[i] = static_cast<char>(0xA5);
+    std::ofstream(dir / "corrupt.glb", std::ios::binary).write(corrupt.data(), static_cast<std::streamsize>(corrupt.size()));
+    expect_error(dir / "corrupt.glb", "");
+  }
+  {  // An index past the end of the vertices, and a file that does not exist.
+    GltfBuilder b;
+    b.add_node({{"mesh", b.add_mesh(kTriangle, {0, 1, 7})}});
+    b.write_gltf(dir / "idx.gltf");
+    expect_error(dir / "idx.gltf", "out of range");
+    expect_error(dir / "nothing.gltf", "");
+  }
+}
+
+// Real files written elsewhere (Khronos glTF-Sample-Models, see the assets README).
+TEST(SceneGltf, KhronosSamples) {
+  const std::string root = "/work/shared/assets/khronos_samples/";
+  if (!std::filesystem::exists(root)) GTEST_SKIP() << "no " << root;
+  {
+    const SceneDesc s = load_gltf(root + "Box.gltf");
+    EXPECT_EQ(s.triangles, 12u);
+    expect_vec(s.bounds_min, {-0.5, -0.5, -0.5}, 1e-5);
+    expect_vec(s.bounds_max, {0.5, 0.5, 0.5}, 1e-5);
+  }
+  {
+    const SceneDesc s = load_gltf(root + "SimpleSparseAccessor.gltf");
+    expect_vec(s.bounds_max, {6, 4, 0}, 1e-5);
+  }
+  {
+    const SceneDesc s = load_gltf(root + "TriangleWithoutIndices.gltf");
+    EXPECT_EQ(s.triangles, 1u);
+  }
+  {
+    const SceneDesc s = load_gltf(root + "Cameras.gltf");
+    ASSERT_EQ(s.cameras.size(), 1u);  // the orthographic one is skipped
+    expect_vec(s.cameras[0].position, {0.5, 0.5, 3.0}, 1e-6);
+    EXPECT_DOUBLE_EQ(s.cameras[0].yfov, 0.7);
+  }
+  {
+    const SceneDesc s = load_gltf(root + "OrientationTest.gltf");
+    expect_vec(s.bounds_min, {-5.3307, -5.3307, -5.3307}, 1e-3);
+    expect_vec(s.bounds_max, {5.3307, 5.3307, 5.3307}, 1e-3);
+  }
+}
+
+}  // namespace
+}  // namespace lamina
