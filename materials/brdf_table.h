@@ -1,5 +1,5 @@
 // BRDF/BTDF tables and energy totals of a layer stack, estimated by the random walk
-// (`lamina brdf --method monte-carlo`, contracts.md).
+// (`lamina brdf --method monte-carlo`, docs/contracts.md).
 //
 // Binning: K bins uniform in |cos(theta_o)| per hemisphere and M bins uniform in phi_o, so every
 // bin has the same solid angle 2 pi / (K M). phi_o is the azimuth of wo measured from the light's
@@ -11,7 +11,7 @@
 // so (1/N) sum_{exits in B} W estimates P(B), and
 //   value(B) = P(B) / Omega_proj(B),  Omega_proj(B) = integral_B |cos theta| dw
 //            = (mu_hi^2 - mu_lo^2)/2 * dphi,
-// is the BRDF (BTDF) averaged over the bin weighted by projected solid angle (contracts.md).
+// is the BRDF (BTDF) averaged over the bin weighted by projected solid angle (docs/contracts.md).
 // Standard errors come from per-photon sums of squares: a photon adds to at most one bin.
 #pragma once
 
@@ -44,7 +44,7 @@ struct Estimate {
   Spectrum stderr_;  // standard error of value
 };
 
-// The five totals of contracts.md (fractions of the incident power, per channel).
+// The five totals of docs/contracts.md (fractions of the incident power, per channel).
 // R_specular and T_ballistic are the analytic zeroth order (materials/zeroth_order: exact, zero
 // standard error); R_diffuse and T_diffuse are the walks' exits after at least one scattering
 // event; absorbed is, photon by photon, 1 minus the other four, so the five sum to 1 by

@@ -7,7 +7,7 @@
 // results of zeroth_order.h). The delta parts (R_specular, T_ballistic) are not included: see
 // zeroth_order(). The derivation is in first_order.cpp.
 //
-// Conventions (contracts.md): local frame with +z the outward normal of the top layer; wi points
+// Conventions (docs/contracts.md): local frame with +z the outward normal of the top layer; wi points
 // towards the light, wo towards the viewer, both unit vectors; f = dL_o / (L_i cos(theta_i)
 // dw_i) in 1/sr, per RGB channel. Light comes from above (wi.z > 0); for light from below use
 // flipped(stack) with the z components negated.

@@ -2,7 +2,7 @@
 // by `lamina brdf` (materials/brdf_table) and by the renderer's layered surface. It knows nothing
 // of rays, scenes or lights: it sees a LayerStack, an incident direction and an Rng.
 //
-// Conventions (contracts.md): local frame with +z the outward normal of the top layer; wi points
+// Conventions (docs/contracts.md): local frame with +z the outward normal of the top layer; wi points
 // away from the surface towards the light (wi.z > 0). Inside the walk, `d` is the PROPAGATION
 // direction of the light (so the light enters along -wi, refracted). An exit direction is the
 // outside propagation direction, i.e. the `wo` of the BRDF (wo.z > 0) or BTDF (wo.z < 0).

@@ -2,7 +2,7 @@
 //
 // A random stream is a pure function of (seed, stream index): the renderer uses one stream per
 // (pixel, sample), the BRDF tool one per photon, so results never depend on threads or
-// scheduling (architecture.md, "Rules of thumb").
+// scheduling (docs/architecture.md, "Rules of thumb").
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 // Spectrum: linear RGB (Rec. 709 primaries), three channels, double precision.
-// A scalar stands for a grey triple (contracts.md, "Colour").
+// A scalar stands for a grey triple (docs/contracts.md, "Colour").
 #pragma once
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 #include "materials/stack.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -82,11 +83,16 @@ LayerStack flipped(const LayerStack& stack) {
   if (!stack.transmits())
     throw std::invalid_argument("flipped(): stack '" + stack.name +
                                 "' has an opaque bottom (Lambert substrate or semi-infinite layer)");
-  LayerStack f = stack;
-  f.layers.assign(stack.layers.rbegin(), stack.layers.rend());
-  f.above_ior = stack.below.ior;
-  f.below.ior = stack.above_ior;
+  LayerStack f;
+  flip_into(stack, &f);
   return f;
+}
+
+void flip_into(const LayerStack& stack, LayerStack* out) {
+  *out = stack;
+  std::reverse(out->layers.begin(), out->layers.end());
+  out->above_ior = stack.below.ior;
+  out->below.ior = stack.above_ior;
 }
 
 std::string stack_fingerprint(const LayerStack& stack) {

@@ -1,7 +1,7 @@
 // A stack of plane-parallel homogeneous layers (Hanrahan and Krueger 1993, section 3).
 //
 // Layers run from the top (the side the surface normal points to, +z) down. Coefficients are per
-// millimetre, thicknesses in millimetres; only optical depths matter (contracts.md, "Units").
+// millimetre, thicknesses in millimetres; only optical depths matter (docs/contracts.md, "Units").
 #pragma once
 
 #include <limits>
@@ -18,7 +18,7 @@ constexpr double kInfiniteThickness = std::numeric_limits<double>::infinity();
 // component: its scattering coefficient is w_i * sigma_s_i (volume fraction times the
 // component's own), so the layer's phase function in channel c is the scattering-weighted
 // mixture  p_c(cos) = sum_i sigma_s_{i,c} p_HG(cos; g_{i,c}) / sum_i sigma_s_{i,c}
-// (Hanrahan and Krueger eq. 8; contracts.md, "Material file").
+// (Hanrahan and Krueger eq. 8; docs/contracts.md, "Material file").
 struct PhaseLobe {
   Spectrum sigma_s;  // this lobe's share of the layer's scattering coefficient, 1/mm
   Spectrum g;        // HG asymmetry, |g| < 1
@@ -80,10 +80,13 @@ struct LayerStack {
 // with the z components negated. Only defined for a stack that transmits (a dielectric below
 // and no semi-infinite layer); throws std::invalid_argument otherwise.
 LayerStack flipped(const LayerStack& stack);
+// The same into *out, reusing its storage (no allocation once its vectors have grown): for
+// per-hit stacks built in a scratch. `out` must not be `&stack`.
+void flip_into(const LayerStack& stack, LayerStack* out);
 
 // Every number of the stack that affects light transport, exactly (hexadecimal floating point),
 // in a fixed order: equal fingerprints mean the same physics (names are left out). For cache
-// keys (renderer/layered/walk_cache.h).
+// keys (the renderer's walk cache).
 std::string stack_fingerprint(const LayerStack& stack);
 
 // Returns an empty string if the stack is physically valid, else the first problem found, in

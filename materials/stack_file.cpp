@@ -153,7 +153,7 @@ class Reader {
       if (!comps.is_array()) fail(cp, "expected an array of components, got " + type_name(comps));
       if (comps.empty()) fail(cp, "a layer needs at least one component");
       // Volume fractions w_i: sigma_a = sum w_i sigma_a_i and sigma_s p = sum w_i sigma_s_i
-      // p_HG(g_i) (contracts.md; Hanrahan and Krueger eq. 8). Each component is one lobe.
+      // p_HG(g_i) (docs/contracts.md; Hanrahan and Krueger eq. 8). Each component is one lobe.
       double sum = 0.0;
       for (std::size_t i = 0; i < comps.size(); ++i) {
         const json& c = comps[i];

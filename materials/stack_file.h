@@ -1,4 +1,4 @@
-// Reading a LayerStack from a material file (contracts.md, "Material file").
+// Reading a LayerStack from a material file (docs/contracts.md, "Material file").
 //
 // Every problem is reported as one line "SOURCE: JSON.PATH: reason", e.g.
 //   skin.json: layers[1].components[0].fraction: fractions must sum to 1 (sum 0.9)

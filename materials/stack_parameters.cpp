@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <limits>
 
+#include <nlohmann/json.hpp>
+
 namespace lamina {
 
 namespace {
@@ -12,7 +14,7 @@ namespace {
 using Kind = StackParameter::Kind;
 
 // Largest |g| a parameter may take: the HG phase function is a delta at |g| = 1, which the
-// model excludes (contracts.md: |g| < 1).
+// model excludes (docs/contracts.md: |g| < 1).
 constexpr double kMaxAbsG = 1.0 - 1e-6;
 
 [[noreturn]] void fail(const std::string& path, const std::string& reason) {
@@ -228,6 +230,53 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
       }
     }
   }
+}
+
+std::vector<StackPathStep> split_stack_path(const std::string& path) {
+  std::vector<StackPathStep> steps;
+  std::size_t i = 0;
+  // After a key or an index: a '.' must be followed by something.
+  auto skip_dot = [&] {
+    if (i < path.size() && path[i] == '.') {
+      ++i;
+      if (i == path.size()) fail(path, "nothing after the last '.'");
+    }
+  };
+  while (i < path.size()) {
+    if (path[i] == '[') {
+      // The index syntax of parse_stack_parameter: the same reader, so the two agree.
+      steps.push_back({"", static_cast<std::size_t>(read_index(path, &i))});
+    } else {
+      std::size_t end = path.find_first_of(".[", i);
+      if (end == std::string::npos) end = path.size();
+      if (end == i) fail(path, "expected a key at character " + std::to_string(i + 1));
+      steps.push_back({path.substr(i, end - i), 0});
+      i = end;
+    }
+    skip_dot();
+  }
+  if (steps.empty()) fail(path, "empty path");
+  return steps;
+}
+
+nlohmann::json* find_stack_value(nlohmann::json& stack, const std::vector<StackPathStep>& steps, const std::string& path) {
+  auto no = [&](const std::string& reason) { throw StackParameterError("'" + path + "': " + reason); };
+  nlohmann::json* node = &stack;
+  std::string walked;  // the steps taken so far, as a path
+  for (const StackPathStep& s : steps) {
+    if (s.key.empty()) {
+      if (!node->is_array()) no("'" + walked + "' is not an array");
+      if (s.index >= node->size())
+        no("'" + walked + "' has " + std::to_string(node->size()) + " entries, no [" + std::to_string(s.index) + "]");
+      node = &(*node)[s.index];
+      walked += "[" + std::to_string(s.index) + "]";
+    } else {
+      walked += (walked.empty() ? "" : ".") + s.key;
+      if (!node->is_object() || !node->contains(s.key)) no("the stack has no '" + walked + "'");
+      node = &(*node)[s.key];
+    }
+  }
+  return node;
 }
 
 }  // namespace lamina

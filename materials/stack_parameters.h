@@ -4,7 +4,7 @@
 //
 // Changing a parameter must be cheap (no JSON per hit), so a material file is loaded once into
 // a StackTemplate: the compiled LayerStack plus the description it was mixed from (each layer's
-// components with their volume fractions and own coefficients, contracts.md "Material file").
+// components with their volume fractions and own coefficients, docs/contracts.md "Material file").
 // A path is resolved once into a StackParameter; apply_parameters() then copies the template's
 // stack and re-mixes only the layers whose parameters were set.
 //
@@ -25,9 +25,12 @@
 // >= 0, ior to >= 1e-6, Lambert albedo to [0, 1].
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
@@ -88,8 +91,25 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
 // one layer (each would renormalise the other away).
 void check_parameter_set(const std::vector<StackParameter>& parameters);
 
-// Mixes a layer's components into its absorption and phase lobes (contracts.md: sigma_a =
+// Mixes a layer's components into its absorption and phase lobes (docs/contracts.md: sigma_a =
 // sum w_i sigma_a_i, sigma_s p = sum w_i sigma_s_i p(g_i); Hanrahan and Krueger eq. 8).
 void mix_layer(const LayerDesc& desc, Layer* layer);
+
+// The syntax of a path alone, without a stack to resolve it against: what a batch manifest's
+// "set" addresses (docs/batch.md), where any value of a material file may be changed, not only
+// the parameters above. Keys are separated by '.', indices are "[n]" with 1 to 6 digits, and
+// the '.' after an index may be left out: "layers[1].components[0].fraction" is layers, [1],
+// components, [0], fraction. Every path parse_stack_parameter accepts is one of these.
+struct StackPathStep {
+  std::string key;        // empty for an index
+  std::size_t index = 0;  // the index, when key is empty
+};
+// Throws StackParameterError("PATH: reason") for an empty or malformed path.
+std::vector<StackPathStep> split_stack_path(const std::string& path);
+
+// The value at `steps` in a material file's JSON, `path` being the text they were split from.
+// Throws StackParameterError("'PATH': reason") when the file has no such value, e.g.
+// "'layers[7].thickness': 'layers' has 2 entries, no [7]".
+nlohmann::json* find_stack_value(nlohmann::json& stack, const std::vector<StackPathStep>& steps, const std::string& path);
 
 }  // namespace lamina

@@ -18,7 +18,7 @@
 // where R' is the reflectance seen from below. T is the same both ways for every element, so
 // for every combination.
 //
-// Conventions as contracts.md: light arrives from above (the side +z points to); the results
+// Conventions as docs/contracts.md: light arrives from above (the side +z points to); the results
 // are fractions of the incident power per RGB channel.
 #pragma once
 

@@ -1,4 +1,4 @@
-// lamina brdf: the BRDF/BTDF table and energy totals of a layered material (contracts.md,
+// lamina brdf: the BRDF/BTDF table and energy totals of a layered material (docs/contracts.md,
 // "lamina brdf"). One file per subcommand; the physics lives in materials/.
 //
 // Outputs:
@@ -28,6 +28,7 @@
 #include "materials/brdf_table.h"
 #include "materials/stack_file.h"
 #include "renderer/cli/commands.h"
+#include "renderer/util/atomic_file.h"
 
 namespace {
 
@@ -41,24 +42,13 @@ struct CliError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Writes text to path atomically: a temporary file beside it, then rename(2), so a reader never
-// sees a half-written file and a failure leaves any previous file intact.
+// Writes text to path atomically (renderer/util/atomic_file.h): a reader never sees a
+// half-written file and a failure leaves any previous file intact.
 void write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw CliError("cannot write '" + path + "': " + std::strerror(errno));
-    out << text;
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw CliError("cannot write '" + path + "': write failed");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    std::remove(tmp.c_str());
-    throw CliError("cannot write '" + path + "': " + reason);
+  try {
+    lamina::write_file_atomically(path, text);
+  } catch (const lamina::AtomicWriteError& e) {
+    throw CliError(e.what());
   }
 }
 
@@ -127,7 +117,7 @@ int run_brdf(int argc, char** argv) {
   double theta_i = std::nan(""), phi_i = 0.0;
   long long samples = 100000, seed = 1;  // signed, so that "-3" is an error and not 2^64 - 3
   int bins_theta = 18, bins_phi = 36;
-  app.add_option("STACK.json", stack_path, "material file (JSON, contracts.md)")->required();
+  app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();
   app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")->required();
   app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)");
   app.add_option("--method", method, "first-order | monte-carlo (default monte-carlo)")

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/cli/commands.h"
+#include "renderer/util/atomic_file.h"
 #include "renderer/image/false_colour.h"
 #include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
@@ -41,17 +42,9 @@ Image read_checked(const std::string& path, int* channels) {
 }
 
 void write_json(const std::string& path, const nlohmann::json& json) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << json.dump(2) << "\n";
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw std::runtime_error("cannot write '" + path + "'");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
+  try {
+    write_file_atomically(path, json.dump(2) + "\n");
+  } catch (const AtomicWriteError&) {
     throw std::runtime_error("cannot write '" + path + "'");
   }
 }

@@ -1,9 +1,10 @@
-// lamina: one program, subcommands. main() only dispatches (architecture.md, "cli/").
+// lamina: one program, subcommands. main() only dispatches (docs/architecture.md, "cli/").
 #include <cstdio>
 #include <cstring>
 #include <string>
 
 #include "renderer/cli/commands.h"
+#include "renderer/util/version.h"
 
 namespace {
 
@@ -35,7 +36,7 @@ int main(int argc, char** argv) {
   }
   if (command == "brdf") return run_brdf(argc - 1, argv + 1);
   if (command == "--version") {
-    std::puts("lamina 0.1.0");
+    std::printf("lamina %s\n", lamina::lamina_version());
     return 0;
   }
   // One line per command: it sees argv[1..] (its own name as argv[0]).

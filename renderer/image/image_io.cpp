@@ -1,11 +1,7 @@
 // Image files through OpenImageIO (see image_io.h).
 #include "renderer/image/image_io.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -13,24 +9,19 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include "renderer/util/atomic_file.h"
+
 namespace lamina {
 namespace {
 
 namespace OIIO = OIIO_NAMESPACE;
-
-// A temporary name beside `path` (same directory, so rename(2) is atomic on POSIX: it never
-// crosses a file system). Unique per process and call, so concurrent writers do not collide.
-std::string temporary_name(const std::string& path) {
-  static std::atomic<unsigned> counter{0};
-  return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
-}
 
 // Writes `pixels` (width*height*channels values of `type`) with the OIIO plugin `format` to a
 // temporary file, then renames it over `path`. Any failure removes the temporary file and
 // throws ImageIoError naming `path`; `path` itself is then untouched.
 void write_atomically(const std::string& path, const std::string& format, const OIIO::ImageSpec& spec,
                       const void* pixels) {
-  const std::string tmp = temporary_name(path);
+  const std::string tmp = temporary_path(path);
   auto fail = [&](const std::string& why) {
     std::remove(tmp.c_str());
     throw ImageIoError("cannot write '" + path + "': " + why);
@@ -47,14 +38,11 @@ void write_atomically(const std::string& path, const std::string& format, const 
     fail(why);
   }
   if (!out->close()) fail(out->geterror());
-  // Flush the data to the disk before the rename makes it visible, so that after a crash the
-  // name points either to the old file or to the complete new one.
-  const int fd = ::open(tmp.c_str(), O_RDONLY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
+  try {
+    commit_temporary(tmp, path);
+  } catch (const AtomicWriteError& e) {
+    throw ImageIoError(e.what());
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename failed");
 }
 
 void check_size(const std::string& path, const Image& image) {

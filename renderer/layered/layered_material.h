@@ -1,10 +1,5 @@
-// Layered (Hanrahan-Krueger) materials bound to a glTF scene, and how the renderer shades them.
-//
-// Binding (README, "Layered materials in the renderer"): a glTF material names its stack file in
-// its extras, {"lamina": {"stack": "skin.json"}} (Blender exports custom properties there), or a
-// material map given by `lamina render --materials MAP.json` maps glTF material names to stack
-// files: {"Skin": "materials/skin.json", ...}. A relative path resolves against the directory of
-// the file that names it (the glTF, or the map). The map wins over extras.
+// Layered (Hanrahan-Krueger) materials of a scene: the stack a glTF material is rendered with
+// (bound by renderer/layered/material_binding.h) and what the shading modes need of it.
 //
 // One place gives the stack at a hit: LayeredMaterial::stack_at(). It returns the material's
 // base stack today; texture-driven parameters (blood, melanin, oil, freckles) are computed there
@@ -28,12 +23,6 @@ namespace lamina {
 
 struct SceneDesc;
 class StackBindings;
-
-// How layered materials are shaded (contracts.md, `lamina render --subsurface`).
-enum class SubsurfaceMode { RandomWalk, FirstOrder, Table, Lambert };
-// Parses "random-walk" | "first-order" | "table" | "lambert"; false if unknown.
-bool parse_subsurface_mode(const std::string& name, SubsurfaceMode* mode);
-const char* subsurface_mode_name(SubsurfaceMode mode);
 
 // What stack_at() may look at: the hit as the integrator sees it.
 struct ShadingPoint {
@@ -104,12 +93,6 @@ class LayeredMaterial {
   mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
 };
 
-// The diffuse bihemispherical reflectance of a stack by `walks` random walks with cosine-weighted
-// incidence (mu_i = sqrt(u): density 2 mu_i on [0,1], so the walks' mean top exit weight after
-// >= 1 scattering is 2 int R_diffuse(mu) mu dmu). Deterministic: walk i uses Rng(seed, i).
-Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
-                                        Spectrum* standard_error = nullptr);
-
 // The layered materials of a scene, one slot per glTF material (null: not layered).
 struct LayeredBindings {
   std::vector<std::shared_ptr<const LayeredMaterial>> by_material;
@@ -118,13 +101,5 @@ struct LayeredBindings {
   }
   int count() const;
 };
-
-// Binds stacks to the scene's materials: the map file (if not empty) first, then each
-// material's extras["lamina.stack"]. A map entry may also be an object {"stack": ..., "bind":
-// [...], "freckles": {...}}, and the extras' "lamina" object may hold "bind" and "freckles":
-// texture-driven parameters (renderer/layered/stack_bindings.h). Throws SceneError with one line naming the glTF (or map)
-// and the stack file: a missing stack file, a map naming no material of the scene, or the
-// StackFileError message of a bad stack file.
-LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path);
 
 }  // namespace lamina

@@ -12,6 +12,7 @@
 #include "materials/sampling.h"
 #include "renderer/image/image_io.h"
 #include "renderer/scene/scene_gltf.h"
+#include "renderer/util/paths.h"
 
 namespace lamina {
 namespace {
@@ -27,12 +28,6 @@ const double kExpCut = std::exp(-0.5 * kCutSquared);
 // multiplies uniforms (Knuth), O(mean) per cell, and such a density is a wash, not freckles.
 constexpr double kMaxSpotsPerCell = 64.0;
 
-std::string resolve(const std::string& path, const std::string& relative_to_file) {
-  namespace fs = std::filesystem;
-  const fs::path p(path);
-  if (p.is_absolute()) return p.string();
-  return (fs::path(relative_to_file).parent_path() / p).lexically_normal().string();
-}
 
 // Knuth's Poisson sampler (TAOCP vol. 2, 3.4.1): multiply uniforms until the product drops
 // below e^-mean. Exact; O(mean) uniforms, and mean <= kMaxSpotsPerCell here.
@@ -154,7 +149,7 @@ StackBindings::Source StackBindings::parse_source(const json& j, const std::stri
   const json& t = j["texture"];
   bool gltf = false;
   if (t.is_string()) {
-    const std::string path = resolve(t.get<std::string>(), base_file_);
+    const std::string path = resolve_relative_to(t.get<std::string>(), base_file_);
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) fail("texture", "file '" + t.get<std::string>() + "' not found (" + path + ")");
     s.map = std::make_shared<const ParameterMap>(read_parameter_map(path));

@@ -14,7 +14,8 @@
 
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/layered_table.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 namespace {
@@ -425,23 +426,6 @@ ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool 
   record_table(combine(bias), here, interp, settings, 0.0, &acc);
   const ViewErrors e = finish(acc);
   return e;
-}
-
-std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid) {
-  const SceneDesc& desc = scene.desc();
-  std::vector<bool> seen(desc.materials.size(), false);
-  const int nx = std::min(width, grid), ny = std::min(height, grid);
-  RayCounters rays;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      // The centre of cell (i, j) of an nx x ny grid over the film, in pixels.
-      const glm::dvec2 film((i + 0.5) * width / nx, (j + 0.5) * height / ny);
-      SurfaceHit hit;
-      if (!scene.intersect(camera.generate_ray(film), &hit, rays)) continue;
-      const int m = desc.meshes[hit.mesh].material;
-      if (m >= 0 && m < static_cast<int>(seen.size())) seen[m] = true;
-    }
-  return seen;
 }
 
 namespace {

@@ -45,9 +45,10 @@
 
 #include "renderer/scene/camera.h"
 #include "renderer/layered/layered_material.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/layered_table.h"
 #include "renderer/scene/scene.h"
 #include "renderer/layered/walk_cache.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 
@@ -100,12 +101,6 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
 // against the walk, and to explain a choice.
 ViewErrors predict_view_errors(const LayeredMaterial& material, double mu, bool from_below,
                                const AutoSettings& settings, std::uint64_t walks);
-
-// Which glTF material slots the camera sees directly: camera rays through a grid of at most
-// grid x grid film positions over the whole image (pixel centres of a coarse grid; all pixels
-// if the image is smaller). Materials seen only indirectly (through a transmitting stack, in
-// reflections, by their light on other surfaces) are NOT found.
-std::vector<bool> camera_visible_materials(const Scene& scene, const Camera& camera, int width, int height, int grid = 64);
 
 // One choice per glTF material slot (default-constructed for non-layered slots). A slot whose
 // `visible` entry is false (when `visible` is given) is not predicted: it costs nothing and is

@@ -15,7 +15,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "renderer/util/atomic_file.h"
 #include "renderer/util/content_hash.h"
+#include "renderer/util/version.h"
 
 namespace lamina {
 namespace {
@@ -80,29 +82,15 @@ bool get_vector(const std::string& in, std::size_t* at, std::size_t expected, st
   return true;
 }
 
-// `bytes` into `path` through a temporary of this process and an atomic rename (creating the
-// directory); a failure is a warning naming the file.
+// `bytes` into `path` atomically (creating the directory); a failure is a warning naming the
+// file: the render has its result either way.
 void write_atomically(const std::string& path, const std::string& bytes, const char* what) {
   std::error_code ec;
   fs::create_directories(fs::path(path).parent_path(), ec);
-  char host[256] = "host";
-  ::gethostname(host, sizeof host - 1);
-  const std::string tmp = path + ".tmp-" + host + "-" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.close();
-    if (!f) {
-      fs::remove(tmp, ec);
-      std::fprintf(stderr, "lamina: warning: %s: could not write the %s cache entry\n", path.c_str(), what);
-      return;
-    }
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    const std::string message = ec.message();
-    fs::remove(tmp, ec);
-    std::fprintf(stderr, "lamina: warning: %s: could not write the %s cache entry: %s\n", path.c_str(), what, message.c_str());
+  try {
+    write_file_atomically(path, bytes);
+  } catch (const AtomicWriteError& e) {
+    std::fprintf(stderr, "lamina: warning: %s: could not write the %s cache entry: %s\n", path.c_str(), what, e.reason.c_str());
   }
 }
 

@@ -20,7 +20,7 @@
 
 #include "materials/stack.h"
 #include "renderer/layered/layered_material.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/layered_table.h"
 
 namespace lamina {
 

@@ -25,7 +25,7 @@ namespace lamina {
 
 class EnvironmentMap {
  public:
-  // Black: no environment (the default, contracts.md `--env`).
+  // Black: no environment (the default, docs/contracts.md `--env`).
   EnvironmentMap();
   // Throws std::invalid_argument for negative or non-finite radiance.
   static EnvironmentMap constant(const Spectrum& radiance);

@@ -12,9 +12,13 @@
 
 #include "materials/fresnel.h"
 #include "materials/random_walk.h"
-#include "renderer/surfaces/layered_surface.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/walk_estimator.h"
+#include "renderer/surfaces/first_order_surface.h"
+#include "renderer/surfaces/table_surface.h"
+#include "renderer/layered/layered_tables.h"
 #include "renderer/surfaces/surface.h"
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 namespace {
@@ -44,7 +48,7 @@ double emission_weight(const LightSet& lights, const Light* light, bool unweight
 }
 
 // Next-event estimation at the scattering events of a layered material's random walk
-// (random-walk mode; derivation in layered_surface.h and README "Layered materials").
+// (random-walk mode; derivation in materials/walk_estimator.h and README "Layered materials").
 //
 // At an event e inside the stack (throughput W_e) a light is sampled from the surface point
 // (the model is position free: light leaves where it entered), and connected with
@@ -131,7 +135,7 @@ struct WalkConnector {
 //    less (their offsets are still stratified per walk index).
 // Light samples at events need no change: connection_weight and the event's throughput are
 // conditional on the walk's hero, and exit_pdf_for_mis is the mean over the three heroes, which
-// does not depend on how the hero was chosen (layered_surface.h).
+// does not depend on how the hero was chosen (materials/walk_estimator.h, exit_pdf_for_mis).
 int HeroStrata::hero(int walk_index) const {
   Rng offset_rng(seed, pixel, kHeroStream + static_cast<std::uint64_t>(walk_index));
   const int offset = std::min(kChannels - 1, static_cast<int>(offset_rng.uniform() * kChannels));

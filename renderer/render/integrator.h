@@ -14,37 +14,11 @@
 #include "materials/sampling.h"
 #include "renderer/scene/camera.h"
 #include "renderer/image/image.h"
-#include "renderer/layered/layered_material.h"
+#include "renderer/layered/layered_shading.h"
 #include "renderer/render/lights.h"
 #include "renderer/scene/scene.h"
 
 namespace lamina {
-
-class LayeredTables;
-
-// How layered materials are shaded (renderer/surfaces/layered_surface.h).
-struct LayeredShading {
-  const LayeredBindings* bindings = nullptr;
-  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
-  // `--subsurface auto`: the mode of each glTF material slot (renderer/layered/subsurface_auto.h);
-  // empty: `mode` for every material.
-  std::vector<SubsurfaceMode> per_material;
-  SubsurfaceMode mode_for(int material) const {
-    return material >= 0 && material < static_cast<int>(per_material.size()) ? per_material[material] : mode;
-  }
-  // Tests and the bias report only: the naive random-walk estimator of the seed's slides. Light
-  // samples at events without the Fresnel transmission of the way out and with weight 1, and
-  // the walk's exits that reach a light also with weight 1 (no MIS: counted twice).
-  bool naive = false;
-  // Measurements only: light samples at events with weight 1 and the walk's straight exits
-  // ignored when they reach a light (unbiased, no MIS), to show what MIS buys at g -> 1.
-  bool connections_only = false;
-  const LayeredTables* tables = nullptr;  // SubsurfaceMode::Table
-  // random-walk mode: the hero channel of each walk stratified over the samples of a pixel
-  // (HeroStrata below; integrator.cpp has the derivation). false: every walk draws its hero
-  // independently (the library's default), kept for the tests and the noise measurements.
-  bool stratified_hero = true;
-};
 
 // Where a camera sample sits among the samples of its pixel, for the stratified hero channel:
 // the k-th random walk of sample `sample` in pixel `pixel` uses hero (sample + o_k) mod 3, where

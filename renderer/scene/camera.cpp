@@ -26,4 +26,13 @@ Ray Camera::generate_ray(glm::dvec2 film) const {
   return {origin_, glm::normalize(forward_ + sx * right_ + sy * up_)};
 }
 
+const CameraDesc& find_camera(const SceneDesc& scene, const std::string& name) {
+  std::string names;
+  for (const CameraDesc& c : scene.cameras) {
+    if (c.name == name || c.node_name == name) return c;
+    names += (names.empty() ? "" : ", ") + ("'" + c.name + "'");
+  }
+  throw SceneError(scene.path + ": no camera named '" + name + "' (cameras: " + (names.empty() ? "none" : names) + ")");
+}
+
 }  // namespace lamina

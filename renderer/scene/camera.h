@@ -2,6 +2,8 @@
 // aspect ratio is the output's width/height, not the file's aspectRatio).
 #pragma once
 
+#include <string>
+
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -21,5 +23,9 @@ class Camera {
   double scale_x_, scale_y_;  // screen-window units per pixel (no division per ray)
   double tan_half_y_, aspect_;
 };
+
+// The camera `lamina render --camera NAME` means: the first whose name or whose node's name is
+// NAME. Throws SceneError naming the scene and listing its cameras if there is none.
+const CameraDesc& find_camera(const SceneDesc& scene, const std::string& name);
 
 }  // namespace lamina

@@ -1,4 +1,5 @@
 #include "renderer/scene/scene_gltf.h"
+#include "renderer/scene/gltf_document.h"
 #include "renderer/scene/texture_filter.h"
 
 #include <algorithm>
@@ -332,7 +333,7 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
       warn("orthographic cameras are skipped");
     } else {
       CameraDesc cam;
-      cam.name = c.name.empty() ? node.name : c.name;
+      cam.name = camera_display_name(c.name, node.name);  // batch manifests check --camera by it too
       cam.node_name = node.name;
       cam.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
       cam.forward = glm::normalize(m3 * glm::dvec3(0.0, 0.0, -1.0));

@@ -1,7 +1,7 @@
 // The narrow interface through which the integrator scatters light at a surface.
 //
 // Directions are in the local shading frame: +z is the shading normal turned to the side of
-// wo (the viewer), wi points towards the light (contracts.md, "Conventions"). eval() returns
+// wo (the viewer), wi points towards the light (docs/contracts.md, "Conventions"). eval() returns
 // the BSDF f(wo, wi) in 1/sr without the cosine; sample() draws wi with solid-angle density
 // pdf and returns f(wo, wi).
 #pragma once

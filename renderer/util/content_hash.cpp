@@ -2,10 +2,6 @@
 
 #include <cstdio>
 
-#ifndef LAMINA_VERSION
-#error "LAMINA_VERSION must be defined by the build (renderer/CMakeLists.txt)"
-#endif
-
 namespace lamina {
 
 // FNV-1a, 128-bit (Fowler, Noll, Vo; IETF draft-eastlake-fnv: offset basis and prime below).
@@ -22,7 +18,5 @@ std::string content_hash(const std::string& bytes) {
                 static_cast<unsigned long long>(h));
   return out;
 }
-
-const char* lamina_version() { return LAMINA_VERSION; }
 
 }  // namespace lamina

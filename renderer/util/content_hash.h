@@ -8,8 +8,4 @@ namespace lamina {
 // A 128-bit FNV-1a hash as 32 hex digits: detects changes, not tampering.
 std::string content_hash(const std::string& bytes);
 
-// Lamina's version, written into job hashes and cache keys: a new version re-renders and
-// rebuilds everything (bump it when the walk or a table's layout changes).
-const char* lamina_version();
-
 }  // namespace lamina

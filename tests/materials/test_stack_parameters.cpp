@@ -9,6 +9,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "materials/stack_file.h"
 
@@ -253,6 +254,29 @@ TEST(StackParameters, AmbiguousSetsAreRejected) {
   EXPECT_THROW(check_parameter_set({a, a}), StackParameterError);
   EXPECT_THROW(check_parameter_set({a, b}), StackParameterError);
   EXPECT_NO_THROW(check_parameter_set({a, c}));
+}
+
+// The syntax batch manifests' "set" paths share (split_stack_path), and walking a file's JSON.
+TEST(StackParameters, SplitStackPathGivesKeysAndIndices) {
+  const std::vector<StackPathStep> steps = split_stack_path("layers[1].components[0].fraction");
+  ASSERT_EQ(steps.size(), 5u);
+  EXPECT_EQ(steps[0].key, "layers");
+  EXPECT_EQ(steps[1].key, "");
+  EXPECT_EQ(steps[1].index, 1u);
+  EXPECT_EQ(steps[3].index, 0u);
+  EXPECT_EQ(steps[4].key, "fraction");
+  EXPECT_EQ(split_stack_path("below.lambert").size(), 2u);
+  for (const char* bad : {"", "layers[1..x", "layers[", "layers[]", "layers[1234567]", "layers[-1]", "a.", ".a", "a..b"})
+    EXPECT_THROW(split_stack_path(bad), StackParameterError) << bad;
+  nlohmann::json stack = nlohmann::json::parse(R"({"layers": [{"thickness": 0.1}]})");
+  *find_stack_value(stack, split_stack_path("layers[0].thickness"), "layers[0].thickness") = 0.2;
+  EXPECT_EQ(stack["layers"][0]["thickness"], 0.2);
+  try {
+    find_stack_value(stack, split_stack_path("layers[7].thickness"), "layers[7].thickness");
+    ADD_FAILURE() << "no error";
+  } catch (const StackParameterError& e) {
+    EXPECT_STREQ(e.what(), "'layers[7].thickness': 'layers' has 1 entries, no [7]");
+  }
 }
 
 }  // namespace

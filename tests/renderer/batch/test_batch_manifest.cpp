@@ -11,6 +11,8 @@
 
 #include "renderer/batch/batch_manifest.h"
 #include "renderer/image/contact_sheet.h"
+#include "renderer/scene/gltf_document.h"
+#include "renderer/scene/scene_gltf.h"
 #include "tests/renderer/batch_fixture.h"
 
 namespace lamina {
@@ -427,6 +429,31 @@ TEST(BatchManifest, ExampleManifestsValidate) {
     resolve_comparisons(m, jobs);
   }
   EXPECT_GE(count, 3u);
+}
+
+// A manifest's "camera" is checked against gltf_camera_names; every name the loader gives a
+// camera or its node (what `lamina render --camera` matches) must be among them.
+TEST(BatchManifest, CameraNamesIncludeTheLoadersNames) {
+  Fixture f;
+  testing::GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0}, {0, 1, 2})}});
+  const json perspective = {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.01}}}};
+  json named = perspective, unnamed = perspective;
+  named["name"] = "front";
+  b.json()["cameras"] = {named, unnamed};
+  b.add_node({{"name", "front_node"}, {"camera", 0}, {"translation", {0.0, 0.0, 3.0}}});
+  b.add_node({{"name", "side_node"}, {"camera", 1}, {"translation", {3.0, 0.0, 0.0}}});
+  b.write_gltf(f.dir / "cameras.gltf");
+  const SceneDesc scene = load_gltf(f.dir / "cameras.gltf");
+  const std::set<std::string> names = gltf_camera_names(read_gltf_json(f.dir / "cameras.gltf"));
+  ASSERT_EQ(scene.cameras.size(), 2u);
+  EXPECT_EQ(scene.cameras[0].name, "front");
+  EXPECT_EQ(scene.cameras[1].name, "side_node");  // unnamed: its node's name
+  for (const CameraDesc& c : scene.cameras) {
+    EXPECT_EQ(names.count(c.name), 1u) << c.name;
+    EXPECT_EQ(names.count(c.node_name), 1u) << c.node_name;
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"front", "front_node", "side_node"}));
 }
 
 }  // namespace

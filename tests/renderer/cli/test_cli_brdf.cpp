@@ -78,7 +78,7 @@ TEST_F(CliBrdf, MonteCarloWritesTableAndTotals) {
   for (const auto& [name, count] : j["walk_ends"].items()) walks += count.get<std::uint64_t>();
   EXPECT_EQ(walks, 4000u);
   // No temporary files left behind (atomic write by rename).
-  EXPECT_EQ(std::system(("ls '" + dir_ + "' | grep -q '\\.tmp\\.'").c_str()) != 0, true);
+  EXPECT_EQ(std::system(("ls '" + dir_ + "' | grep -q '\\.tmp-'").c_str()) != 0, true);
 }
 
 TEST_F(CliBrdf, FirstOrderTotalsSumToOne) {

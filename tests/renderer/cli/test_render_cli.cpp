@@ -230,7 +230,7 @@ namespace lamina {
 namespace {
 
 // --subsurface auto: a strongly absorbing stack (first order is within 5%: see
-// tests/renderer/test_subsurface_auto) on a visible quad, and a second layered material on a
+// tests/renderer/layered/test_subsurface_auto) on a visible quad, and a second layered material on a
 // quad hidden behind it (no camera ray reaches it). The choice and its reason are printed and
 // stored per material in the EXR metadata; the hidden one is not predicted.
 TEST(RenderCliLayered, AutoChoosesPerMaterialAndRecordsIt) {

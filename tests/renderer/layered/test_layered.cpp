@@ -32,9 +32,14 @@
 #include "tests/renderer/gltf_fixture.h"
 #include "tests/renderer/render_fixtures.h"
 #include "renderer/layered/layered_material.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/layered_table.h"
+#include "renderer/layered/layered_tables.h"
+#include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/subsurface_auto.h"
 #include "tests/materials/stack_fixtures.h"
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/material_binding.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 namespace {

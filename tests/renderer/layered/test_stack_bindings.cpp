@@ -16,6 +16,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/scene/scene_gltf.h"
+#include "renderer/layered/material_binding.h"
 
 namespace lamina {
 namespace {

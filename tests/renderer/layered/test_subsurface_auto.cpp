@@ -18,6 +18,8 @@
 #include "renderer/layered/subsurface_auto.h"
 #include "tests/renderer/render_fixtures.h"
 #include "tests/materials/stack_fixtures.h"
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 namespace {

@@ -14,7 +14,9 @@
 
 #include "materials/stack.h"
 #include "renderer/layered/layered_material.h"
-#include "renderer/layered/layered_table.h"
+#include "materials/layered_table.h"
+#include "renderer/layered/layered_tables.h"
+#include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/subsurface_auto.h"
 #include "renderer/layered/walk_cache.h"
 #include "tests/renderer/gltf_fixture.h"

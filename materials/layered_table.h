@@ -1,9 +1,10 @@
-// table mode: a BRDF/BTDF table per layered material, estimated by THE random walk
-// (materials/brdf_table, the same code as `lamina brdf --method monte-carlo`) before rendering.
+// The table mode's BRDF/BTDF table of a stack, estimated by THE random walk (materials/brdf_table,
+// the same code as `lamina brdf --method monte-carlo`) before rendering; renderer/surfaces/
+// table_surface.h evaluates and samples it, renderer/layered/layered_tables.h holds a scene's.
 //
-// Layout: `nodes` incidence cosines mu_j = (j + 0.5) / nodes; per node the walk's bin averages
+// Layout: `nodes` incidence cosines from grazing to normal (table_node_cosine); per node the walk's bin averages
 // (K bins uniform in |cos theta_o| per side, M bins uniform in the azimuth relative to the
-// incidence; contracts.md "lamina brdf"). The delta parts are not tabulated: they come from the
+// incidence; docs/contracts.md "lamina brdf"). The delta parts are not tabulated: they come from the
 // analytic zeroth order at the exact incidence.
 // Evaluation: linear interpolation in mu_i between the two nearest nodes (clamped at the ends),
 // piecewise constant over the outgoing bins. Sampling: the same two nodes chosen with the
@@ -13,19 +14,13 @@
 // Reciprocity: the table is indexed with the viewer direction as the incidence (as the walk).
 #pragma once
 
-#include <map>
-#include <memory>
+#include <cstdint>
 #include <vector>
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
-#include "renderer/layered/layered_material.h"
-#include "renderer/surfaces/layered_surface.h"
-#include "renderer/surfaces/surface.h"
 
 namespace lamina {
-
-class WalkCache;
 
 struct TableSettings {
   // Incidence cosines, from grazing to normal (table_node_cosine). The end nodes sit at the ends
@@ -69,41 +64,5 @@ TableNodes table_nodes_at(const TableSettings& settings, double mu);
 
 // Builds the table of `stack` by the walk; deterministic for any thread count.
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings);
-
-// Tables of every layered material of a scene (and of its flipped stack if it transmits).
-class LayeredTables {
- public:
-  LayeredTables(const LayeredBindings& bindings, const TableSettings& settings);
-  // Only the materials whose slot in `only` is true (`--subsurface auto`: those that chose table).
-  // With a cache (renderer/layered/walk_cache.h), tables found there are loaded instead of built, and
-  // the ones built are stored.
-  LayeredTables(const LayeredBindings& bindings, const TableSettings& settings, const std::vector<bool>& only,
-                const WalkCache* cache = nullptr);
-  const LayeredTable& get(const LayeredMaterial* m, bool from_below) const;
-  double build_seconds() const { return seconds_; }  // of the tables built (not loaded)
-  int built() const { return built_; }
-  int loaded() const { return loaded_; }
-  std::size_t bytes() const;
-
- private:
-  std::map<std::pair<const LayeredMaterial*, bool>, std::unique_ptr<LayeredTable>> tables_;
-  double seconds_ = 0.0;
-  int built_ = 0, loaded_ = 0;
-};
-
-class TableSurface final : public Surface {
- public:
-  TableSurface(const LayeredTable& table, const glm::dvec3& wo);
-  Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const override;
-  bool sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const override;
-  double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const override;
-
- private:
-  int bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const;
-  const LayeredTable& table_;
-  ZerothOrderLobes lobes_;
-  int node_[2] = {0, 0};
-  double weight_[2] = {1.0, 0.0};
-};
 
 }  // namespace lamina

@@ -1,33 +1,38 @@
-// Batch manifests: parsing, validation, job expansion and hashing (see batch_manifest.h).
-#include "renderer/batch/batch_manifest.h"
+// Batch manifests: the schema's parsing and validation (see manifest.h).
+#include "renderer/batch/manifest.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 
+#include "materials/stack_parameters.h"
+#include "renderer/batch/manifest_where.h"
+#include "renderer/scene/gltf_document.h"
 
 namespace lamina {
+namespace batch_detail {
+
+std::vector<StackPathStep> stack_path_steps(const std::string& path, const Where& where) {
+  try {
+    return split_stack_path(path);
+  } catch (const StackParameterError&) {
+    // One message for every malformed path, whatever split_stack_path's reason: the example
+    // shows the grammar better than the first character it stumbled on.
+    where.fail("bad stack path '" + path + "' (expected e.g. layers[1].components[0].fraction)");
+  }
+}
+
+}  // namespace batch_detail
+
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-// Where a value sits in the manifest, for error messages: "m.json: variants[1].name".
-struct Where {
-  std::string file;
-  std::string path;
-  Where key(const std::string& k) const { return {file, path.empty() ? k : path + "." + k}; }
-  Where at(std::size_t i) const { return {file, path + "[" + std::to_string(i) + "]"}; }
-  [[noreturn]] void fail(const std::string& message) const {
-    throw ManifestError(file + ": " + (path.empty() ? "" : path + ": ") + message);
-  }
-};
+using batch_detail::Where;
 
 std::string type_name(const json& j) { return j.type_name(); }
 
@@ -83,76 +88,10 @@ std::string get_file(const json& j, const Where& where, const std::string& direc
   return p.string();
 }
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ManifestError(path + ": cannot read the file");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw ManifestError(path + ": read error");
-  return s.str();
-}
-
-// The JSON part of a .gltf or .glb (glTF 2.0 spec, "GLB File Format Specification": a 12-byte
-// header, then chunks of (length, type, data); the first chunk is the JSON one, type 'JSON').
-json gltf_json(const std::string& path) {
-  const std::string bytes = read_bytes(path);
-  std::string text = bytes;
-  if (bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0) {
-    if (bytes.size() < 20) throw ManifestError(path + ": truncated GLB header");
-    std::uint32_t length = 0, type = 0;
-    std::memcpy(&length, bytes.data() + 12, 4);  // GLB is little-endian, as is every host we build on
-    std::memcpy(&type, bytes.data() + 16, 4);
-    if (type != 0x4E4F534Au || 20ull + length > bytes.size()) throw ManifestError(path + ": GLB without a JSON chunk");
-    text = bytes.substr(20, length);
-  }
-  try {
-    json j = json::parse(text);
-    if (!j.is_object()) throw ManifestError(path + ": not a glTF file (the JSON is not an object)");
-    return j;
-  } catch (const json::parse_error& e) {
-    throw ManifestError(path + ": not a glTF file: " + e.what());
-  }
-}
-
-std::set<std::string> gltf_material_names(const json& gltf) {
-  std::set<std::string> names;
-  if (gltf.contains("materials") && gltf["materials"].is_array())
-    for (const json& m : gltf["materials"])
-      if (m.contains("name") && m["name"].is_string()) names.insert(m["name"].get<std::string>());
-  return names;
-}
-
-// Camera names `lamina render --camera` accepts: the camera's name, or its node's name.
-std::set<std::string> gltf_camera_names(const json& gltf) {
-  std::set<std::string> names;
-  if (gltf.contains("cameras") && gltf["cameras"].is_array())
-    for (const json& c : gltf["cameras"])
-      if (c.contains("name") && c["name"].is_string()) names.insert(c["name"].get<std::string>());
-  if (gltf.contains("nodes") && gltf["nodes"].is_array())
-    for (const json& n : gltf["nodes"])
-      if (n.contains("camera") && n.contains("name") && n["name"].is_string()) names.insert(n["name"].get<std::string>());
-  return names;
-}
-
 std::string join(const std::set<std::string>& names) {
   std::string s;
   for (const std::string& n : names) s += (s.empty() ? "'" : ", '") + n + "'";
   return s.empty() ? "none" : s;
-}
-
-// "%20" and friends in glTF URIs (RFC 3986 percent-encoding).
-std::string percent_decode(const std::string& uri) {
-  std::string out;
-  for (std::size_t i = 0; i < uri.size(); ++i) {
-    if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
-        std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
-      out += static_cast<char>(std::strtol(uri.substr(i + 1, 2).c_str(), nullptr, 16));
-      i += 2;
-    } else {
-      out += uri[i];
-    }
-  }
-  return out;
 }
 
 // Parses "x" or "r,g,b" as finite numbers; false if the text is anything else.
@@ -265,62 +204,6 @@ JobSelector parse_selector(const json& j, const Where& where, const Manifest& m)
   return s;
 }
 
-// A stack path "layers[1].components[0].fraction" as a list of keys and indices.
-struct PathStep {
-  std::string key;  // empty for an index
-  std::size_t index = 0;
-};
-std::vector<PathStep> parse_stack_path(const std::string& path, const Where& where) {
-  std::vector<PathStep> steps;
-  std::size_t i = 0;
-  auto bad = [&] { where.fail("bad stack path '" + path + "' (expected e.g. layers[1].components[0].fraction)"); };
-  while (i < path.size()) {
-    if (path[i] == '[') {
-      const std::size_t close = path.find(']', i);
-      if (close == std::string::npos || close == i + 1) bad();
-      const std::string digits = path.substr(i + 1, close - i - 1);
-      if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 6) bad();
-      steps.push_back({"", static_cast<std::size_t>(std::stoul(digits))});
-      i = close + 1;
-      if (i < path.size() && path[i] == '.') {
-        ++i;
-        if (i == path.size()) bad();
-      }
-    } else {
-      std::size_t end = path.find_first_of(".[", i);
-      if (end == std::string::npos) end = path.size();
-      if (end == i) bad();
-      steps.push_back({path.substr(i, end - i), 0});
-      i = end;
-      if (i < path.size() && path[i] == '.') {
-        ++i;
-        if (i == path.size()) bad();
-      }
-    }
-  }
-  if (steps.empty()) bad();
-  return steps;
-}
-
-json* find_in_stack(json& stack, const std::vector<PathStep>& steps, const std::string& path, const Where& where) {
-  json* node = &stack;
-  std::string walked;
-  for (const PathStep& s : steps) {
-    if (s.key.empty()) {
-      if (!node->is_array()) where.fail("'" + path + "': '" + walked + "' is not an array");
-      if (s.index >= node->size())
-        where.fail("'" + path + "': '" + walked + "' has " + std::to_string(node->size()) + " entries, no [" + std::to_string(s.index) + "]");
-      node = &(*node)[s.index];
-      walked += "[" + std::to_string(s.index) + "]";
-    } else {
-      walked += (walked.empty() ? "" : ".") + s.key;
-      if (!node->is_object() || !node->contains(s.key)) where.fail("'" + path + "': the stack has no '" + walked + "'");
-      node = &(*node)[s.key];
-    }
-  }
-  return node;
-}
-
 void check_setting_value(const json& v, const Where& where) {
   auto finite = [](const json& x) { return x.is_number() && std::isfinite(x.get<double>()); };
   const bool ok = finite(v) || (v.is_string() && v.get<std::string>() == "inf") ||
@@ -329,27 +212,6 @@ void check_setting_value(const json& v, const Where& where) {
 }
 
 }  // namespace
-
-std::string file_hash(const std::string& path) { return content_hash(read_bytes(path)); }
-
-std::string scene_hash(const std::string& path) {
-  const json gltf = gltf_json(path);
-  std::string all = "file " + file_hash(path) + "\n";
-  const fs::path dir = fs::path(path).parent_path();
-  for (const char* list : {"buffers", "images"}) {
-    if (!gltf.contains(list) || !gltf[list].is_array()) continue;
-    for (const json& item : gltf[list]) {
-      if (!item.contains("uri") || !item["uri"].is_string()) continue;
-      const std::string uri = item["uri"].get<std::string>();
-      if (uri.rfind("data:", 0) == 0) continue;  // embedded: already in the file's bytes
-      const std::string file = (dir / percent_decode(uri)).string();
-      std::error_code ec;
-      if (!fs::is_regular_file(file, ec)) throw ManifestError(path + ": " + list + " uri '" + uri + "' names no file");
-      all += uri + " " + file_hash(file) + "\n";
-    }
-  }
-  return content_hash(all);
-}
 
 Manifest parse_manifest(const json& j, const std::string& path, const std::string& directory) {
   const Where root{path, ""};
@@ -390,8 +252,8 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
     if (ext != ".gltf" && ext != ".glb") w.key("file").fail("'" + scene.file + "' is not a .gltf or .glb file");
     json gltf;
     try {
-      gltf = gltf_json(scene.file);
-    } catch (const ManifestError& e) {
+      gltf = read_gltf_json(scene.file);
+    } catch (const GltfDocumentError& e) {
       w.key("file").fail(e.what());
     }
     scene_materials.push_back(gltf_material_names(gltf));
@@ -435,7 +297,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
           if (o.contains("set")) {
             if (!o["set"].is_object()) wk.key("set").fail("expected an object {stack path: value}");
             for (auto it = o["set"].begin(); it != o["set"].end(); ++it) {
-              parse_stack_path(it.key(), wk.key("set"));
+              batch_detail::stack_path_steps(it.key(), wk.key("set"));
               check_setting_value(it.value(), wk.key("set").key(it.key()));
               ov.set.push_back({it.key(), it.value()});
             }
@@ -570,177 +432,6 @@ Manifest load_manifest(const std::string& path) {
   }
   const std::string directory = fs::absolute(fs::path(path)).parent_path().lexically_normal().string();
   return parse_manifest(j, path, directory);
-}
-
-void apply_stack_override(json& stack, const MaterialOverride& ov, const std::string& where_text) {
-  const Where where{where_text, ""};
-  // layer index -> the component indices whose fraction was set
-  std::map<std::size_t, std::set<std::size_t>> set_fractions;
-  for (const StackSetting& s : ov.set) {
-    const std::vector<PathStep> steps = parse_stack_path(s.path, where);
-    *find_in_stack(stack, steps, s.path, where) = s.value;
-    if (steps.size() == 5 && steps[0].key == "layers" && steps[1].key.empty() && steps[2].key == "components" &&
-        steps[3].key.empty() && steps[4].key == "fraction")
-      set_fractions[steps[1].index].insert(steps[3].index);
-  }
-  if (!ov.renormalise) return;
-  // Rescale the fractions not set so the layer's fractions sum to 1: with S the sum of the set
-  // ones and O that of the others, each other fraction is multiplied by (1 - S) / O.
-  for (const auto& [layer, set] : set_fractions) {
-    json& components = stack["layers"][layer]["components"];
-    double s = 0.0, o = 0.0;
-    for (std::size_t c = 0; c < components.size(); ++c) {
-      const json& f = components[c]["fraction"];
-      if (!f.is_number()) where.fail("layers[" + std::to_string(layer) + "].components[" + std::to_string(c) + "].fraction is not a number");
-      (set.count(c) ? s : o) += f.get<double>();
-    }
-    const std::string lw = "renormalise layers[" + std::to_string(layer) + "]: ";
-    if (s < 0.0 || s > 1.0 + 1e-12) where.fail(lw + "the fractions set sum to " + json(s).dump() + ", more than 1");
-    if (o <= 0.0) {
-      if (std::abs(s - 1.0) > 1e-6) where.fail(lw + "no other component to rescale and the fractions set sum to " + json(s).dump());
-      continue;
-    }
-    const double scale = (1.0 - s) / o;
-    for (std::size_t c = 0; c < components.size(); ++c)
-      if (!set.count(c)) components[c]["fraction"] = components[c]["fraction"].get<double>() * scale;
-  }
-}
-
-std::vector<BatchJob> expand_jobs(const Manifest& m) {
-  // Hash each input file once, however many jobs use it.
-  std::map<std::string, std::string> scene_hashes, env_hashes;
-  std::map<std::string, json> stacks;
-  auto stack_json = [&](const std::string& file) -> const json& {
-    auto it = stacks.find(file);
-    if (it != stacks.end()) return it->second;
-    json j;
-    try {
-      j = json::parse(read_bytes(file));
-    } catch (const json::parse_error& e) {
-      throw ManifestError(file + ": not valid JSON: " + e.what());
-    }
-    if (!j.is_object()) throw ManifestError(file + ": not a material file (expected a JSON object)");
-    return stacks.emplace(file, std::move(j)).first->second;
-  };
-
-  std::vector<BatchJob> jobs;
-  for (const SceneSpec& scene : m.scenes) {
-    auto sh = scene_hashes.find(scene.file);
-    if (sh == scene_hashes.end()) sh = scene_hashes.emplace(scene.file, scene_hash(scene.file)).first;
-    for (std::size_t vi = 0; vi < m.variants.size(); ++vi) {
-      const VariantSpec& variant = m.variants[vi];
-      // The stacks of this scene under this variant, by glTF material name.
-      std::map<std::string, MaterialBinding> bindings;
-      for (const auto& [name, file] : scene.materials) bindings[name] = {name, stack_json(file), false};
-      for (std::size_t oi = 0; oi < variant.overrides.size(); ++oi) {
-        const MaterialOverride& ov = variant.overrides[oi];
-        const std::string file = ov.stack.empty() ? scene.materials.at(ov.material) : ov.stack;
-        MaterialBinding b{ov.material, stack_json(file), true};
-        apply_stack_override(b.stack, ov,
-                             m.path + ": variants[" + std::to_string(vi) + "].overrides[" + std::to_string(oi) + "] (" + file + ")");
-        bindings[ov.material] = std::move(b);
-      }
-      json materials_desc = json::object();
-      std::vector<MaterialBinding> binding_list;
-      for (auto& [name, b] : bindings) {
-        materials_desc[name] = content_hash(b.stack.dump());
-        binding_list.push_back(b);
-      }
-      for (const LightingSpec& lighting : m.lighting) {
-        json env_desc = lighting.env;
-        if (lighting.env_is_file) {
-          auto eh = env_hashes.find(lighting.env);
-          if (eh == env_hashes.end()) eh = env_hashes.emplace(lighting.env, file_hash(lighting.env)).first;
-          env_desc = json{{"file_hash", eh->second}};
-        }
-        for (const ModeSpec& mode : m.modes) {
-          for (int spp : m.spp) {
-            BatchJob job;
-            job.index = jobs.size();
-            job.scene = scene.name;
-            job.variant = variant.name;
-            job.lighting = lighting.name;
-            job.mode = mode.name;
-            job.subsurface = mode.subsurface;
-            job.tolerance = mode.tolerance;
-            job.spp = spp;
-            job.id = scene.name + "__" + variant.name + "__" + lighting.name + "__" + mode.name + "__spp" + std::to_string(spp);
-            job.scene_file = scene.file;
-            job.materials = binding_list;
-            job.env = lighting.env;
-            job.camera = lighting.camera;
-            // Everything that changes the pixels, and nothing else (not names, paths or the
-            // thread count: rendering is deterministic for any thread count). "mode" is the
-            // --subsurface argument, not the mode's name; the tolerance only exists for auto, so
-            // the hashes of fixed-mode jobs are those of manifests written before auto existed.
-            job.description = json{{"lamina_version", lamina_version()},
-                                   {"scene_hash", sh->second},
-                                   {"materials", materials_desc},
-                                   {"env", env_desc},
-                                   {"camera", lighting.camera},
-                                   {"mode", mode.subsurface},
-                                   {"spp", spp},
-                                   {"seed", m.settings.seed},
-                                   {"width", m.settings.width},
-                                   {"height", m.settings.height},
-                                   {"max_depth", m.settings.max_depth}};
-            if (mode.subsurface == "auto") job.description["tolerance"] = mode.tolerance;
-            job.hash = content_hash(job.description.dump());
-            jobs.push_back(std::move(job));
-          }
-        }
-      }
-    }
-  }
-  return jobs;
-}
-
-std::vector<ComparisonPair> resolve_comparisons(const Manifest& m, const std::vector<BatchJob>& jobs) {
-  auto key = [](const std::string& scene, const std::string& variant, const std::string& lighting, const std::string& mode, int spp) {
-    return scene + "\n" + variant + "\n" + lighting + "\n" + mode + "\n" + std::to_string(spp);
-  };
-  std::map<std::string, std::size_t> by_axes;
-  for (const BatchJob& j : jobs) by_axes[key(j.scene, j.variant, j.lighting, j.mode, j.spp)] = j.index;
-  auto matches = [](const JobSelector& s, const BatchJob& j) {
-    return (s.scene.empty() || s.scene == j.scene) && (s.variant.empty() || s.variant == j.variant) &&
-           (s.lighting.empty() || s.lighting == j.lighting) && (s.mode.empty() || s.mode == j.mode) && (s.spp == 0 || s.spp == j.spp);
-  };
-  std::vector<ComparisonPair> pairs;
-  for (std::size_t ci = 0; ci < m.comparisons.size(); ++ci) {
-    const ComparisonSpec& c = m.comparisons[ci];
-    const JobSelector& r = c.reference;
-    std::size_t count = 0;
-    for (const BatchJob& t : jobs) {
-      if (!matches(c.test, t)) continue;
-      const std::string k = key(r.scene.empty() ? t.scene : r.scene, r.variant.empty() ? t.variant : r.variant,
-                                r.lighting.empty() ? t.lighting : r.lighting, r.mode.empty() ? t.mode : r.mode, r.spp == 0 ? t.spp : r.spp);
-      const auto it = by_axes.find(k);
-      if (it == by_axes.end())
-        throw ManifestError(m.path + ": comparisons[" + std::to_string(ci) + "]: no reference job for test '" + t.id + "'");
-      if (it->second == t.index) continue;
-      pairs.push_back({c.name, it->second, t.index, c.name + "__" + t.id});
-      ++count;
-    }
-    if (count == 0) throw ManifestError(m.path + ": comparisons[" + std::to_string(ci) + "]: '" + c.name + "' matches no pair of jobs");
-  }
-  return pairs;
-}
-
-bool in_shard(std::size_t job_index, int shard, int shard_count) {
-  return shard_count <= 1 || job_index % static_cast<std::size_t>(shard_count) == static_cast<std::size_t>(shard);
-}
-
-std::pair<int, int> parse_shard(const std::string& text) {
-  const std::size_t slash = text.find('/');
-  auto number = [&](const std::string& s) {
-    if (s.empty() || s.size() > 6 || s.find_first_not_of("0123456789") != std::string::npos)
-      throw std::invalid_argument("--shard '" + text + "': expected i/n with 0 <= i < n, e.g. 0/4");
-    return std::stoi(s);
-  };
-  if (slash == std::string::npos) throw std::invalid_argument("--shard '" + text + "': expected i/n with 0 <= i < n, e.g. 0/4");
-  const int i = number(text.substr(0, slash)), n = number(text.substr(slash + 1));
-  if (n < 1 || i >= n) throw std::invalid_argument("--shard '" + text + "': expected i/n with 0 <= i < n, e.g. 0/4");
-  return {i, n};
 }
 
 }  // namespace lamina

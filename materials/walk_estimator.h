@@ -1,0 +1,38 @@
+// Pieces of the renderer's random-walk estimator at a layered surface that need only the stack:
+// the reciprocity factor of transmission, the walk's exit density for MIS, and the Fresnel
+// transmissions of a direct exit. The integrator (renderer/render/integrator.cpp) combines them
+// with the scene; `lamina brdf` does not need them.
+//
+// Reciprocity. The walk with incident direction wo estimates f(wo -> w). The path tracer needs
+// f(w -> wo). Reflection is reciprocal: f_r(w -> wo) = f_r(wo -> w). Transmission between media
+// of different index is not: f_t(wi -> wo) / n_o^2 = f_t(wo -> wi) / n_i^2 (Veach's thesis,
+// eq. 5.19; n of the medium each direction lies in), so with wo above (n_above) and w below
+// (n_below), f_t(w -> wo) = f_t(wo -> w) (n_above / n_below)^2: transmission_radiance_factor().
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include "materials/random_walk.h"
+#include "materials/stack.h"
+
+namespace lamina {
+
+// (n_above / n_below)^2: multiplies every transmitted contribution (see above). 1 for a stack
+// that does not transmit.
+double transmission_radiance_factor(const LayerStack& stack);
+
+// The walk's density of leaving straight from `event` along w, as used for MIS between the
+// walk's own exits and light samples at events: the mean over the three channels of
+// connection_pdf with that channel as the hero. Why not the walk's own hero: the walk's weights
+// are already a balance over heroes (spectral MIS), and MIS weights between the exit and the
+// light sample are unbiased for any weights that sum to 1 for each path AND do not depend on
+// which hero drew it (then the hero average of each technique is the technique's full integral
+// times its weight). The hero's own pdf breaks the second condition for coloured media.
+double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+
+// The product of Fresnel transmissions (1 - R) of the interfaces a direct exit from `layer`
+// towards the outside direction w crosses (0 where none refracts out to w). Only the naive
+// estimator uses it, to remove the Fresnel factor from connection_weight.
+double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w);
+
+}  // namespace lamina

@@ -1,0 +1,137 @@
+#include "renderer/layered/material_binding.h"
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "materials/stack_file.h"
+#include "renderer/layered/stack_bindings.h"
+#include "renderer/scene/scene_gltf.h"
+#include "renderer/util/paths.h"
+
+namespace lamina {
+
+namespace {
+
+
+// `spec` (may be null) holds "bind" / "freckles" (renderer/layered/stack_bindings.h); `scene` resolves
+// glTF texture indices. Materials with the same stack and the same bindings share one object.
+std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, const std::string& material,
+                                                  const std::string& stack_path, const std::string& resolved,
+                                                  std::map<std::string, std::shared_ptr<const LayeredMaterial>>* cache,
+                                                  const nlohmann::json& spec = nullptr, const SceneDesc* scene = nullptr) {
+  const bool bound = spec.is_object() && (spec.contains("bind") || spec.contains("freckles"));
+  const std::string key = bound ? resolved + "\n" + named_in + "\n" + spec.dump() : resolved;
+  if (auto it = cache->find(key); it != cache->end()) return it->second;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec))
+    throw SceneError(named_in + ": material '" + material + "': stack file '" + stack_path + "' not found (" + resolved + ")");
+  StackTemplate stack;
+  try {
+    stack = load_stack_template(resolved);
+  } catch (const StackFileError& e) {
+    throw SceneError(e.what());
+  }
+  std::shared_ptr<const LayeredMaterial> m;
+  if (bound) {
+    auto t = std::make_shared<const StackTemplate>(stack);
+    auto b = std::make_shared<const StackBindings>(spec, t, *scene, named_in, material, named_in);
+    m = std::make_shared<const LayeredMaterial>(std::move(stack.stack), resolved, std::move(b));
+  } else {
+    m = std::make_shared<const LayeredMaterial>(std::move(stack.stack), resolved);
+  }
+  (*cache)[key] = m;
+  return m;
+}
+
+}  // namespace
+
+LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& map_path,
+                                       const std::vector<InlineStack>& inline_stacks) {
+  LayeredBindings out;
+  out.by_material.resize(scene.materials.size());
+  std::map<std::string, std::shared_ptr<const LayeredMaterial>> cache;  // one material per file
+
+  std::map<std::string, std::string> map;  // glTF material name -> stack path as written
+  std::map<std::string, nlohmann::json> map_specs;  // entries given as objects (with bindings)
+  if (!map_path.empty()) {
+    std::ifstream in(map_path);
+    if (!in) throw SceneError(map_path + ": cannot read the material map");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(ss.str());
+    } catch (const nlohmann::json::exception& e) {
+      throw SceneError(map_path + ": not valid JSON (" + std::string(e.what()) + ")");
+    }
+    if (!j.is_object()) throw SceneError(map_path + ": expected an object {\"glTF material name\": \"stack.json\", ...}");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (it.value().is_object()) {
+        if (!it.value().contains("stack") || !it.value()["stack"].is_string())
+          throw SceneError(map_path + ": " + it.key() + ".stack: expected the path of a stack file (a string)");
+        for (auto k = it.value().begin(); k != it.value().end(); ++k)
+          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
+            throw SceneError(map_path + ": " + it.key() + "." + k.key() + ": unknown key (allowed: stack, bind, freckles)");
+        map[it.key()] = it.value()["stack"].get<std::string>();
+        map_specs[it.key()] = it.value();
+        continue;
+      }
+      if (!it.value().is_string())
+        throw SceneError(map_path + ": " + it.key() + ": expected the path of a stack file (a string) or an object {\"stack\": ...}");
+      map[it.key()] = it.value().get<std::string>();
+    }
+    for (const auto& [name, path] : map) {
+      bool found = false;
+      for (const Material& m : scene.materials) found |= m.name == name;
+      if (!found) throw SceneError(map_path + ": " + name + ": no material of that name in " + scene.path);
+    }
+  }
+
+  std::map<std::string, const InlineStack*> inline_by_name;
+  for (const InlineStack& st : inline_stacks) {
+    bool found = false;
+    for (const Material& m : scene.materials) found |= m.name == st.material;
+    if (!found) throw SceneError(st.source + ": " + st.material + ": no material of that name in " + scene.path);
+    inline_by_name[st.material] = &st;
+  }
+
+  for (std::size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material& m = scene.materials[i];
+    if (auto in = inline_by_name.find(m.name); in != inline_by_name.end()) {
+      const InlineStack& st = *in->second;
+      auto& slot = cache[st.source];
+      if (!slot) {
+        try {
+          StackTemplate stack = parse_stack_template_json(st.json, st.source);
+          slot = std::make_shared<const LayeredMaterial>(std::move(stack.stack), st.source);
+        } catch (const StackFileError& e) {
+          throw SceneError(e.what());
+        }
+      }
+      out.by_material[i] = slot;
+    } else if (auto it = map.find(m.name); it != map.end()) {
+      const auto spec = map_specs.find(m.name);
+      out.by_material[i] = load_bound(map_path, m.name, it->second, resolve_relative_to(it->second, map_path), &cache,
+                                      spec == map_specs.end() ? nlohmann::json(nullptr) : spec->second, &scene);
+    } else if (auto e = m.extras.find("lamina.stack"); e != m.extras.end()) {
+      nlohmann::json spec = nullptr;
+      if (!m.extras_json.empty()) {
+        const nlohmann::json extras = nlohmann::json::parse(m.extras_json, nullptr, false);
+        if (extras.is_object() && extras.contains("lamina") && extras["lamina"].is_object()) spec = extras["lamina"];
+        // A misspelt key ("frekles") must not be silently ignored.
+        for (auto k = spec.begin(); spec.is_object() && k != spec.end(); ++k)
+          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
+            throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + k.key() +
+                             ": unknown key (allowed: stack, bind, freckles)");
+      }
+      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
+    }
+  }
+  return out;
+}
+
+}  // namespace lamina

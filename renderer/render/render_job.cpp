@@ -1,0 +1,176 @@
+#include "renderer/render/render_job.h"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/layered_tables.h"
+#include "renderer/layered/subsurface_auto.h"
+#include "renderer/layered/subsurface_mode.h"
+#include "renderer/layered/walk_cache.h"
+#include "renderer/render/environment.h"
+#include "renderer/render/lights.h"
+#include "renderer/scene/camera.h"
+#include "renderer/scene/camera_visibility.h"
+#include "renderer/scene/scene.h"
+#include "renderer/scene/scene_gltf.h"
+#include "renderer/util/progress.h"
+#include "renderer/util/string_format.h"
+#include "renderer/util/version.h"
+
+namespace lamina {
+namespace {
+
+void say(const std::function<void(const std::string&)>& to, const std::string& line) {
+  if (to) to(line);
+}
+
+}  // namespace
+
+RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
+  RenderSettings settings = request.settings;
+  const bool auto_mode = request.subsurface == "auto";
+  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
+  if (!auto_mode && !parse_subsurface_mode(request.subsurface, &mode))
+    throw std::invalid_argument("subsurface mode '" + request.subsurface + "': expected random-walk, first-order, table, lambert or auto");
+  std::optional<WalkCache> cache;
+  if (!request.cache_dir.empty()) cache.emplace(request.cache_dir);
+
+  EnvironmentMap env;
+  if (!request.env.empty()) env = EnvironmentMap::from_argument(request.env);
+  SceneDesc desc = load_gltf(request.scene_path);
+  // Bound before the loader's warnings are printed, so that a binding error is one line.
+  const LayeredBindings bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks);
+  for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
+  const double aspect = static_cast<double>(settings.width) / settings.height;
+  const CameraDesc cam = request.camera_name.empty()
+                             ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
+                             : find_camera(desc, request.camera_name);
+  std::vector<std::string> desc_names;
+  for (std::size_t i = 0; i < bindings.by_material.size(); ++i) desc_names.push_back(desc.material(static_cast<int>(i)).name);
+  const Scene scene(std::move(desc));
+  const LightSet lights(scene, env);
+  if (lights.empty())
+    say(log.warning, request.scene_path + ": no lights, no emissive surfaces and a black environment: the image is black");
+  const Camera camera(cam, settings.width, settings.height);
+
+  // --subsurface auto: a mode per material, predicted from its BSDF (renderer/layered/subsurface_auto.h).
+  // Only materials that camera rays of a coarse grid hit are predicted.
+  std::vector<AutoChoice> choices;
+  std::vector<SubsurfaceMode> per_material;
+  // Lambert albedos computed by an earlier run (the lambert mode's, auto's lambert model).
+  if (cache)
+    for (const auto& m : bindings.by_material)
+      if (m) load_lambert_albedo(*cache, *m);
+  if (auto_mode) {
+    AutoSettings as;
+    as.tolerance = request.tolerance;
+    const std::vector<bool> visible = camera_visible_materials(scene, camera, settings.width, settings.height);
+    choices = choose_subsurface_modes(bindings, as, &visible, cache ? &*cache : nullptr);
+    per_material.assign(bindings.by_material.size(), SubsurfaceMode::RandomWalk);
+    for (std::size_t i = 0; i < choices.size(); ++i)
+      if (bindings.by_material[i]) {
+        per_material[i] = choices[i].mode;
+        say(log.info, string_printf("auto: material %s (%s): %s [%s%.2f s]", desc_names[i].c_str(),
+                             bindings.by_material[i]->source().c_str(), choices[i].reason.c_str(),
+                             choices[i].cached ? "from the cache; predicted in " : "", choices[i].seconds));
+      }
+  }
+  auto uses = [&](SubsurfaceMode m) {
+    if (!auto_mode) return mode == m;
+    for (std::size_t i = 0; i < per_material.size(); ++i)
+      if (bindings.by_material[i] && per_material[i] == m) return true;
+    return false;
+  };
+  std::unique_ptr<LayeredTables> tables;
+  if (bindings.count() > 0 && uses(SubsurfaceMode::Table)) {
+    std::vector<bool> only(bindings.by_material.size(), true);
+    if (auto_mode)
+      for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
+    int tabulated = 0;
+    for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
+    tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, cache ? &*cache : nullptr);
+    say(log.info, string_printf("table mode: BRDF/BTDF tables of %d layered material(s): %d built by the walk in %.2f s, %d loaded from %s (%.0f kB)",
+                         tabulated, tables->built(), tables->build_seconds(), tables->loaded(),
+                         cache ? cache->directory().c_str() : "no cache", tables->bytes() / 1024.0));
+  }
+  if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
+    // Computed before rendering so that the render's time is the render's.
+    const auto t0 = std::chrono::steady_clock::now();
+    for (const auto& m : bindings.by_material)
+      if (m) {
+        const Spectrum a = m->lambert_albedo(), se = m->lambert_albedo_stderr();
+        say(log.info, string_printf("lambert mode: %s: diffuse bihemispherical albedo %.4f %.4f %.4f (+- %.4f %.4f %.4f)",
+                             m->source().c_str(), a[0], a[1], a[2], se[0], se[1], se[2]));
+      }
+    int from_cache = 0;
+    for (const auto& m : bindings.by_material) from_cache += m && !m->lambert_albedo_computed() ? 1 : 0;
+    say(log.info, string_printf("lambert mode: albedos by the walk in %.2f s (%d from the cache)",
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), from_cache));
+  }
+  LayeredShading layered;
+  layered.bindings = &bindings;
+  layered.mode = mode;
+  layered.per_material = per_material;
+  layered.tables = tables.get();
+  settings.layered = &layered;
+
+  RenderResult result;
+  result.camera = cam.name;
+  result.layered_materials = bindings.count();
+  Progress progress("render", static_cast<std::uint64_t>(settings.width) * settings.height * settings.spp);
+  const Image image = render_image(scene, lights, camera, settings, &result.stats,
+                                   [&](std::uint64_t n) { progress.advance(n); });
+  progress.finish();
+  result.seconds = progress.elapsed_seconds();
+  if (cache)
+    for (const auto& m : bindings.by_material)
+      if (m) store_lambert_albedo(*cache, *m);
+
+  std::ostringstream sec;
+  sec << result.seconds;
+  const RayCounters& rays = result.stats.rays;
+  Metadata meta = {
+      {"lamina:version", lamina_version()},
+      {"lamina:command", request.command_line},
+      {"lamina:scene", request.scene_path},
+      {"lamina:camera", cam.name},
+      {"lamina:spp", std::to_string(settings.spp)},
+      {"lamina:seed", std::to_string(settings.seed)},
+      {"lamina:max_depth", std::to_string(settings.max_depth)},
+      {"lamina:env", request.env.empty() ? "0" : request.env},
+      {"lamina:subsurface", request.subsurface},
+      {"lamina:seconds", sec.str()},
+      {"lamina:rays_closest", std::to_string(rays.closest)},
+      {"lamina:rays_camera", std::to_string(rays.camera)},
+      {"lamina:rays_shadow", std::to_string(rays.shadow)},
+      {"lamina:layered_materials", std::to_string(bindings.count())},
+      {"lamina:scatter_events", std::to_string(rays.scatter_events)},
+      {"lamina:event_shadow_rays", std::to_string(rays.event_shadow)},
+  };
+  if (auto_mode) {
+    std::ostringstream tol;
+    tol << request.tolerance;
+    meta.emplace_back("lamina:tolerance", tol.str());
+    for (std::size_t i = 0; i < choices.size(); ++i)
+      if (bindings.by_material[i]) {
+        const MaterialModeChoice c{desc_names[i], choices[i].visible ? subsurface_mode_name(choices[i].mode) : "lambert-hidden",
+                                   choices[i].reason};
+        meta.emplace_back("lamina:auto:" + c.material, c.reason);
+        // The same choice for programs (lamina batch's auto_choices column).
+        meta.emplace_back("lamina:auto_mode:" + c.material, c.mode);
+        result.auto_choices.push_back(c);
+      }
+  }
+  for (const auto& kv : request.extra_metadata) meta.push_back(kv);
+  write_exr(request.out_path, image, meta);
+  if (!request.png_path.empty()) write_png(request.png_path, image);
+  result.metadata = std::move(meta);
+  return result;
+}
+
+}  // namespace lamina

@@ -1,0 +1,65 @@
+// The library entry point of a render: what `lamina render` does between parsing its arguments
+// and printing its summary, and what `lamina batch` runs in-process for each job. It loads the
+// scene, binds the layered materials, decides the --subsurface mode per material (auto), builds
+// or loads tables and Lambert albedos (through the walk cache), renders, and writes the EXR (and
+// PNG) with the metadata of docs/contracts.md ("lamina render").
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "renderer/image/image_io.h"
+#include "renderer/layered/material_binding.h"
+#include "renderer/render/integrator.h"
+
+namespace lamina {
+
+struct RenderRequest {
+  std::string scene_path;  // .gltf or .glb
+  std::string out_path;    // the EXR
+  std::string png_path;    // "" for none: an sRGB preview
+  std::string camera_name;  // "" for the first camera (none: one framing the scene)
+  std::string materials_map_path;  // --materials ("" for none)
+  // Stacks given in memory (lamina batch's variants), as if the map named them; they win over
+  // the map and the extras.
+  std::vector<InlineStack> inline_stacks;
+  std::string env;  // --env: a number, R,G,B or an image file ("" for black)
+  std::string subsurface = "random-walk";  // a mode name (renderer/layered/subsurface_mode.h) or "auto"
+  double tolerance = 0.0;  // with auto: the largest predicted relative error per material
+  std::string cache_dir;   // "" for no walk cache (renderer/layered/walk_cache.h)
+  RenderSettings settings;  // width, height, spp, seed, max depth, threads (`layered` is set here)
+  std::string command_line;  // lamina:command: the command that reproduces the image
+  Metadata extra_metadata;   // appended to the header (lamina batch's job id and hash)
+};
+
+// What auto chose for one layered material: a mode name, or "lambert-hidden" (not seen by camera
+// rays, not predicted). The same as the header's lamina:auto_mode:<material>.
+struct MaterialModeChoice {
+  std::string material;  // glTF material name
+  std::string mode;
+  std::string reason;    // lamina:auto:<material>
+};
+
+struct RenderResult {
+  std::string camera;   // the camera's name
+  double seconds = 0.0;  // the render itself (not the scene loading, tables, albedos)
+  RenderStats stats;
+  int layered_materials = 0;
+  std::vector<MaterialModeChoice> auto_choices;  // empty unless --subsurface auto
+  Metadata metadata;  // as written to the EXR
+};
+
+// Lines for the user: `info` for stdout, `warning` for stderr (without a "lamina render: "
+// prefix: the caller adds its own). Either may be empty (silent).
+struct RenderLog {
+  std::function<void(const std::string&)> info, warning;
+};
+
+// Throws std::runtime_error (SceneError, StackFileError messages, image errors, an unknown
+// camera) with one line naming the file.
+RenderResult render_job(const RenderRequest& request, const RenderLog& log = {});
+
+}  // namespace lamina

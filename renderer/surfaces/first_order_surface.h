@@ -1,0 +1,40 @@
+// How the path tracer scatters light at a layered material, per --subsurface mode:
+// random-walk: not a Surface. The integrator (renderer/render/integrator.cpp) takes over the
+//   event: the top interface's specular reflection is a delta lobe chosen with probability R(wo);
+//   otherwise the materials/ random walk runs from the viewer's direction wo and at each
+//   scattering event the integrator samples a light and connects to it with connection_weight();
+//   the walk's exits continue the path (the stack-only pieces: materials/walk_estimator.h, which
+//   also derives the reciprocity used here).
+// first-order: FirstOrderSurface (this file), the analytic zeroth order (delta lobes) and first order.
+// table: TableSurface (renderer/surfaces/table_surface.h), a BRDF/BTDF table from the walk
+//   (materials/layered_table.h).
+// lambert: LambertSurface with LayeredMaterial::lambert_albedo() (materials/albedo.h).
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include "materials/spectrum.h"
+#include "materials/stack.h"
+#include "renderer/surfaces/surface.h"
+#include "renderer/surfaces/zeroth_order_lobes.h"
+
+namespace lamina {
+
+// first-order mode: f = zeroth order (delta lobes) + first_order_brdf / first_order_btdf.
+// Built per hit for the viewer direction wo (local frame, wo.z > 0; +z the stack's top).
+// Sampling: the specular reflection R_specular(wo) and the ballistic transmission
+// T_ballistic(wo) as delta lobes with probabilities equal to their mean over channels, else a
+// cosine-weighted direction, on both sides with probability 1/2 each for a transmitting stack.
+class FirstOrderSurface final : public Surface {
+ public:
+  FirstOrderSurface(const LayerStack& stack, const glm::dvec3& wo);
+  Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const override;
+  bool sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const override;
+  double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const override;
+
+ private:
+  const LayerStack& stack_;
+  ZerothOrderLobes lobes_;
+};
+
+}  // namespace lamina

@@ -1,0 +1,87 @@
+#include "renderer/surfaces/table_surface.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "materials/sampling.h"
+
+namespace lamina {
+
+TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo)
+    : table_(table), lobes_(*table.stack, wo) {
+  const TableNodes at = table_nodes_at(table.settings, wo.z);
+  for (int i = 0; i < 2; ++i) {
+    node_[i] = at.node[i];
+    weight_[i] = at.weight[i];
+  }
+}
+
+int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  // As materials/brdf_table: |cos| bins, azimuth from the incidence's (here the viewer's).
+  const int K = table_.settings.bins_theta, M = table_.settings.bins_phi;
+  const int side = wi.z > 0.0 ? 0 : 1;
+  const int k = std::clamp(static_cast<int>(std::abs(wi.z) * K), 0, K - 1);
+  double phi = std::atan2(wi.y, wi.x) - std::atan2(wo.y, wo.x);
+  phi -= 2.0 * kPi * std::floor(phi / (2.0 * kPi));
+  const int m = std::clamp(static_cast<int>(phi / (2.0 * kPi) * M), 0, M - 1);
+  return (side * K + k) * M + m;
+}
+
+Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return Spectrum(0.0);
+  const int b = bin_of(wo, wi);
+  Spectrum f = table_.at(node_[0], b) * weight_[0] + table_.at(node_[1], b) * weight_[1];
+  // Reciprocity (materials/walk_estimator.h): the table holds f(wo -> wi).
+  if (wi.z < 0.0) f *= lobes_.t_factor;
+  return f;
+}
+
+double TableSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return 0.0;
+  const int b = bin_of(wo, wi);
+  const int B = table_.bins();
+  const int k = (b / table_.settings.bins_phi) % table_.settings.bins_theta;
+  double p = 0.0;
+  for (int i = 0; i < 2; ++i) {
+    const std::size_t base = static_cast<std::size_t>(node_[i]) * B;
+    if (weight_[i] == 0.0 || table_.power[node_[i]] <= 0.0) continue;
+    const double pb = table_.cdf[base + b] - (b > 0 ? table_.cdf[base + b - 1] : 0.0);
+    p += weight_[i] * pb;
+  }
+  return lobes_.p_diffuse * p * std::abs(wi.z) / table_.projected_solid_angle(k);
+}
+
+bool TableSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
+  if (wo.z <= 0.0) return false;
+  if (lobes_.sample(wo, u.x, s)) return true;
+  if (lobes_.p_diffuse <= 0.0) return false;
+  double v = lobes_.diffuse_u(u.x);
+  // Node by its interpolation weight (reusing v), then a bin by that node's CDF.
+  int node = node_[0];
+  if (v < weight_[0]) {
+    v /= weight_[0];
+  } else {
+    node = node_[1];
+    v = std::min((v - weight_[0]) / std::max(weight_[1], 1e-300), 1.0 - 1e-16);
+  }
+  if (table_.power[node] <= 0.0) return false;
+  const int B = table_.bins();
+  const double* cdf = &table_.cdf[static_cast<std::size_t>(node) * B];
+  const int b = static_cast<int>(std::upper_bound(cdf, cdf + B, v) - cdf);
+  if (b >= B) return false;
+  const int K = table_.settings.bins_theta, M = table_.settings.bins_phi;
+  const int side = b / (K * M), k = (b / M) % K, m = b % M;
+  // Uniform in projected solid angle inside the bin: |cos|^2 uniform in [lo^2, hi^2] (since
+  // |cos| d|cos| dphi = d(|cos|^2)/2 dphi) from u.y, phi uniform from the CDF inversion's
+  // residual (uniform in [0, 1) given the bin).
+  const double c0 = b > 0 ? cdf[b - 1] : 0.0;
+  const double residual = std::clamp((v - c0) / std::max(cdf[b] - c0, 1e-300), 0.0, 1.0 - 1e-16);
+  const double lo = static_cast<double>(k) / K, hi = (k + 1.0) / K;
+  const double mu = std::sqrt(lo * lo + (hi * hi - lo * lo) * u.y);
+  const double phi = std::atan2(wo.y, wo.x) + 2.0 * kPi * (m + residual) / M;
+  const double st = std::sqrt(std::max(0.0, 1.0 - mu * mu));
+  glm::dvec3 w{st * std::cos(phi), st * std::sin(phi), side == 0 ? mu : -mu};
+  return complete_sample(*this, wo, w, s);
+}
+
+}  // namespace lamina
