@@ -6,14 +6,14 @@ Run it through scripts/figures.sh (which picks a python3 with numpy and matplotl
     scripts/figures.sh [--quick] [--lamina build/renderer/lamina] [--out out/figures]
 
 Python only draws: every BRDF/BTDF value and energy total comes from `lamina brdf` (the CSV table
-and the totals JSON of contracts.md), run on stack files written into a temporary directory.
+and the totals JSON of docs/contracts.md), run on stack files written into a temporary directory.
 The one formula evaluated here is the Lommel-Seeliger law, as an independent check of the first
 order (it must agree with `--method first-order` to rounding; the script fails otherwise).
 
 Writes fig1_semi_infinite.png, fig2_first_order.png, fig3_incidence.png, fig4_single_multiple.png
 and numbers.json (the numbers quoted in the README) into the output directory.
 
-Conventions (contracts.md): phi_o = 0 is the light's side (back scattering), 180 the mirror
+Conventions (docs/contracts.md): phi_o = 0 is the light's side (back scattering), 180 the mirror
 side. In the plane-of-incidence plots the signed angle is -theta_o on the light's side and
 +theta_o on the mirror side (for transmission: + is the side the light travels to).
 """
@@ -43,7 +43,7 @@ def fail(message):
 
 
 # ----------------------------------------------------------------------------------------------
-# Stacks (contracts.md material format). Coefficients per mm, thicknesses in mm; with
+# Stacks (docs/contracts.md material format). Coefficients per mm, thicknesses in mm; with
 # sigma_t = 1/mm the thickness in mm is the optical depth tau = sigma_t d.
 
 def slab(albedo, tau, g, ior=1.0, below_ior=1.0, sigma_t=1.0):
