@@ -1,4 +1,5 @@
 #include "materials/stack_file.h"
+#include "materials/json_keys.h"
 
 #include <cerrno>
 #include <cmath>
@@ -49,15 +50,8 @@ class Reader {
   // Rejects keys outside `allowed` (a misspelt key must not be ignored).
   void check_keys(const json& j, const std::string& path,
                   std::initializer_list<const char*> allowed) const {
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      bool known = false;
-      for (const char* a : allowed) known = known || it.key() == a;
-      if (!known) {
-        std::string list;
-        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-        fail(join(path, it.key()), "unknown key (allowed here: " + list + ")");
-      }
-    }
+    if (const std::string* key = first_unknown_key(j, allowed))
+      fail(join(path, *key), "unknown key (allowed here: " + key_list(allowed) + ")");
   }
 
   const json& member(const json& j, const std::string& path, const char* key) const {

@@ -12,6 +12,7 @@
 #include "materials/stack_parameters.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
+#include "materials/json_keys.h"
 
 namespace lamina {
 namespace batch_detail {
@@ -38,15 +39,8 @@ std::string type_name(const json& j) { return j.type_name(); }
 
 void check_keys(const json& object, const Where& where, std::initializer_list<const char*> allowed) {
   if (!object.is_object()) where.fail("expected an object, got " + type_name(object));
-  for (auto it = object.begin(); it != object.end(); ++it) {
-    bool known = false;
-    for (const char* k : allowed) known = known || it.key() == k;
-    if (!known) {
-      std::string list;
-      for (const char* k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
-      where.key(it.key()).fail("unknown key (expected one of: " + list + ")");
-    }
-  }
+  if (const std::string* key = first_unknown_key(object, allowed))
+    where.key(*key).fail("unknown key (expected one of: " + key_list(allowed) + ")");
 }
 
 std::string get_string(const json& j, const Where& where) {

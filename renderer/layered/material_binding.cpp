@@ -11,10 +11,14 @@
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
+#include "materials/json_keys.h"
 
 namespace lamina {
 
 namespace {
+
+// The keys of a stack binding, in a material map entry or a material's extras.lamina.
+constexpr std::initializer_list<const char*> kBindingKeys = {"stack", "bind", "freckles"};
 
 
 // `spec` (may be null) holds "bind" / "freckles" (renderer/layered/stack_bindings.h); `scene` resolves
@@ -73,9 +77,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
       if (it.value().is_object()) {
         if (!it.value().contains("stack") || !it.value()["stack"].is_string())
           throw SceneError(map_path + ": " + it.key() + ".stack: expected the path of a stack file (a string)");
-        for (auto k = it.value().begin(); k != it.value().end(); ++k)
-          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
-            throw SceneError(map_path + ": " + it.key() + "." + k.key() + ": unknown key (allowed: stack, bind, freckles)");
+        if (const std::string* key = first_unknown_key(it.value(), kBindingKeys))
+          throw SceneError(map_path + ": " + it.key() + "." + *key + ": unknown key (allowed: " + key_list(kBindingKeys) + ")");
         map[it.key()] = it.value()["stack"].get<std::string>();
         map_specs[it.key()] = it.value();
         continue;
@@ -123,10 +126,9 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
         const nlohmann::json extras = nlohmann::json::parse(m.extras_json, nullptr, false);
         if (extras.is_object() && extras.contains("lamina") && extras["lamina"].is_object()) spec = extras["lamina"];
         // A misspelt key ("frekles") must not be silently ignored.
-        for (auto k = spec.begin(); spec.is_object() && k != spec.end(); ++k)
-          if (k.key() != "stack" && k.key() != "bind" && k.key() != "freckles")
-            throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + k.key() +
-                             ": unknown key (allowed: stack, bind, freckles)");
+        if (const std::string* key = first_unknown_key(spec, kBindingKeys))
+          throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + *key +
+                           ": unknown key (allowed: " + key_list(kBindingKeys) + ")");
       }
       out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
     }

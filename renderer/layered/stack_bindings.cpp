@@ -13,6 +13,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
+#include "materials/json_keys.h"
 
 namespace lamina {
 namespace {
@@ -207,11 +208,7 @@ StackBindings::StackBindings(const json& spec, std::shared_ptr<const StackTempla
   };
   auto check_keys = [&](const json& j, const std::string& where, std::initializer_list<const char*> allowed) {
     if (!j.is_object()) fail(where, "expected an object");
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      bool ok = false;
-      for (const char* a : allowed) ok |= it.key() == a;
-      if (!ok) fail(where + "." + it.key(), "unknown key");
-    }
+    if (const std::string* key = first_unknown_key(j, allowed)) fail(where + "." + *key, "unknown key");
   };
   auto number = [&](const json& j, const std::string& where) {
     if (!j.is_number() || !std::isfinite(j.get<double>())) fail(where, "expected a finite number");
