@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes scenes/lee_perry_smith_head/head_lit.gltf: the textured head of the shared assets with a
 camera ("portrait"), a point key light and a directional rim light (KHR_lights_punctual) added to
-scene 0. Geometry, material and textures are untouched (same LeePerrySmith.bin and JPEGs)."""
+scene 0. Geometry, material and textures are untouched (same LeePerrySmith_textured.bin and JPEGs)."""
 import json
 import math
 import os
