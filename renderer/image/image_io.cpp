@@ -1,10 +1,14 @@
 // Image files through OpenImageIO (see image_io.h).
 #include "renderer/image/image_io.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include <OpenImageIO/imageio.h>
@@ -93,10 +97,48 @@ void write_png(const std::string& path, const Image& image) {
   write_atomically(path, "png", spec, bytes.data());
 }
 
+namespace {
+
+// While alive, the process's stderr goes to /dev/null. OpenImageIO's PNG reader lets libpng print
+// its own messages ("libpng error: ...") and prints errors it thinks nobody retrieved when a reader
+// is destroyed; Lamina reports the same error itself, as one line naming the file
+// (docs/contracts.md). Only for the short, single-threaded time of opening and reading a file
+// (before rendering, or in `lamina compare`); a mutex keeps two readers from interleaving.
+class QuietStderr {
+ public:
+  QuietStderr() : lock_(mutex()) {
+    std::fflush(stderr);
+    saved_ = ::dup(2);
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+    if (null >= 0) ::close(null);
+  }
+  ~QuietStderr() {
+    std::fflush(stderr);
+    if (saved_ >= 0) {
+      ::dup2(saved_, 2);
+      ::close(saved_);
+    }
+  }
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  std::lock_guard<std::mutex> lock_;
+  int saved_ = -1;
+};
+
+}  // namespace
+
 Image read_image(const std::string& path, int* colour_channels) {
   auto fail = [&](const std::string& why) -> void {
     throw ImageIoError("cannot read '" + path + "': " + why);
   };
+  const QuietStderr quiet;
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
     std::string why = OIIO::geterror();
@@ -124,7 +166,12 @@ Image read_image(const std::string& path, int* colour_channels) {
   }
   if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
 
-  std::vector<float> all(static_cast<std::size_t>(spec.width) * spec.height * nc);
+  // The header's size is the file's claim: refused before allocating above the limit.
+  const double samples = static_cast<double>(spec.width) * spec.height * nc;
+  if (samples > static_cast<double>(kMaxImageSamples))
+    fail(std::to_string(spec.width) + " x " + std::to_string(spec.height) + " x " + std::to_string(nc) +
+         " channels exceeds the limit of " + std::to_string(kMaxImageSamples) + " samples (1 GiB of floats)");
+  std::vector<float> all(static_cast<std::size_t>(samples));
   if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, all.data())) {
     std::string why = in->geterror();
     fail(why.empty() ? "read failed (truncated or corrupt file?)" : why);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <stdexcept>
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,9 @@ void write_png(const std::string& path, const Image& image);
 // decoded from sRGB). Alpha and extra channels are dropped; grey is expanded to RGB.
 // `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
 Image read_image(const std::string& path, int* colour_channels = nullptr);
+// The most samples (width x height x channels) read_image decodes: 2^28 floats, 1 GiB, a
+// 9459 x 9459 RGB image. A larger header is refused before anything is allocated.
+constexpr std::size_t kMaxImageSamples = std::size_t(1) << 28;
 // The sRGB transfer function (IEC 61966-2-1) and its inverse, on [0, 1]; encode clamps and
 // maps NaN to 0.
 double srgb_encode(double linear);
