@@ -1,5 +1,6 @@
 #include "materials/stack_file.h"
 #include "materials/json_keys.h"
+#include "materials/json_limits.h"
 
 #include <cerrno>
 #include <cmath>
@@ -234,6 +235,9 @@ class Reader {
 
 StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name) {
   Reader reader(source_name);
+  // Before parsing: JSON nested deeper than any material file would overflow the stack of the
+  // recursive walks over it (materials/json_limits.h).
+  if (const auto deep = json_nesting_exceeds(text)) throw StackFileError(source_name + ": " + json_nesting_message(*deep));
   json root;
   try {
     root = json::parse(text);

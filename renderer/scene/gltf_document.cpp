@@ -9,40 +9,63 @@
 #include <fstream>
 #include <sstream>
 
+#include "materials/json_limits.h"
+
 namespace lamina {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-json read_gltf_json(const std::string& path) {
-  std::string bytes;
+GltfText read_gltf_text(const std::string& path, GltfFormat format) {
+  GltfText t;
   {
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    if (fs::exists(st) && !fs::is_regular_file(st))
+      throw GltfDocumentError(path + ": " + (fs::is_directory(st) ? "is a directory" : "is not a regular file") +
+                              ", not a glTF file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw GltfDocumentError(path + ": cannot read the file");
     std::ostringstream s;
     s << in.rdbuf();
     if (in.bad()) throw GltfDocumentError(path + ": read error");
-    bytes = s.str();
+    t.bytes = s.str();
   }
   // glTF 2.0 spec, "GLB File Format Specification": a 12-byte header (magic "glTF", version,
   // length), then chunks of (length, type, data); the first chunk is the JSON one, type 'JSON'.
-  std::string text = bytes;
-  if (bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0) {
-    if (bytes.size() < 20) throw GltfDocumentError(path + ": truncated GLB header");
+  const bool magic = t.bytes.size() >= 4 && t.bytes.compare(0, 4, "glTF") == 0;
+  t.binary = format == GltfFormat::kBinary || (format == GltfFormat::kDetect && magic);
+  t.json_length = t.bytes.size();
+  if (t.binary) {
+    if (!magic) throw GltfDocumentError(path + ": not a GLB file (it does not start with the magic 'glTF')");
+    if (t.bytes.size() < 20) throw GltfDocumentError(path + ": truncated GLB header");
     std::uint32_t length = 0, type = 0;
-    std::memcpy(&length, bytes.data() + 12, 4);  // GLB is little-endian, as is every host we build on
-    std::memcpy(&type, bytes.data() + 16, 4);
-    if (type != 0x4E4F534Au || 20ull + length > bytes.size()) throw GltfDocumentError(path + ": GLB without a JSON chunk");
-    text = bytes.substr(20, length);
+    std::memcpy(&length, t.bytes.data() + 12, 4);  // GLB is little-endian, as is every host we build on
+    std::memcpy(&type, t.bytes.data() + 16, 4);
+    if (type != 0x4E4F534Au || 20ull + length > t.bytes.size()) throw GltfDocumentError(path + ": GLB without a JSON chunk");
+    t.json_offset = 20;
+    t.json_length = length;
   }
+  return t;
+}
+
+json parse_gltf_json(const GltfText& text, const std::string& path) {
+  // Before parsing: tinygltf converts the document recursively, so deep nesting (in extras,
+  // say) would overflow the stack; the offset named is the file's (the JSON chunk's start
+  // added in a GLB).
+  if (const auto deep = json_nesting_exceeds(text.json()))
+    throw GltfDocumentError(path + ": " + json_nesting_message(text.json_offset + *deep));
   try {
-    json j = json::parse(text);
+    const std::string_view v = text.json();
+    json j = json::parse(v.begin(), v.end());
     if (!j.is_object()) throw GltfDocumentError(path + ": not a glTF file (the JSON is not an object)");
     return j;
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
     throw GltfDocumentError(path + ": not a glTF file: " + e.what());
   }
 }
+
+json read_gltf_json(const std::string& path) { return parse_gltf_json(read_gltf_text(path), path); }
 
 std::set<std::string> gltf_material_names(const json& gltf) {
   std::set<std::string> names;

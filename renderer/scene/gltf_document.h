@@ -5,9 +5,11 @@
 // with camera_display_name, and gltf_camera_names accepts every name that rule can give.
 #pragma once
 
+#include <cstddef>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -19,9 +21,33 @@ struct GltfDocumentError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// The JSON part of a .gltf, or the JSON chunk of a .glb (glTF 2.0 spec, "GLB File Format
-// Specification"), as an object. Throws GltfDocumentError when the file cannot be read, the GLB
-// has no JSON chunk, or the JSON is invalid or not an object.
+// The bytes of a glTF file, and where its JSON is in them: the whole file for a .gltf, the JSON
+// chunk for a .glb (glTF 2.0 spec, section 4.4 "GLB File Format Specification").
+struct GltfText {
+  std::string bytes;            // the whole file
+  std::size_t json_offset = 0;  // the JSON: bytes[json_offset, json_offset + json_length)
+  std::size_t json_length = 0;
+  bool binary = false;          // a GLB
+  std::string_view json() const { return std::string_view(bytes).substr(json_offset, json_length); }
+};
+
+// How read_gltf_text tells .gltf from .glb: by the GLB magic "glTF" at the start (kDetect), or as
+// the caller says (load_gltf goes by the file's extension, as tinygltf's entry points do).
+enum class GltfFormat { kDetect, kText, kBinary };
+
+// Reads a glTF file and finds its JSON. Throws GltfDocumentError when the path is not a regular
+// file (a directory is read by std::ifstream as a file of absurd size), cannot be read, or is a
+// GLB whose header or JSON chunk is cut short.
+GltfText read_gltf_text(const std::string& path, GltfFormat format = GltfFormat::kDetect);
+
+// The JSON of `text` as an object. The nesting depth is checked first (materials/json_limits.h:
+// no parser or recursive walk sees JSON nested deeper than kMaxJsonNesting), the error naming
+// the byte of the file. Throws GltfDocumentError when the JSON nests too deep, is invalid, or is
+// not an object.
+nlohmann::json parse_gltf_json(const GltfText& text, const std::string& path);
+
+// read_gltf_text then parse_gltf_json: the JSON part of a .gltf, or the JSON chunk of a .glb, as
+// an object.
 nlohmann::json read_gltf_json(const std::string& path);
 
 // The names of the glTF materials ("materials"[i].name; unnamed ones are left out).

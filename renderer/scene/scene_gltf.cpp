@@ -1,14 +1,19 @@
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/scene/gltf_document.h"
+#include "renderer/scene/gltf_validate.h"
 #include "renderer/scene/texture_filter.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <new>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -41,8 +46,8 @@ float srgb_to_linear(float c) {
 
 class Loader {
  public:
-  Loader(const std::string& path, const tinygltf::Model& model, SceneDesc* out)
-      : path_(path), m_(model), out_(out) {}
+  Loader(const std::string& path, const tinygltf::Model& model, SceneDesc* out, std::uint64_t max_bytes)
+      : path_(path), m_(model), out_(out), max_bytes_(max_bytes) {}
 
   void run();
 
@@ -58,6 +63,7 @@ class Loader {
   const std::string& path_;
   const tinygltf::Model& m_;
   SceneDesc* out_;
+  std::uint64_t max_bytes_;  // max_scene_bytes()
   std::set<std::string> warned_;
   std::map<int, int> textures_;  // glTF texture index -> SceneDesc::textures index
 };
@@ -71,11 +77,49 @@ glm::dmat4 local_transform(const tinygltf::Node& n) {
     // glTF stores (x, y, z, w); glm's constructor takes (w, x, y, z). Normalise: exporters
     // write quaternions off unit length by ~1e-6 (Khronos Cameras.gltf).
     glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+    // Components so large (or small) that the squared length overflows (or underflows) are
+    // scaled first; unit-ish quaternions, every real file's, take the plain path unchanged.
+    const double len2 = glm::dot(q, q);
+    if (!(len2 > 0.0 && std::isfinite(len2))) {
+      const double m = std::max({std::abs(q.w), std::abs(q.x), std::abs(q.y), std::abs(q.z)});
+      if (m > 0.0 && std::isfinite(m)) q = q * (1.0 / m);
+    }
     r = glm::mat4_cast(glm::normalize(q));
   }
   if (n.scale.size() == 3) s = glm::scale(glm::dmat4(1.0), glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
   return t * r * s;  // glTF: M = T * R * S
 }
+
+bool is_finite(const glm::dmat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+// Embree takes single-precision coordinates: a point must stay finite, with room to spare, as a
+// float (the same bound as vertex positions, add_primitive).
+bool fits_float(const glm::dvec3& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && std::abs(p.x) <= 1e30 &&
+         std::abs(p.y) <= 1e30 && std::abs(p.z) <= 1e30;
+}
+
+// v / |v|, or nullopt when v has no direction (zero, or not finite). The plain normalisation for
+// every ordinary v (so valid scenes give the same bits as ever), rescaled first where |v|^2
+// would overflow or underflow.
+std::optional<glm::dvec3> unit(glm::dvec3 v) {
+  const double len2 = glm::dot(v, v);
+  if (!(len2 > 0.0 && std::isfinite(len2))) {
+    const double m = std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+    if (!(m > 0.0 && std::isfinite(m))) return std::nullopt;
+    v /= m;
+  }
+  const glm::dvec3 u = glm::normalize(v);
+  if (!std::isfinite(u.x) || !std::isfinite(u.y) || !std::isfinite(u.z)) return std::nullopt;
+  return u;
+}
+
+std::string node_at(int i) { return "nodes[" + std::to_string(i) + "]"; }
 
 std::vector<double> Loader::read_accessor(int index, int want, const char* what) {
   if (index < 0 || index >= static_cast<int>(m_.accessors.size()))
@@ -316,18 +360,30 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
 }
 
 void Loader::visit(int index, const glm::dmat4& parent, int depth) {
-  if (index < 0 || index >= static_cast<int>(m_.nodes.size())) fail(path_, "node index " + std::to_string(index) + " is out of range");
-  if (depth > 256) fail(path_, "node hierarchy is deeper than 256 levels (a cycle?)");
+  // validate_gltf has checked that the nodes form a strict forest (glTF 2.0 section 3.5.3), so
+  // each node is visited once. The recursion stays bounded all the same: real hierarchies are a
+  // few dozen levels deep, and a line of 100,000 nodes would exhaust the stack.
+  if (index < 0 || index >= static_cast<int>(m_.nodes.size())) fail(path_, node_at(index) + ": is out of range");
+  if (depth > 256) fail(path_, node_at(index) + ": the node hierarchy is deeper than 256 levels");
   const tinygltf::Node& node = m_.nodes[index];
-  const glm::dmat4 world = parent * local_transform(node);
+  const glm::dmat4 local = local_transform(node);
+  if (!is_finite(local)) fail(path_, node_at(index) + ": transform is not finite");
+  const glm::dmat4 world = parent * local;
+  // A chain of large scales overflows to infinity (and infinity times 0 to NaN): nothing
+  // non-finite may reach the meshes, cameras and lights below, and so Embree.
+  if (!is_finite(world))
+    fail(path_, node_at(index) + ": transform is not finite (the product of its own and its parents' transforms overflows)");
   const glm::dmat3 m3(world);
 
   if (node.mesh >= 0) {
-    if (node.mesh >= static_cast<int>(m_.meshes.size())) fail(path_, "node '" + node.name + "' refers to a missing mesh");
+    if (node.mesh >= static_cast<int>(m_.meshes.size()))
+      fail(path_, node_at(index) + ": mesh " + std::to_string(node.mesh) + " is out of range");
     const tinygltf::Mesh& mesh = m_.meshes[node.mesh];
     for (const tinygltf::Primitive& prim : mesh.primitives) add_primitive(mesh, prim, world);
   }
-  if (node.camera >= 0 && node.camera < static_cast<int>(m_.cameras.size())) {
+  if (node.camera >= static_cast<int>(m_.cameras.size()))
+    fail(path_, node_at(index) + ": camera " + std::to_string(node.camera) + " is out of range");
+  if (node.camera >= 0) {
     const tinygltf::Camera& c = m_.cameras[node.camera];
     if (c.type != "perspective") {
       warn("orthographic cameras are skipped");
@@ -336,16 +392,31 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
       cam.name = camera_display_name(c.name, node.name);  // batch manifests check --camera by it too
       cam.node_name = node.name;
       cam.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
-      cam.forward = glm::normalize(m3 * glm::dvec3(0.0, 0.0, -1.0));
-      cam.up = glm::normalize(m3 * glm::dvec3(0.0, 1.0, 0.0));
+      // The camera's frame is its node's: it looks down local -Z with local +Y up (glTF 2.0
+      // section 3.10.1 "Cameras"). A scale of 0 leaves no direction to look in, and parallel
+      // directions (a singular matrix) no image plane: every camera ray would be NaN.
+      const auto forward = unit(m3 * glm::dvec3(0.0, 0.0, -1.0));
+      const auto up = unit(m3 * glm::dvec3(0.0, 1.0, 0.0));
+      if (!forward || !up)
+        fail(path_, node_at(index) + ": camera transform is degenerate (scale 0: its forward or up direction has length 0)");
+      // sin of the angle between them; exporters' frames are orthogonal to ~1e-7.
+      if (!(glm::length(glm::cross(*forward, *up)) > 1e-6))
+        fail(path_, node_at(index) + ": camera transform is degenerate (its forward and up directions are parallel)");
+      if (!fits_float(cam.position))
+        fail(path_, node_at(index) + ": camera position is beyond the range of single precision (Embree traces in float)");
+      cam.forward = *forward;
+      cam.up = *up;
       cam.yfov = c.perspective.yfov;
-      if (!(cam.yfov > 0.0 && cam.yfov < 3.14)) fail(path_, "camera '" + cam.name + "' has an invalid yfov");
+      // validate_gltf refused anything else (cameras[i].perspective.yfov, section 5.14).
+      if (!(cam.yfov > 0.0 && cam.yfov < kPi))
+        fail(path_, "cameras[" + std::to_string(node.camera) + "].perspective.yfov: is not in (0, pi)");
       out_->cameras.push_back(cam);
     }
   }
   if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end() && it->second.Has("light")) {
     const int li = it->second.Get("light").GetNumberAsInt();
-    if (li < 0 || li >= static_cast<int>(m_.lights.size())) fail(path_, "node '" + node.name + "' refers to a missing light");
+    if (li < 0 || li >= static_cast<int>(m_.lights.size()))
+      fail(path_, node_at(index) + ": light " + std::to_string(li) + " is out of range");
     const tinygltf::Light& gl = m_.lights[li];
     LightDesc l;
     l.name = gl.name;
@@ -353,7 +424,9 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     if (gl.color.size() == 3) colour = Spectrum(gl.color[0], gl.color[1], gl.color[2]);
     l.intensity = colour * gl.intensity;
     l.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
-    l.direction = glm::normalize(m3 * glm::dvec3(0.0, 0.0, -1.0));
+    // A light shines down its local -Z (KHR_lights_punctual); point lights have no direction.
+    const auto direction = unit(m3 * glm::dvec3(0.0, 0.0, -1.0));
+    if (direction) l.direction = *direction;
     if (gl.type == "point") {
       l.type = LightType::kPoint;
     } else if (gl.type == "spot") {
@@ -365,6 +438,11 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     } else {
       fail(path_, "light '" + gl.name + "' has unknown type '" + gl.type + "'");
     }
+    if (l.type != LightType::kPoint && !direction)
+      fail(path_, node_at(index) + ": light transform is degenerate (scale 0: its direction has length 0)");
+    // Shadow rays start or end at a point or spot light: in float, for Embree.
+    if (l.type != LightType::kDirectional && !fits_float(l.position))
+      fail(path_, node_at(index) + ": light position is beyond the range of single precision (Embree traces in float)");
     if (gl.range > 0.0) warn("light range is ignored (physical inverse-square falloff is used)");
     if (!l.intensity.is_finite() || l.intensity.min() < 0.0) fail(path_, "light '" + gl.name + "' has an invalid intensity");
     out_->lights.push_back(l);
@@ -380,6 +458,21 @@ void Loader::run() {
   for (const std::string& e : m_.extensionsUsed)
     if (!supported.count(e)) unsupported += (unsupported.empty() ? "" : ", ") + e;
   if (!unsupported.empty()) warn("unsupported extensions ignored: " + unsupported);
+
+  // Every texture becomes float RGB, 12 bytes a texel. Image sizes are known only once decoded
+  // (validate_gltf cannot count them), so they are checked here against the same limit, before
+  // any texture is converted.
+  double texture_bytes = 0.0;
+  for (const tinygltf::Texture& t : m_.textures)
+    if (t.source >= 0 && t.source < static_cast<int>(m_.images.size()))
+      texture_bytes += 12.0 * std::max(m_.images[t.source].width, 0) * std::max(m_.images[t.source].height, 0);
+  if (texture_bytes > static_cast<double>(max_bytes_)) {
+    std::ostringstream s;
+    s.precision(3);
+    s << "the textures need about " << texture_bytes / (1024.0 * 1024 * 1024) << " GiB decoded, more than the limit of "
+      << static_cast<double>(max_bytes_) / (1024.0 * 1024 * 1024) << " GiB (LAMINA_MAX_SCENE_BYTES)";
+    fail(path_, s.str());
+  }
 
   for (const tinygltf::Material& gm : m_.materials) {
     Material mat;
@@ -451,20 +544,95 @@ void SceneDesc::compute_bounds() {
     }
 }
 
-SceneDesc load_gltf(const std::string& path) {
-  tinygltf::TinyGLTF loader;
-  tinygltf::Model model;
-  std::string err, warn;
+namespace {
+
+// tinygltf's GetBaseDir: the directory it resolves a file's relative URIs against.
+std::string tinygltf_base_dir(const std::string& path) {
+  const std::size_t slash = path.find_last_of("/\\");
+  return slash == std::string::npos ? std::string() : path.substr(0, slash);
+}
+
+// tinygltf reads external buffers and images through these callbacks. The default reader asks
+// std::ifstream for the file's size before reading, which for a directory is about 2^63 (then
+// std::bad_alloc), and reads a file of any size whole before comparing it with the byteLength.
+// validate_gltf has refused such URIs already; this is the same rule at the one place tinygltf
+// reads, for paths it found by its own search (the current directory after the file's own).
+struct FileGuard {
+  std::uint64_t max_bytes;
+};
+bool guarded_read(std::vector<unsigned char>* out, std::string* err, const std::string& file, void* user) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(file, ec);
+  if (fs::exists(st) && !fs::is_regular_file(st)) {
+    if (err) *err += fs::is_directory(st) ? "is a directory, not a file" : "is not a regular file";
+    return false;
+  }
+  const std::uintmax_t size = fs::file_size(file, ec);
+  if (!ec && size > static_cast<const FileGuard*>(user)->max_bytes) {
+    if (err) *err += "is " + std::to_string(size) + " bytes, more than the scene memory limit (LAMINA_MAX_SCENE_BYTES)";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, file, nullptr);
+}
+bool default_exists(const std::string& file, void*) { return tinygltf::FileExists(file, nullptr); }
+std::string default_expand(const std::string& file, void*) { return tinygltf::ExpandFilePath(file, nullptr); }
+bool refuse_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "the loader writes no files";
+  return false;
+}
+
+SceneDesc load_validated(const std::string& path) {
   const bool binary = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".glb") == 0 ||
                                            path.compare(path.size() - 4, 4, ".GLB") == 0);
-  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
-                         : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+  const std::uint64_t max_bytes = max_scene_bytes();
+  // The validation layer, on the file's own JSON, before tinygltf reads it: the nesting depth
+  // (tinygltf's conversion recurses), then the structure (gltf_validate.h).
+  GltfText text;
+  nlohmann::json doc;
+  try {
+    text = read_gltf_text(path, binary ? GltfFormat::kBinary : GltfFormat::kText);
+    doc = parse_gltf_json(text, path);
+  } catch (const GltfDocumentError& e) {
+    throw SceneError(e.what());
+  }
+  const std::string base_dir = tinygltf_base_dir(path);
+  validate_gltf(doc, path, base_dir, text.bytes.size(), max_bytes);
+  doc = nlohmann::json();
+
+  tinygltf::TinyGLTF loader;
+  FileGuard guard{max_bytes};
+  loader.SetFsCallbacks({&default_exists, &default_expand, &guarded_read, &refuse_write, &guard});
+  tinygltf::Model model;
+  std::string err, warn;
+  // The same calls LoadBinaryFromFile and LoadASCIIFromFile make after reading the file.
+  const bool ok =
+      binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(text.bytes.data()),
+                                           static_cast<unsigned int>(text.bytes.size()), base_dir)
+             : loader.LoadASCIIFromString(&model, &err, &warn, text.bytes.data(),
+                                          static_cast<unsigned int>(text.bytes.size()), base_dir);
+  text = GltfText();
   if (!ok || !err.empty()) fail(path, err.empty() ? "cannot be read as glTF" : err);
   SceneDesc scene;
   scene.path = path;
   if (!warn.empty()) scene.warnings.push_back(one_line(warn));
-  Loader(path, model, &scene).run();
+  Loader(path, model, &scene, max_bytes).run();
   return scene;
+}
+
+}  // namespace
+
+SceneDesc load_gltf(const std::string& path) {
+  // Sizes are checked before they are allocated (validate_gltf); whatever is still too large
+  // for this machine (images, or a limit raised by LAMINA_MAX_SCENE_BYTES) ends here as one line
+  // naming the file, not as an uncaught std::bad_alloc.
+  try {
+    return load_validated(path);
+  } catch (const std::bad_alloc&) {
+    throw SceneError(path + ": out of memory while loading the scene");
+  } catch (const std::length_error& e) {
+    throw SceneError(path + ": out of memory while loading the scene (" + std::string(e.what()) + ")");
+  }
 }
 
 CameraDesc framing_camera(const SceneDesc& scene, double aspect) {

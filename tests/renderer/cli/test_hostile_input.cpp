@@ -3,6 +3,7 @@
 // no output left behind.
 #include <sys/wait.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +75,35 @@ fs::path generate(const json& spec, const fs::path& dir) {
   } else if (kind == "deep_manifest") {
     path = dir / "input.json";
     text = R"({"lamina_batch": 1, "description": )" + nested_arrays(depth) + "}";
+  } else if (kind == "deep_glb") {
+    // The same material extras in the JSON chunk of a .glb (glTF 2.0 spec, section 4.4: a 12-byte
+    // header, then chunks of (length, type, data), the JSON chunk first, padded with spaces).
+    path = dir / "input.glb";
+    std::string chunk = R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": []}], "materials": [{"name": "m", "extras": )" +
+                        nested_arrays(depth) + "}]}";
+    while (chunk.size() % 4) chunk += ' ';
+    auto u32 = [&text](std::uint32_t v) {
+      for (int i = 0; i < 4; ++i) text += static_cast<char>((v >> (8 * i)) & 0xFF);
+    };
+    u32(0x46546C67);  // "glTF"
+    u32(2);
+    u32(static_cast<std::uint32_t>(12 + 8 + chunk.size()));
+    u32(static_cast<std::uint32_t>(chunk.size()));
+    u32(0x4E4F534A);  // "JSON"
+    text += chunk;
+  } else if (kind == "node_line_gltf") {
+    // A strict tree that is one line of `depth` nodes, each the only child of the last: deeper
+    // than any real scene, and deeper than a recursive traversal may go.
+    path = dir / "input.gltf";
+    std::ostringstream s;
+    s << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)";
+    for (int i = 0; i < depth; ++i) {
+      if (i) s << ", ";
+      if (i + 1 < depth) s << "{\"children\": [" << i + 1 << "]}";
+      else s << "{}";
+    }
+    s << "]}";
+    text = s.str();
   } else if (kind == "node_chain_gltf") {
     // Each node names the next one twice as a child: a DAG, not a tree; visited naively it takes
     // 2^depth visits.

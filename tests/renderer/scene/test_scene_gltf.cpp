@@ -1,14 +1,19 @@
 // The glTF loader on fixtures written here (known transforms, cameras, lights, materials, bad
 // input) and on the Khronos sample files in the shared assets.
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include "materials/json_limits.h"
 #include "materials/sampling.h"
 #include "renderer/image/image_io.h"
+#include "renderer/scene/gltf_document.h"
+#include "renderer/scene/gltf_validate.h"
 #include "renderer/scene/scene_gltf.h"
 #include "tests/renderer/gltf_fixture.h"
 
@@ -243,7 +248,129 @@ TEST(SceneGltf, BadInputIsAOneLineError) {
   }
 }
 
+// The nesting scanner every JSON reader runs before parsing (materials/json_limits.h): levels
+// are counted from 1 at the outermost bracket, and brackets in strings, escaped quotes
+// included, do not count.
+TEST(SceneGltf, JsonNestingScanner) {
+  EXPECT_FALSE(json_nesting_exceeds("[[]]", 2));
+  EXPECT_EQ(json_nesting_exceeds("[[]]", 1), std::optional<std::size_t>(1));
+  EXPECT_FALSE(json_nesting_exceeds(std::string(512, '[') + std::string(512, ']')));
+  EXPECT_EQ(json_nesting_exceeds(std::string(513, '[') + std::string(513, ']')), std::optional<std::size_t>(512));
+  EXPECT_FALSE(json_nesting_exceeds(R"({"a": "[[[[{{{{"})", 1));
+  // \" does not end the string, so the brackets after it are still inside it...
+  EXPECT_FALSE(json_nesting_exceeds(R"(["\" [[[ \\\" [[["])", 1));
+  // ...and \\ is a whole escape: the quote after it ends the string, and "[[" counts.
+  EXPECT_EQ(json_nesting_exceeds(R"(["\\", [[1]]])", 2), std::optional<std::size_t>(8));
+  // Closing brackets never make room: "]]]][[" is as deep as "[[".
+  EXPECT_EQ(json_nesting_exceeds("]]]][[", 1), std::optional<std::size_t>(5));
+  EXPECT_EQ(json_nesting_message(7), "JSON nested deeper than 512 levels (at byte 7)");
+}
+
+// Brackets and escapes inside strings are no nesting: a valid scene with thousands of them in
+// its extras loads, and its extras survive.
+TEST(SceneGltf, BracketsInStringsAreNotNesting) {
+  TempDir dir("gltf-brackets");
+  GltfBuilder b;
+  std::string tricky;
+  for (int i = 0; i < 1000; ++i) tricky += "[[{\"\\";
+  b.json()["materials"].push_back({{"name", "m"}, {"extras", {{"note", tricky}}}});
+  b.add_node({{"mesh", b.add_mesh(kTriangle, {}, {}, 0)}});
+  b.write_gltf(dir / "b.gltf");
+  const SceneDesc s = load_gltf(dir / "b.gltf");
+  EXPECT_EQ(s.materials.at(0).extras.at("note"), tricky);
+}
+
+// The JSON-only reader (batch manifests check scenes with it) refuses deep JSON too, naming the
+// byte of the file: in a .glb, past the 20 bytes of header and chunk header.
+TEST(SceneGltf, DocumentReaderRefusesDeepJson) {
+  TempDir dir("gltf-deep-doc");
+  const std::string deep = R"({"asset": {"version": "2.0"}, "extras": )" + std::string(600, '[') + std::string(600, ']') + "}";
+  std::ofstream(dir / "deep.gltf") << deep;
+  const std::size_t at = deep.find('[') + 511;  // the root object is level 1
+  try {
+    read_gltf_json(dir / "deep.gltf");
+    ADD_FAILURE() << "no error";
+  } catch (const GltfDocumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("deep.gltf: JSON nested deeper than 512 levels (at byte " + std::to_string(at) + ")"),
+              std::string::npos)
+        << e.what();
+  }
+  expect_error(dir / "deep.gltf", "JSON nested deeper than 512 levels (at byte " + std::to_string(at) + ")");
+  std::string chunk = deep;
+  while (chunk.size() % 4) chunk += ' ';
+  std::string glb = "glTF";
+  auto u32 = [&glb](std::uint32_t v) { for (int i = 0; i < 4; ++i) glb += static_cast<char>((v >> (8 * i)) & 0xFF); };
+  u32(2);
+  u32(static_cast<std::uint32_t>(20 + chunk.size()));
+  u32(static_cast<std::uint32_t>(chunk.size()));
+  u32(0x4E4F534A);  // "JSON"
+  glb += chunk;
+  std::ofstream(dir / "deep.glb", std::ios::binary) << glb;
+  expect_error(dir / "deep.glb", "JSON nested deeper than 512 levels (at byte " + std::to_string(20 + at) + ")");
+}
+
+// The memory estimate's limit, 8 GiB unless LAMINA_MAX_SCENE_BYTES says otherwise; a value that
+// is not a positive whole number is an error naming the variable.
+TEST(SceneGltf, SceneMemoryLimitFromTheEnvironment) {
+  TempDir dir("gltf-limit");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh(kTriangle, {0, 1, 2})}});
+  b.write_gltf(dir / "t.gltf");
+  EXPECT_EQ(max_scene_bytes(), kDefaultMaxSceneBytes);
+  EXPECT_NO_THROW(load_gltf(dir / "t.gltf"));
+  ::setenv("LAMINA_MAX_SCENE_BYTES", "100", 1);
+  expect_error(dir / "t.gltf", "more than the limit of 100 bytes (LAMINA_MAX_SCENE_BYTES)");
+  ::setenv("LAMINA_MAX_SCENE_BYTES", "1000000", 1);
+  EXPECT_NO_THROW(load_gltf(dir / "t.gltf"));
+  for (const char* bad : {"", "0", "-5", "8GiB", "1e9", "99999999999999999999999"}) {
+    ::setenv("LAMINA_MAX_SCENE_BYTES", bad, 1);
+    try {
+      load_gltf(dir / "t.gltf");
+      ADD_FAILURE() << "no error for '" << bad << "'";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("LAMINA_MAX_SCENE_BYTES"), std::string::npos) << e.what();
+    }
+  }
+  ::unsetenv("LAMINA_MAX_SCENE_BYTES");
+}
+
+// The checks that need world transforms leave unusual but valid scenes alone: a camera whose
+// own tiny scale cancels its parent's huge one, and a quaternion far off unit length (its
+// squared length underflows), load.
+TEST(SceneGltf, LargeButFiniteTransformsLoad) {
+  TempDir dir("gltf-large");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh(kTriangle)}, {"rotation", {0, 0, 0, 1e-200}}});
+  b.json()["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 3.1}, {"znear", 0.1}, {"aspectRatio", 1.5}}}}};
+  const int cam = b.add_node({{"camera", 0}, {"scale", {1e-150, 1e-150, 1e-150}}, {"translation", {0, 0, 5e-100}}}, false);
+  b.add_node({{"children", {cam}}, {"scale", {1e100, 1e100, 1e100}}});
+  b.write_gltf(dir / "l.gltf");
+  const SceneDesc s = load_gltf(dir / "l.gltf");
+  ASSERT_EQ(s.cameras.size(), 1u);
+  expect_vec(s.cameras[0].forward, {0, 0, -1});
+  expect_vec(s.cameras[0].up, {0, 1, 0});
+  expect_vec(s.cameras[0].position, {0, 0, 5}, 1e-9);
+  expect_vec(glm::dvec3(s.meshes.at(0).positions[1]), {1, 0, 0});
+}
+
 // Real files written elsewhere (Khronos glTF-Sample-Models, see the assets README).
+// A spot light whose inner and outer cone angles are equal (Blender's exporter writes that for a
+// spot blend of 0) loads as a hard-edged cone; an inverted one is refused (tests/corpus).
+TEST(SceneGltf, SpotWithEqualConeAnglesLoads) {
+  TempDir dir("gltf-spot-equal");
+  GltfBuilder b;
+  json& j = b.json();
+  b.add_node({{"mesh", b.add_mesh(kTriangle, {0, 1, 2})}});
+  j["extensionsUsed"] = {"KHR_lights_punctual"};
+  j["extensions"]["KHR_lights_punctual"]["lights"] = {
+      {{"type", "spot"}, {"intensity", 3.0}, {"spot", {{"innerConeAngle", 0.4}, {"outerConeAngle", 0.4}}}}};
+  b.add_node({{"translation", {0, 0, 4}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  b.write_gltf(dir / "s.gltf");
+  const SceneDesc s = load_gltf(dir / "s.gltf");
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].cos_inner, s.lights[0].cos_outer);
+}
+
 TEST(SceneGltf, KhronosSamples) {
   const std::string root = "/work/shared/assets/khronos_samples/";
   if (!std::filesystem::exists(root)) GTEST_SKIP() << "no " << root;
