@@ -8,6 +8,7 @@
 #include "renderer/batch/batch_manifest.h"
 #include "renderer/batch/batch_run.h"
 #include "renderer/cli/commands.h"
+#include "renderer/cli/options.h"
 
 int run_batch(int argc, char** argv) {
   lamina::BatchOptions args;
@@ -21,13 +22,13 @@ int run_batch(int argc, char** argv) {
   shard->excludes(fin);
   app.add_flag("--list", args.list, "print the jobs (index, id, hash) of the batch or shard and exit");
   app.add_flag("--force", args.force, "re-render jobs even if their output is complete");
-  app.add_option("--threads", args.threads, "render threads per job (0: all cores)")->check(CLI::Range(0, 4096));
+  app.add_option("--threads", args.threads, "render threads per job (0: all cores)")->check(lamina::cli::integer(0, 4096));
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "lamina batch: %s\n", e.what());
+    std::fprintf(stderr, "lamina batch: %s\n", lamina::cli::parse_error_line(e).c_str());
     return 2;
   }
   lamina::BatchLog log;

@@ -11,11 +11,10 @@
 //                        "seed" for provenance, and "walk_ends" (monte-carlo: how many walks
 //                        left through the top or bottom, were absorbed, ended by roulette or
 //                        were lost). Printed to stdout if omitted.
-// Files are written atomically (a temporary file in the same folder, then rename).
-#include <cerrno>
+// Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
+// renamed into place once both are written. Every number is checked by renderer/cli/options.h.
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -23,11 +22,12 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <unistd.h>
 
 #include "materials/brdf_table.h"
 #include "materials/stack_file.h"
 #include "renderer/cli/commands.h"
+#include "renderer/cli/options.h"
+#include "renderer/cli/outputs.h"
 #include "renderer/util/atomic_file.h"
 
 namespace {
@@ -38,19 +38,9 @@ using lamina::BrdfTable;
 using lamina::Estimate;
 using lamina::kChannels;
 
-struct CliError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-// Writes text to path atomically (renderer/util/atomic_file.h): a reader never sees a
-// half-written file and a failure leaves any previous file intact.
-void write_atomically(const std::string& path, const std::string& text) {
-  try {
-    lamina::write_file_atomically(path, text);
-  } catch (const lamina::AtomicWriteError& e) {
-    throw CliError(e.what());
-  }
-}
+// Limits of the counts: photons (a typo catcher, as lamina render's 1e12 paths) and bins.
+constexpr long long kMaxSamples = 1000000000000LL;
+constexpr long long kMaxBins = 10000, kMaxBinsTotal = 1000000;
 
 std::string format_number(double v) {
   char buf[64];
@@ -115,74 +105,69 @@ int run_brdf(int argc, char** argv) {
       "lamina brdf"};
   std::string stack_path, method = "monte-carlo", out_path, summary_path;
   double theta_i = std::nan(""), phi_i = 0.0;
-  long long samples = 100000, seed = 1;  // signed, so that "-3" is an error and not 2^64 - 3
+  std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
+  namespace cli = lamina::cli;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();
-  app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")->required();
-  app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)");
+  app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")
+      ->required()
+      ->check(cli::real(0.0, 90.0, false, true));
+  app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)")->check(cli::finite());
   app.add_option("--method", method, "first-order | monte-carlo (default monte-carlo)")
       ->check(CLI::IsMember({"first-order", "monte-carlo"}));
-  app.add_option("--samples", samples, "Monte Carlo photons (default 100000)");
-  app.add_option("--bins-theta", bins_theta, "K bins uniform in cos(theta_o) per hemisphere (default 18)");
-  app.add_option("--bins-phi", bins_phi, "M bins uniform in phi_o (default 36)");
-  app.add_option("--seed", seed, "random seed >= 0 (default 1); results do not depend on threads");
+  app.add_option("--samples", samples, "Monte Carlo photons (default 100000)")->check(cli::integer(2, kMaxSamples));
+  app.add_option("--bins-theta", bins_theta, "K bins uniform in cos(theta_o) per hemisphere (default 18)")
+      ->check(cli::integer(1, kMaxBins));
+  app.add_option("--bins-phi", bins_phi, "M bins uniform in phi_o (default 36)")->check(cli::integer(1, kMaxBins));
+  app.add_option("--seed", seed, "random seed, 0 to 2^64-1 (default 1); results do not depend on threads")
+      ->check(cli::seed());
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
 
   try {
     app.parse(argc, argv);
+    if (static_cast<long long>(bins_theta) * bins_phi > kMaxBinsTotal)
+      throw cli::UsageError("--bins-theta x --bins-phi must be at most " + std::to_string(kMaxBinsTotal));
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::string msg = e.what();
-    if (const auto nl = msg.find('\n'); nl != std::string::npos) msg.resize(nl);
-    std::fprintf(stderr, "lamina brdf: %s (try 'lamina brdf --help')\n", msg.c_str());
+    std::fprintf(stderr, "lamina brdf: %s (try 'lamina brdf --help')\n", cli::parse_error_line(e).c_str());
+    return 2;
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "lamina brdf: %s\n", e.what());
     return 2;
   }
 
   try {
-    if (!std::isfinite(theta_i) || theta_i < 0.0 || theta_i >= 90.0)
-      throw CliError("--theta-i must be in [0, 90) degrees (got " + format_number(theta_i) + ")");
-    if (!std::isfinite(phi_i)) throw CliError("--phi-i must be finite");
-    if (samples < 2) throw CliError("--samples must be at least 2 (got " + std::to_string(samples) + ")");
     if (method == "first-order" && app.count("--samples") + app.count("--seed") > 0)
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method first-order\n");
-    if (seed < 0) throw CliError("--seed must be >= 0 (got " + std::to_string(seed) + ")");
-    if (bins_theta < 1 || bins_theta > 10000) throw CliError("--bins-theta must be in [1, 10000]");
-    if (bins_phi < 1 || bins_phi > 10000) throw CliError("--bins-phi must be in [1, 10000]");
-    if (static_cast<long long>(bins_theta) * bins_phi > 1000000)
-      throw CliError("--bins-theta x --bins-phi must be at most 1000000");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
     // Fail before a long computation if an output cannot be written.
-    for (const std::string* path : {&out_path, &summary_path}) {
-      if (path->empty()) continue;
-      const auto slash = path->find_last_of('/');
-      const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path->substr(0, slash));
-      if (::access(dir.c_str(), W_OK) != 0)
-        throw CliError("cannot write '" + *path + "': " + std::strerror(errno));
-    }
+    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
     BrdfOptions options;
     options.theta_i_deg = theta_i;
     options.phi_i_deg = phi_i;
-    options.samples = static_cast<std::uint64_t>(samples);
+    options.samples = samples;
     options.bins_theta = bins_theta;
     options.bins_phi = bins_phi;
-    options.seed = static_cast<std::uint64_t>(seed);
+    options.seed = seed;
     const BrdfTable table = method == "first-order" ? lamina::brdf_table_first_order(stack, options)
                                                     : lamina::brdf_table_monte_carlo(stack, options);
     const std::string json = totals_json(table, method);
-    if (!out_path.empty()) write_atomically(out_path, table_csv(table));
-    if (!summary_path.empty()) {
-      write_atomically(summary_path, json);
-    } else {
-      std::fputs(json.c_str(), stdout);
+    cli::StagedOutputs outputs;  // both files or neither
+    if (!out_path.empty()) {
+      const std::string csv = table_csv(table);
+      outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
     }
+    if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
+    outputs.commit();
+    if (summary_path.empty()) std::fputs(json.c_str(), stdout);
   } catch (const lamina::StackFileError& e) {
-    std::fprintf(stderr, "lamina brdf: %s\n", e.what());
+    std::fprintf(stderr, "lamina brdf: %s\n", cli::one_line(e.what()).c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lamina brdf: %s\n", e.what());
+    std::fprintf(stderr, "lamina brdf: %s\n", cli::one_line(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -2,10 +2,13 @@
 //                [--range R] [--crop x,y,w,h] [--epsilon E] [--fail-above X]
 //
 // Exit status: 0 when done, 1 when --fail-above is exceeded, 2 on bad input (one-line error).
+// Every number is checked by renderer/cli/options.h (finite, in range) and every output path
+// before the images are read; the outputs are written all or none (renderer/cli/outputs.h).
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -14,6 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/cli/commands.h"
+#include "renderer/cli/options.h"
+#include "renderer/cli/outputs.h"
 #include "renderer/util/atomic_file.h"
 #include "renderer/image/false_colour.h"
 #include "renderer/image/image_compare.h"
@@ -41,15 +46,8 @@ Image read_checked(const std::string& path, int* channels) {
   return image;
 }
 
-void write_json(const std::string& path, const nlohmann::json& json) {
-  try {
-    write_file_atomically(path, json.dump(2) + "\n");
-  } catch (const AtomicWriteError&) {
-    throw std::runtime_error("cannot write '" + path + "'");
-  }
-}
-
 int compare(const CompareArgs& args) {
+  cli::check_output_paths({{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}});
   int ref_channels = 0, test_channels = 0;
   Image ref = read_checked(args.reference, &ref_channels);
   Image test = read_checked(args.test, &test_channels);
@@ -74,17 +72,23 @@ int compare(const CompareArgs& args) {
   std::printf("MAE %.6g  MSE %.6g  RMSE %.6g\n", m.mae, m.mse, m.rmse);
   std::printf("SSIM (display luminance, Wang et al. 2004) %.6f\n", m.ssim);
 
+  // All outputs or none: each is written to a temporary, and they are renamed into place together.
+  cli::StagedOutputs outputs;
   if (!args.out_exr.empty()) {
     const Image rel = relative_difference(ref, test, m.guard_floor);
-    write_exr(args.out_exr, rel,
-              {{"lamina:compare:reference", args.reference},
-               {"lamina:compare:test", args.test},
-               {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
-               {"lamina:compare:guard_floor", std::to_string(m.guard_floor)}});
+    outputs.write(args.out_exr, [&](const std::string& tmp) {
+      write_exr(tmp, rel,
+                {{"lamina:compare:reference", args.reference},
+                 {"lamina:compare:test", args.test},
+                 {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
+                 {"lamina:compare:guard_floor", std::to_string(m.guard_floor)}});
+    });
   }
   if (!args.out_png.empty()) {
     const std::vector<float> rel = relative_luminance_difference(ref, test, args.epsilon);
-    write_png(args.out_png, false_colour_with_legend(rel, ref.width, ref.height, args.range));
+    outputs.write(args.out_png, [&](const std::string& tmp) {
+      write_png(tmp, false_colour_with_legend(rel, ref.width, ref.height, args.range));
+    });
   }
   if (!args.out_json.empty()) {
     nlohmann::json j;
@@ -103,8 +107,9 @@ int compare(const CompareArgs& args) {
     j["mse"] = m.mse;
     j["rmse"] = m.rmse;
     j["ssim"] = m.ssim;
-    write_json(args.out_json, j);
+    outputs.write(args.out_json, [&](const std::string& tmp) { write_file_atomically(tmp, j.dump(2) + "\n"); });
   }
+  outputs.commit();
   if (args.fail_above >= 0.0 && m.rms_relative > args.fail_above) {
     std::fprintf(stderr, "lamina compare: RMS relative difference %.6g exceeds --fail-above %.6g\n", m.rms_relative,
                  args.fail_above);
@@ -128,24 +133,32 @@ int run_compare(int argc, char** argv) {
   app.add_option("--png", args.out_png, "Write the false-colour picture (luminance) with a legend");
   app.add_option("--json", args.out_json, "Write the metrics as JSON");
   app.add_option("--range", args.range, "Relative difference drawn as full red/blue (default 0.5 = 50%)")
-      ->check(CLI::PositiveNumber);
+      ->check(lamina::cli::positive());
   app.add_option("--epsilon", args.epsilon, "Guard: divide by max(REF, epsilon * mean(REF)) (default 0.01)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--crop", args.crop, "Compare only the region x,y,w,h")->delimiter(',')->expected(4);
+      ->check(lamina::cli::positive());
+  // x and y >= 0, w and h >= 1; that the region lies inside the image is checked by crop().
+  constexpr long long kMaxInt = std::numeric_limits<int>::max();
+  app.add_option("--crop", args.crop, "Compare only the region x,y,w,h")
+      ->delimiter(',')
+      ->expected(4)
+      ->check(lamina::cli::integer(0, kMaxInt, "x").application_index(0))
+      ->check(lamina::cli::integer(0, kMaxInt, "y").application_index(1))
+      ->check(lamina::cli::integer(1, kMaxInt, "w").application_index(2))
+      ->check(lamina::cli::integer(1, kMaxInt, "h").application_index(3));
   app.add_option("--fail-above", args.fail_above, "Exit with status 1 if the RMS relative difference exceeds X")
-      ->check(CLI::NonNegativeNumber);
+      ->check(lamina::cli::non_negative());
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);  // prints the help, status 0
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "lamina compare: %s (see 'lamina compare --help')\n", e.what());
+    std::fprintf(stderr, "lamina compare: %s (see 'lamina compare --help')\n", lamina::cli::parse_error_line(e).c_str());
     return 2;
   }
   try {
     return lamina::compare(args);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lamina compare: %s\n", e.what());
+    std::fprintf(stderr, "lamina compare: %s\n", lamina::cli::one_line(e.what()).c_str());
     return 2;
   }
 }

@@ -1,15 +1,20 @@
 // lamina render: a glTF scene to a linear EXR (docs/contracts.md, "lamina render").
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "renderer/cli/commands.h"
+#include "renderer/cli/options.h"
+#include "renderer/cli/outputs.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/layered/walk_cache.h"
 #include "renderer/render/render_job.h"
@@ -22,21 +27,56 @@ namespace {
 constexpr int kMaxResolution = 16384;
 constexpr int kMaxSpp = 1 << 20;
 constexpr double kMaxPathSamples = 1e12;  // width x height x spp
+constexpr int kMaxDepth = 100000;
+constexpr int kMaxThreads = 4096;
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+// The image in memory (docs/contracts.md, "lamina render"): the film is the float image itself,
+// 3 floats a pixel (a pixel's samples are summed in registers and stored once), and --png adds an
+// 8-bit copy, 3 bytes a pixel. Together at most 4 GiB, and at most half of the memory the
+// process may use (the rest is for the scene, its BVH, the tables and the libraries), so that
+// an image that cannot be held is refused now and not by std::bad_alloc after loading.
+constexpr double kMaxImageBytes = 4.0 * 1024 * 1024 * 1024;
 
-// The output path must be creatable: its directory exists and is writable, and it is not a
-// directory itself. Checked before rendering so a long render never ends in a failed write.
-void check_writable(const std::string& path, const char* what) {
-  namespace fs = std::filesystem;
-  const fs::path p(path);
-  std::error_code ec;
-  if (fs::is_directory(p, ec)) throw UsageError(std::string(what) + " '" + path + "' is a directory");
-  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-  if (!fs::is_directory(dir, ec)) throw UsageError(std::string(what) + " '" + path + "': directory '" + dir.string() + "' does not exist");
-  if (::access(dir.c_str(), W_OK) != 0) throw UsageError(std::string(what) + " '" + path + "': directory '" + dir.string() + "' is not writable");
+using cli::UsageError;
+
+// The memory this process may use, and what bounds it: physical memory, RLIMIT_AS, RLIMIT_DATA
+// and the cgroup's memory.max (cgroup v2), whichever is smallest.
+double memory_limit_bytes(std::string* what) {
+  double limit = std::numeric_limits<double>::infinity();
+  auto take = [&](double bytes, const char* name) {
+    if (bytes > 0.0 && bytes < limit) {
+      limit = bytes;
+      *what = name;
+    }
+  };
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) take(static_cast<double>(pages) * static_cast<double>(page), "physical memory");
+  struct rlimit rl;
+  if (::getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) take(static_cast<double>(rl.rlim_cur), "RLIMIT_AS");
+  if (::getrlimit(RLIMIT_DATA, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+    take(static_cast<double>(rl.rlim_cur), "RLIMIT_DATA");
+  std::ifstream cgroup("/sys/fs/cgroup/memory.max");
+  double bytes = 0.0;
+  if (cgroup >> bytes) take(bytes, "cgroup memory.max");  // "max" (no limit) does not read
+  return limit;
+}
+
+std::string gib(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  return buf;
+}
+
+void check_image_memory(const RenderSettings& s, bool png) {
+  const double bytes = static_cast<double>(s.width) * s.height * (3 * sizeof(float) + (png ? 3 : 0));
+  std::string bound;
+  const double available = memory_limit_bytes(&bound);
+  const std::string size = std::to_string(s.width) + "x" + std::to_string(s.height) + " image" + (png ? " with --png" : "");
+  if (bytes > kMaxImageBytes)
+    throw UsageError("--width x --height: a " + size + " needs " + gib(bytes) + ", above the limit of " + gib(kMaxImageBytes));
+  if (bytes > 0.5 * available)
+    throw UsageError("--width x --height: a " + size + " needs " + gib(bytes) + ", more than half of the " + gib(available) +
+                     " this process may use (" + bound + ")");
 }
 
 std::string join_command_line(int argc, char** argv) {
@@ -89,20 +129,29 @@ int run_render(int argc, char** argv) {
   double tolerance = 0.0;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
   app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
-  app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str();
-  app.add_option("--width", settings.width, "image width in pixels")->capture_default_str();
-  app.add_option("--height", settings.height, "image height in pixels")->capture_default_str();
+  app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str()->check(cli::integer(1, kMaxSpp));
+  app.add_option("--width", settings.width, "image width in pixels")
+      ->capture_default_str()
+      ->check(cli::integer(1, kMaxResolution));
+  app.add_option("--height", settings.height, "image height in pixels")
+      ->capture_default_str()
+      ->check(cli::integer(1, kMaxResolution));
   app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
   app.add_option("--materials", materials_path, "material map JSON: {\"glTF material name\": \"stack.json\", ...} (paths relative to the map)");
-  app.add_option("--seed", settings.seed, "random seed")->capture_default_str();
-  app.add_option("--threads", settings.threads, "worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--seed", settings.seed, "random seed")->capture_default_str()->check(cli::seed());
+  app.add_option("--threads", settings.threads, "worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(cli::integer(0, kMaxThreads));
   app.add_option("--subsurface", subsurface,
                  "shading of layered materials: random-walk|first-order|table|lambert|auto")
       ->capture_default_str();
-  CLI::Option* tolerance_opt = app.add_option(
-      "--tolerance", tolerance, "with --subsurface auto: largest predicted relative error per material, in (0, 1]");
-  app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)");
-  app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str();
+  CLI::Option* tolerance_opt =
+      app.add_option("--tolerance", tolerance,
+                     "with --subsurface auto: largest predicted relative error per material, in (0, 1]")
+          ->check(cli::real(0.0, 1.0, true, false));
+  app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)")
+      ->check(cli::environment());
+  app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str()->check(cli::integer(0, kMaxDepth));
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
@@ -115,33 +164,26 @@ int run_render(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "lamina render: %s\n", e.what());
+    std::fprintf(stderr, "lamina render: %s\n", cli::parse_error_line(e).c_str());
     return 2;
   }
 
   try {
-    if (settings.width < 1 || settings.width > kMaxResolution || settings.height < 1 || settings.height > kMaxResolution)
-      throw UsageError("--width and --height must be between 1 and " + std::to_string(kMaxResolution));
-    if (settings.spp < 1 || settings.spp > kMaxSpp)
-      throw UsageError("--spp must be between 1 and " + std::to_string(kMaxSpp));
+    // Each number is in its range (the validators above); what remains are combinations.
     if (static_cast<double>(settings.width) * settings.height * settings.spp > kMaxPathSamples)
       throw UsageError("--width x --height x --spp exceeds 1e12 paths");
-    if (settings.max_depth < 0 || settings.max_depth > 100000) throw UsageError("--max-depth must be between 0 and 100000");
-    if (settings.threads < 0 || settings.threads > 4096) throw UsageError("--threads must be between 0 and 4096");
+    check_image_memory(settings, !png_path.empty());
     auto_mode = subsurface == "auto";
     if (!auto_mode && !parse_subsurface_mode(subsurface, &mode))
       throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table, lambert or auto");
     if (tolerance_opt->count() > 0 && !auto_mode)
       throw UsageError("--tolerance is only meaningful with --subsurface auto");
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
-    if (auto_mode && !(tolerance > 0.0 && tolerance <= 1.0))
-      throw UsageError("--tolerance must be a relative error in (0, 1]");
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
-    check_writable(out_path, "output");
-    if (!png_path.empty()) check_writable(png_path, "--png");
+    cli::check_output_paths({{"--out", out_path}, {"--png", png_path}});
     if (!cache_dir.empty()) {
       try {
         WalkCache check(cache_dir);  // created and writable, or a usage error now
@@ -149,8 +191,8 @@ int run_render(int argc, char** argv) {
         throw UsageError(std::string("--cache ") + e.what());
       }
     }
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "lamina render: %s\n", e.what());
+  } catch (const std::runtime_error& e) {  // UsageError, cli::OutputPathError
+    std::fprintf(stderr, "lamina render: %s\n", cli::one_line(e.what()).c_str());
     return 2;
   }
 
@@ -175,7 +217,7 @@ int run_render(int argc, char** argv) {
     print_render_summary(request, r);
     return 0;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lamina render: %s\n", e.what());
+    std::fprintf(stderr, "lamina render: %s\n", cli::one_line(e.what()).c_str());
   }
   return 1;
 }

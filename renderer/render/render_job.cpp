@@ -18,6 +18,7 @@
 #include "renderer/scene/camera_visibility.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
+#include "renderer/util/atomic_file.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
 #include "renderer/util/version.h"
@@ -167,8 +168,38 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       }
   }
   for (const auto& kv : request.extra_metadata) meta.push_back(kv);
-  write_exr(request.out_path, image, meta);
-  if (!request.png_path.empty()) write_png(request.png_path, image);
+  // The outputs all or none: each is written to a temporary beside it (renderer/util/
+  // atomic_file.h), and only when both are written are they renamed into place. A failed write
+  // removes the temporaries (the previous files stay); a failed rename of the PNG removes the
+  // EXR just renamed. Errors name the output, not its temporary.
+  struct Staged {
+    std::string tmp, path;
+  };
+  std::vector<Staged> staged;
+  auto stage = [&](const std::string& path, auto&& write) {
+    staged.push_back({temporary_path(path), path});
+    try {
+      write(staged.back().tmp);
+    } catch (const std::exception& e) {
+      for (const Staged& s : staged) std::remove(s.tmp.c_str());
+      std::string message = e.what();
+      const std::string& tmp = staged.back().tmp;
+      for (std::size_t at = message.find(tmp); at != std::string::npos; at = message.find(tmp, at + path.size()))
+        message.replace(at, tmp.size(), path);
+      throw ImageIoError(message);
+    }
+  };
+  stage(request.out_path, [&](const std::string& tmp) { write_exr(tmp, image, meta); });
+  if (!request.png_path.empty()) stage(request.png_path, [&](const std::string& tmp) { write_png(tmp, image); });
+  for (std::size_t i = 0; i < staged.size(); ++i) {
+    try {
+      commit_temporary(staged[i].tmp, staged[i].path);  // removes its temporary on failure
+    } catch (const AtomicWriteError&) {
+      for (std::size_t j = 0; j < i; ++j) std::remove(staged[j].path.c_str());
+      for (std::size_t j = i + 1; j < staged.size(); ++j) std::remove(staged[j].tmp.c_str());
+      throw;
+    }
+  }
   result.metadata = std::move(meta);
   return result;
 }

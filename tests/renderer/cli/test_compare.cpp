@@ -1,4 +1,5 @@
 // `lamina compare` end to end: outputs, metrics, colours, exit codes, errors.
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "renderer/cli/outputs.h"
 #include "renderer/image/image_io.h"
 #include "tests/renderer/cli/cli_runner.h"
 
@@ -174,6 +176,92 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
   r = lamina("compare " + ref + " " + ref + " -o " + bad_out);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(bad_out), std::string::npos) << r.err;
+}
+
+// Issue 14 (hostile input): the outputs of a subcommand are written all or none
+// (renderer/cli/outputs.h, used by compare and brdf; render_job does the same for render).
+
+// The names in `d` that hold ".tmp-": temporaries left behind.
+std::vector<std::string> temporaries(const fs::path& d) {
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(d))
+    if (e.path().filename().string().find(".tmp-") != std::string::npos) left.push_back(e.path().string());
+  return left;
+}
+
+TEST(CliOutputs, AFailedWriteKeepsThePreviousFilesAndLeavesNoTemporaries) {
+  const std::string a = (dir() / "a.txt").string(), b = (dir() / "b.txt").string();
+  std::ofstream(a) << "old a";
+  cli::StagedOutputs outputs;
+  outputs.write(a, [](const std::string& tmp) { write_file_atomically(tmp, "new a"); });
+  std::string tmp_b;
+  try {
+    outputs.write(b, [&](const std::string& tmp) {
+      tmp_b = tmp;
+      throw std::runtime_error("cannot write '" + tmp + "': disk full");
+    });
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), "cannot write '" + b + "': disk full");  // the output, not its temporary
+  }
+  EXPECT_EQ(slurp(a), "old a");
+  EXPECT_FALSE(fs::exists(b));
+  EXPECT_TRUE(temporaries(dir()).empty());
+}
+
+TEST(CliOutputs, AFailedRenameRemovesTheOutputsRenamedBeforeIt) {
+  const std::string a = (dir() / "a.txt").string(), b = (dir() / "b.txt").string();
+  cli::StagedOutputs outputs;
+  outputs.write(a, [](const std::string& tmp) { write_file_atomically(tmp, "a"); });
+  outputs.write(b, [](const std::string& tmp) { write_file_atomically(tmp, "b"); });
+  fs::create_directories(fs::path(b) / "in_the_way");  // rename(2) cannot replace a non-empty directory
+  EXPECT_THROW(outputs.commit(), AtomicWriteError);
+  EXPECT_FALSE(fs::exists(a)) << "one output of the run without the other";
+  EXPECT_TRUE(fs::is_directory(b));
+  EXPECT_TRUE(temporaries(dir()).empty());
+}
+
+TEST(CliOutputs, CommitWritesEveryOutput) {
+  const std::string a = (dir() / "a.txt").string(), b = (dir() / "b.txt").string();
+  std::ofstream(a) << "old a";
+  {
+    cli::StagedOutputs outputs;
+    outputs.write(a, [](const std::string& tmp) { write_file_atomically(tmp, "new a"); });
+    outputs.write(b, [](const std::string& tmp) { write_file_atomically(tmp, "new b"); });
+    EXPECT_EQ(slurp(a), "old a");  // nothing is visible before the commit
+    outputs.commit();
+  }
+  EXPECT_EQ(slurp(a), "new a");
+  EXPECT_EQ(slurp(b), "new b");
+  EXPECT_TRUE(temporaries(dir()).empty());
+}
+
+// An output that exists and is not a regular file (a FIFO, a device such as /dev/null) is refused:
+// the rename would replace it with a regular file.
+TEST(CliCompare, AnOutputThatIsNotARegularFileIsRefused) {
+  const std::string ref = grey_exr("nref.exr", 2, 1, {1, 1});
+  const std::string fifo = (dir() / "fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const CommandResult r = lamina("compare " + ref + " " + ref + " --json " + fifo);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--json '" + fifo + "' exists and is not a regular file"), std::string::npos) << r.err;
+  struct stat st;
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+}
+
+// --fail-above nan turned the CI gate off (exit 0 whatever the difference); now it is refused.
+TEST(CliCompare, NonFiniteNumbersAreRefused) {
+  const std::string ref = grey_exr("fref.exr", 2, 1, {1, 1});
+  const std::string test = grey_exr("ftest.exr", 2, 1, {1.2f, 0.8f});
+  for (const std::string opt : {"--fail-above nan", "--fail-above inf", "--range nan", "--range inf", "--epsilon nan",
+                                "--epsilon 1e999", "--range 0x1p-1"}) {
+    const CommandResult r = lamina("compare " + ref + " " + test + " " + opt);
+    EXPECT_EQ(r.exit_code, 2) << opt;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << opt << ": " << r.err;
+    EXPECT_EQ(r.err.rfind("lamina compare: " + opt.substr(0, opt.find(' ')) + ": must be a finite number", 0), 0u)
+        << opt << ": " << r.err;
+  }
 }
 
 }  // namespace

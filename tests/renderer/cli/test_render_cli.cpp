@@ -3,6 +3,7 @@
 // with its metadata.
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
+#include "renderer/render/render_job.h"
 #include "tests/renderer/cli/cli_runner.h"
 #include "tests/renderer/gltf_fixture.h"
 
@@ -287,6 +289,67 @@ TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
   expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --cache " +
                               dir / "plain/cache -o " + dir / "x.exr"),
                  dir / "plain/cache", "cache directory", dir / "x.exr");
+}
+
+}  // namespace
+}  // namespace lamina
+
+// Issue 14 (hostile input): the outputs of a render are written all or none, and an image that
+// does not fit in memory is refused before anything is loaded.
+
+namespace lamina {
+namespace {
+
+// render_job writes the EXR and the PNG to temporaries and renames them together: a PNG that
+// cannot be written leaves no new EXR (and the previous EXR as it was), and no temporaries.
+TEST(RenderJobOutputs, AFailedPngLeavesNoNewExr) {
+  TempDir dir("job-outputs");
+  write_quad(dir / "quad.gltf");
+  const std::string out = dir / "out.exr";
+  std::ofstream(out) << "previous";
+  RenderRequest request;
+  request.scene_path = dir / "quad.gltf";
+  request.out_path = out;
+  request.png_path = dir / "no_such_dir/out.png";  // the CLI refuses this; render_job must not half-write
+  request.settings.width = 4;
+  request.settings.height = 4;
+  request.settings.spp = 1;
+  try {
+    render_job(request);
+    ADD_FAILURE() << "the PNG write did not fail";
+  } catch (const std::exception& e) {
+    // Names the PNG, not the temporary render_job wrote it to (OpenImageIO's own reason after
+    // the colon may name write_png's temporary, as it always did).
+    EXPECT_EQ(std::string(e.what()).rfind("cannot write '" + request.png_path + "': ", 0), 0u) << e.what();
+  }
+  EXPECT_EQ(slurp(out), "previous");
+  for (const auto& e : std::filesystem::directory_iterator(dir.path))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << "temporary left: " << e.path();
+
+  request.png_path = dir / "out.png";  // and both are written when both can be
+  render_job(request);
+  EXPECT_NO_THROW(read_image(out));
+  EXPECT_NO_THROW(read_image(request.png_path));
+}
+
+// Under a 1 GB address-space limit (ulimit -v), a 16384 x 16384 image (3 GiB of floats) cannot be
+// held: lamina render refuses it at once (exit 2, naming --width), instead of loading the scene
+// and dying of std::bad_alloc (exit 1) as it did.
+TEST(RenderCli, AnImageThatDoesNotFitMemoryIsRefusedFirst) {
+  TempDir dir("cli-memory");
+  const std::string scene = dir / "quad.gltf", out = dir / "out.exr";
+  write_quad(scene);
+  const std::string err = dir / "stderr.txt";
+  const std::string cmd = "ulimit -v 1000000; " + std::string(LAMINA_EXE) + " render '" + scene + "' -o '" + out +
+                          "' --width 16384 --height 16384 --spp 1 --max-depth 0 >/dev/null 2>'" + err + "'";
+  const int status = std::system(cmd.c_str());  // the shell of system(3): the limit ends with it
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2) << slurp(err);
+  const std::string text = slurp(err);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
+  EXPECT_NE(text.find("--width x --height: a 16384x16384 image needs 3.00 GiB"), std::string::npos) << text;
+  EXPECT_NE(text.find("RLIMIT_AS"), std::string::npos) << text;
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 }  // namespace
