@@ -4,8 +4,8 @@
 // Value tree recursively, and our own walks over JSON values (extras, bindings) recurse as
 // well; 100,000 nested arrays overflow the stack (SIGSEGV) before any error can be reported.
 // One scanner, here in the lowest layer, serves every JSON reader: glTF (.gltf and the JSON
-// chunk of .glb, renderer/scene), material files (materials/stack_file) and batch manifests
-// (renderer/batch/manifest). Each reader reports the offset as its own one-line error naming
+// chunk of .glb, renderer/scene), material files (materials/stack_file), material maps
+// (renderer/layered/material_binding) and batch manifests (renderer/batch/manifest). Each reader reports the offset as its own one-line error naming
 // the file: "FILE: JSON nested deeper than 512 levels (at byte N)".
 #pragma once
 

@@ -12,6 +12,7 @@
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
 #include "materials/json_keys.h"
+#include "materials/json_limits.h"
 
 namespace lamina {
 
@@ -66,6 +67,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
     if (!in) throw SceneError(map_path + ": cannot read the material map");
     std::stringstream ss;
     ss << in.rdbuf();
+    // Bounded before parsing, like every JSON input (materials/json_limits.h).
+    if (const auto at = json_nesting_exceeds(ss.str())) throw SceneError(map_path + ": " + json_nesting_message(*at));
     nlohmann::json j;
     try {
       j = nlohmann::json::parse(ss.str());

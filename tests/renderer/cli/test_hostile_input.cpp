@@ -72,6 +72,9 @@ fs::path generate(const json& spec, const fs::path& dir) {
     path = dir / "input.json";
     text = R"({"lamina_material": 1, "layers": [{"thickness": 1, "ior": 1.4, "sigma_a": 1, "sigma_s": 1, "g": 0, "name": )" +
            nested_arrays(depth) + "}]}";
+  } else if (kind == "deep_material_map") {
+    path = dir / "input.json";
+    text = R"({"m": )" + nested_arrays(depth) + "}";
   } else if (kind == "deep_manifest") {
     path = dir / "input.json";
     text = R"({"lamina_batch": 1, "description": )" + nested_arrays(depth) + "}";
