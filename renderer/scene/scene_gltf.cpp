@@ -296,8 +296,16 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
 
   std::vector<std::uint32_t> idx;
   if (prim.indices >= 0) {
+    // Indices are unsigned integers (glTF 2.0 spec 3.7.2.1: UNSIGNED_BYTE, UNSIGNED_SHORT or
+    // UNSIGNED_INT); a signed or float accessor could hold -128 or 1.5 (found by fuzz_gltf: a
+    // negative index converted to unsigned is undefined behaviour).
+    const int type = m_.accessors[prim.indices].componentType;
+    if (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      fail(path_, "accessors[" + std::to_string(prim.indices) + "]: indices must be unsigned bytes, shorts or ints (componentType " +
+                      std::to_string(type) + ")");
     for (double d : read_accessor(prim.indices, 1, "indices")) {
-      if (d >= static_cast<double>(nv)) fail(path_, "mesh '" + gmesh.name + "' has a vertex index out of range");
+      if (!(d >= 0.0 && d < static_cast<double>(nv))) fail(path_, "mesh '" + gmesh.name + "' has a vertex index out of range");
       idx.push_back(static_cast<std::uint32_t>(d));
     }
   } else {
