@@ -6,7 +6,9 @@
 #   TARGET: fuzz_gltf, fuzz_material, fuzz_manifest, fuzz_image (default: all four)
 #   --seconds N: per target (default 600); --jobs J: targets run at once (default 1)
 # Outputs in build-fuzz/ (LAMINA_FUZZ_DIR overrides): corpus/<target>/ (grows across runs),
-# findings/<target>/ (crash-*, leak-*, timeout-*, oom-* inputs), logs/<target>.log. Prints per
+# findings/<target>/ (crash-*, leak-*, timeout-*, oom-* inputs), logs/<target>.log. Memory:
+# -rss_limit_mb=2048, which is also libFuzzer's limit on one allocation (OpenEXR 3.1 reserves
+# about 1.1 GB for some corrupt headers before it refuses them, resident memory staying ~150 MB). Prints per
 # target the executions, executions per second, coverage (libFuzzer's "cov": instrumented edges
 # reached) and the findings; exits 1 if any target has a finding. A finding becomes a regression
 # case in tests/corpus (README there) once fixed.
@@ -70,12 +72,14 @@ run() {
   [ "$target" = fuzz_image ] && unwind=0
   (cd scenes/batch && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:fast_unwind_on_malloc=$unwind \
     LSAN_OPTIONS=suppressions=$OLDPWD/scripts/lsan.supp:print_suppressions=0 UBSAN_OPTIONS=halt_on_error=1 \
+    LAMINA_IMAGE_IO_STDERR=1 \
     "$OLDPWD/$DIR/fuzz/$target" -max_total_time="$SECONDS_PER_TARGET" -timeout=20 -rss_limit_mb=2048 \
-    -malloc_limit_mb=1024 -print_final_stats=1 -artifact_prefix="$OLDPWD/$DIR/findings/$target/" \
+    -print_final_stats=1 -artifact_prefix="$OLDPWD/$DIR/findings/$target/" \
     "$OLDPWD/$DIR/corpus/$target" >"$OLDPWD/$DIR/logs/$target.log" 2>&1) || true
   local execs rate cov found
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$DIR/logs/$target.log" | grep -o '[0-9]*$' || echo 0)
-  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$DIR/logs/$target.log" | grep -o '[0-9]*$' || echo 0)
+  # (libFuzzer prints its final stats twice when a run ends in a finding: the last counts.)
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$DIR/logs/$target.log" | tail -1 | grep -o '[0-9]*$' || echo 0)
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$DIR/logs/$target.log" | tail -1 | grep -o '[0-9]*$' || echo 0)
   cov=$(grep -o 'cov: [0-9]*' "$DIR/logs/$target.log" | tail -1 | grep -o '[0-9]*' || echo 0)
   found=$(find "$DIR/findings/$target" -type f | wc -l)
   echo "fuzz: $target: ${SECONDS_PER_TARGET} s, ${execs:-0} executions (${rate:-0}/s), coverage ${cov:-0} edges, $found finding(s) in $DIR/findings/$target/"
