@@ -9,8 +9,10 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 
 #include <OpenImageIO/imageio.h>
@@ -171,10 +173,12 @@ static std::string check_exr_headers(const std::string& path) {
     const bool multipart = (version & 0x1000u) != 0;
     for (int header = 0; why.empty(); ++header) {
       std::string name, type;
+      std::set<std::string> names;
       int attributes = 0;
       for (;; ++attributes) {
         if (!read_name(&name)) { why = "truncated or corrupt header"; break; }
         if (name.empty()) break;
+        names.insert(name);
         std::uint32_t n = 0;
         if (!read_name(&type) || !read_u32(&n)) { why = "truncated or corrupt header"; break; }
         const long at = std::ftell(f);
@@ -186,8 +190,51 @@ static std::string check_exr_headers(const std::string& path) {
         }
         std::fseek(f, static_cast<long>(claimed), SEEK_CUR);
       }
-      // A single-part file has one header; a multi-part one ends with an empty header.
-      if (!multipart || (attributes == 0 && header > 0)) break;
+      // A single-part file has one header, which must hold the attributes every OpenEXR file
+      // has ("Header": channels, compression, dataWindow, displayWindow, lineOrder,
+      // pixelAspectRatio, screenWindowCenter, screenWindowWidth; OpenEXR assumed defaults for a
+      // missing one and grew to 1.9 GB on a 615-byte file, fuzz_image). A multi-part file
+      // ends with an empty header.
+      if (!multipart) {
+        for (const char* required : {"channels", "compression", "dataWindow", "displayWindow", "lineOrder",
+                                     "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth"})
+          if (why.empty() && !names.count(required)) why = std::string("corrupt header: no '") + required + "' attribute";
+        break;
+      }
+      if (attributes == 0 && header > 0) break;
+    }
+  }
+  std::fclose(f);
+  return why;
+}
+
+// libpng allocates an ancillary chunk's claimed length before reading it (fuzz_image: a 325-byte
+// PNG whose chunk claimed 1.3 GB). So the chunks are walked here first: each chunk's length
+// (PNG specification, section 5.3: a 4-byte big-endian length, at most 2^31 - 1, a 4-byte type,
+// the data, a 4-byte CRC) must fit in what is left of the file. Returns "" if the file is not a
+// PNG or its chunk lengths are consistent, else the reason.
+static std::string check_png_chunks(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "";
+  std::fseek(f, 0, SEEK_END);
+  const long size = std::ftell(f);
+  std::fseek(f, 0, SEEK_SET);
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  unsigned char sig[8];
+  std::string why;
+  if (std::fread(sig, 1, 8, f) == 8 && std::memcmp(sig, kSignature, 8) == 0) {
+    unsigned char head[8];
+    while (why.empty() && std::fread(head, 1, 8, f) == 8) {
+      const std::uint32_t length = (static_cast<std::uint32_t>(head[0]) << 24) | (head[1] << 16) | (head[2] << 8) | head[3];
+      const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+      const long left = size - std::ftell(f);
+      if (length > 0x7fffffffu || static_cast<double>(length) + 4.0 > static_cast<double>(left)) {
+        why = "corrupt PNG: chunk '" + type + "' claims " + std::to_string(length) + " bytes, the file has " +
+              std::to_string(std::max(0L, left - 4)) + " left";
+        break;
+      }
+      if (type == "IEND") break;
+      std::fseek(f, static_cast<long>(length) + 4, SEEK_CUR);  // data and CRC
     }
   }
   std::fclose(f);
@@ -199,6 +246,7 @@ Image read_image(const std::string& path, int* colour_channels) {
     throw ImageIoError("cannot read '" + path + "': " + why);
   };
   if (const std::string why = check_exr_headers(path); !why.empty()) fail(why);
+  if (const std::string why = check_png_chunks(path); !why.empty()) fail(why);
   const QuietStderr quiet;
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
