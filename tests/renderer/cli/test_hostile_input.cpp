@@ -2,6 +2,7 @@
 // refused with one line naming the file or the argument, exit status 1 or 2, no signal, no hang,
 // no output left behind.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdint>
 #include <cstdlib>
@@ -135,7 +136,9 @@ class HostileInput : public ::testing::TestWithParam<HostileCase> {};
 
 TEST_P(HostileInput, IsRefusedCleanly) {
   const HostileCase& c = GetParam();
-  const fs::path dir = fs::path(::testing::TempDir()) / ("lamina_hostile_" + c.file + "_" + c.name);
+  // The process id in the name: two suites running at once (a sanitized and a plain build)
+  // must not remove each other's files.
+  const fs::path dir = fs::path(::testing::TempDir()) / ("lamina_hostile_" + std::to_string(::getpid()) + "_" + c.file + "_" + c.name);
   fs::remove_all(dir);
   const fs::path out = dir / "out", work = dir / "work";
   fs::create_directories(out);
