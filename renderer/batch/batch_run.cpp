@@ -111,11 +111,7 @@ std::string write_material_map(const std::string& out, const BatchJob& job, std:
   return map_path;
 }
 
-std::string number(double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
+std::string number(double v) { return string_printf("%.17g", v); }
 
 // Renders one job in-process through render_job (the code path of `lamina render`). Its
 // lamina:command is the `lamina render` command line that renders the same image from the

@@ -139,20 +139,14 @@ class QuietStderr {
   int saved_ = -1;
 };
 
-}  // namespace
 
 // OpenEXR 3.1 trusts the sizes in a header: a string attribute that claims 2 GB is allocated
 // and filled before the file is found to be short (fuzz_image: a 1 kB file took 2 GB). So the
 // headers are walked here first, and every attribute must fit in the file (OpenEXR file layout,
 // "Header": attributes of name\0 type\0 int32 size, value; an empty name ends a header; a
 // multi-part file, version flag bit 12, has headers until an empty one). Returns "" if the file
-// is not an EXR or its headers are consistent, else the reason.
-static std::string check_exr_headers(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return "";
-  std::fseek(f, 0, SEEK_END);
-  const long size = std::ftell(f);
-  std::fseek(f, 0, SEEK_SET);
+// (read from its start) is not an EXR or its headers are consistent, else the reason.
+std::string exr_header_problem(std::FILE* f, long size) {
   auto read_u32 = [&](std::uint32_t* v) {
     unsigned char b[4];
     if (std::fread(b, 1, 4, f) != 4) return false;
@@ -204,7 +198,6 @@ static std::string check_exr_headers(const std::string& path) {
       if (attributes == 0 && header > 0) break;
     }
   }
-  std::fclose(f);
   return why;
 }
 
@@ -213,12 +206,7 @@ static std::string check_exr_headers(const std::string& path) {
 // (PNG specification, section 5.3: a 4-byte big-endian length, at most 2^31 - 1, a 4-byte type,
 // the data, a 4-byte CRC) must fit in what is left of the file. Returns "" if the file is not a
 // PNG or its chunk lengths are consistent, else the reason.
-static std::string check_png_chunks(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return "";
-  std::fseek(f, 0, SEEK_END);
-  const long size = std::ftell(f);
-  std::fseek(f, 0, SEEK_SET);
+std::string png_chunk_problem(std::FILE* f, long size) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
   unsigned char sig[8];
   std::string why;
@@ -237,16 +225,33 @@ static std::string check_png_chunks(const std::string& path) {
       std::fseek(f, static_cast<long>(length) + 4, SEEK_CUR);  // data and CRC
     }
   }
+  return why;
+}
+
+// The container checks above, for any file read_image or read_metadata opens: "" if it is fine
+// (or neither EXR nor PNG: OpenImageIO then judges it), else the reason. One open, one size.
+std::string container_problem(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "";  // OpenImageIO reports it, with its own reason
+  std::fseek(f, 0, SEEK_END);
+  const long size = std::ftell(f);
+  std::fseek(f, 0, SEEK_SET);
+  std::string why = exr_header_problem(f, size);
+  if (why.empty()) {
+    std::fseek(f, 0, SEEK_SET);
+    why = png_chunk_problem(f, size);
+  }
   std::fclose(f);
   return why;
 }
+
+}  // namespace
 
 Image read_image(const std::string& path, int* colour_channels) {
   auto fail = [&](const std::string& why) -> void {
     throw ImageIoError("cannot read '" + path + "': " + why);
   };
-  if (const std::string why = check_exr_headers(path); !why.empty()) fail(why);
-  if (const std::string why = check_png_chunks(path); !why.empty()) fail(why);
+  if (const std::string why = container_problem(path); !why.empty()) fail(why);
   const QuietStderr quiet;
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
@@ -299,7 +304,7 @@ Image read_image(const std::string& path, int* colour_channels) {
 }
 
 Metadata read_metadata(const std::string& path) {
-  if (const std::string why = check_exr_headers(path); !why.empty())
+  if (const std::string why = container_problem(path); !why.empty())
     throw ImageIoError("cannot read '" + path + "': " + why);
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
