@@ -65,6 +65,16 @@ bool phase_is_grey(const Layer& layer) {
   return true;
 }
 
+// All lobes share one g in every channel: the phase function is the single HG lobe of *g.
+bool single_henyey_greenstein(const Layer& layer, double* g) {
+  if (layer.lobes.empty()) return false;
+  *g = layer.lobes[0].g[0];
+  for (const PhaseLobe& lobe : layer.lobes)
+    for (int c = 0; c < kChannels; ++c)
+      if (lobe.g[c] != *g) return false;
+  return true;
+}
+
 // The sampling density of a new direction for the technique of channel k (see above).
 double phase_sampling_pdf(const Layer& layer, int k, double cos_theta) {
   return layer.sigma_s()[k] > 0.0 ? layer.phase(k, cos_theta) : kInv4Pi;
@@ -78,13 +88,15 @@ struct PathWeight {
   Spectrum value() const {
     // Grey path (all densities equal): sum_k p_k/p_c = 3 exactly, W = a.
     if (lr[0] == 0.0 && lr[1] == 0.0 && lr[2] == 0.0) return a * scale;
+    // kChannels / sum_k exp(lr_k - lr_c) = kChannels e_c / sum_k e_k with e_k = exp(lr_k - max lr):
+    // three exponentials instead of nine, and none overflows (the largest is 1).
+    const double top = std::max(lr[0], std::max(lr[1], lr[2]));
+    Spectrum e;
+    for (int k = 0; k < kChannels; ++k) e[k] = std::exp(lr[k] - top);
+    const double sum = e[0] + e[1] + e[2];
     Spectrum w;
-    for (int c = 0; c < kChannels; ++c) {
-      if (a[c] == 0.0 || lr[c] == -kInf) continue;  // channel c cannot produce this path
-      double sum = 0.0;
-      for (int k = 0; k < kChannels; ++k) sum += std::exp(lr[k] - lr[c]);
-      w[c] = scale * a[c] * kChannels / sum;
-    }
+    for (int c = 0; c < kChannels; ++c)
+      if (a[c] != 0.0 && e[c] > 0.0) w[c] = scale * a[c] * kChannels * e[c] / sum;  // else c cannot produce this path
     return w;
   }
 };
@@ -102,80 +114,110 @@ void flight_escaped(PathWeight* pw, const Spectrum& tau, int hero) {
     if (k != hero) pw->lr[k] -= tau[k] - tau[hero];
 }
 
+}  // namespace
+
 // ---------------------------------------------------------------------------------------------
 // The path from a point inside the stack straight out to an outside direction w.
 //
 // Snell's law in a plane-parallel stack conserves n sin(theta), so the direction inside every
 // layer j is fixed by w: sin_j = (n_out / n_j) sin_out, mu_j = sqrt(1 - sin_j^2) (if sin_j >= 1
-// no propagating direction refracts out to w: the path does not exist).
+// no propagating direction refracts out to w: the path does not exist). Going up from layer l the
+// path crosses the top interfaces of layers l, l-1, ..., 0 and the full thickness of layers
+// l-1 ... 0; going down, the bottom interfaces of layers l ... N-1 and the layers below l. So
+// the per-layer terms accumulate from the outside inwards.
 // ---------------------------------------------------------------------------------------------
-struct ExitPath {
-  bool exists = false;
-  glm::dvec3 inside{0.0};   // propagation direction in the starting layer
-  double mu_inside = 0.0;   // |cos| of it
-  double mu_out = 0.0;      // |w.z|
-  double n_ratio2 = 1.0;    // (n_out / n_layer)^2
-  double fresnel_t = 1.0;   // product of (1 - R) over the interfaces crossed
-  Spectrum tau;             // optical depth along the path, per channel
-};
-
-ExitPath exit_path(const LayerStack& stack, int l, double depth, const glm::dvec3& w) {
-  ExitPath path;
-  const int n_layers = static_cast<int>(stack.layers.size());
-  if (!(w.z != 0.0)) return path;
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out) {
+  out->w = w;
+  out->layers.clear();
+  if (!(w.z != 0.0)) return;
   const bool up = w.z > 0.0;
-  if (!up && !stack.transmits()) return path;
+  if (!up && !stack.transmits()) return;
+  const int n_layers = static_cast<int>(stack.layers.size());
   const double n_out = up ? stack.above_ior : stack.below.ior;
   const double mu_out = std::min(1.0, std::abs(w.z));
   const double sin2_out = std::max(0.0, (1.0 - mu_out) * (1.0 + mu_out));
-  auto mu_in = [&](int j) {
-    const double r = n_out / stack.layers[j].ior;
-    const double sin2 = r * r * sin2_out;
-    return sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
-  };
-  const Layer& layer = stack.layers[l];
-  const double mu_l = mu_in(l);
-  if (mu_l <= 0.0) return path;
-
-  Spectrum tau;
+  out->up = up;
+  out->mu_out = mu_out;
+  out->layers.resize(n_layers);
+  bool reachable = true;  // every layer between this one and the outside propagates towards w
   double fresnel_t = 1.0;
-  // The rest of the scattering layer.
-  add_optical_depth(&tau, layer.sigma_t(), (up ? depth : layer.thickness - depth) / mu_l);
-  if (up) {
-    for (int k = l; k >= 0; --k) {  // interface k: top of layer k
-      const double mu_k = mu_in(k);
-      if (mu_k <= 0.0) return path;
-      fresnel_t *= 1.0 - fresnel_dielectric(mu_k, stack.layers[k].ior, stack.ior_above_interface(k));
-      if (k > 0) {
-        const double mu_above = mu_in(k - 1);
-        if (mu_above <= 0.0) return path;
-        add_optical_depth(&tau, stack.layers[k - 1].sigma_t(), stack.layers[k - 1].thickness / mu_above);
-      }
-    }
+  Spectrum tau_beyond;
+  for (int step = 0; step < n_layers; ++step) {
+    const int l = up ? step : n_layers - 1 - step;
+    const Layer& layer = stack.layers[l];
+    ExitDirection::LayerExit& e = out->layers[l];
+    const double r = n_out / layer.ior;
+    const double sin2 = r * r * sin2_out;
+    const double mu = sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
+    reachable = reachable && mu > 0.0;
+    if (!reachable) continue;  // e.exists stays false, and for every layer further in
+    const double n_next = up ? stack.ior_above_interface(l) : stack.ior_below_interface(l + 1);
+    fresnel_t *= 1.0 - fresnel_dielectric(mu, layer.ior, n_next);
+    e.exists = true;
+    e.inside = {w.x * r, w.y * r, up ? mu : -mu};
+    e.mu_inside = mu;
+    e.fresnel_t = fresnel_t;
+    e.radiance_scale = fresnel_t * r * r;
+    e.jacobian = r * r * mu_out / mu;
+    e.grey_phase = phase_is_grey(layer);
+    e.single_lobe = e.grey_phase && single_henyey_greenstein(layer, &e.single_g);
+    const Spectrum sigma_t = layer.sigma_t();
+    for (int c = 0; c < kChannels; ++c) e.depth_rate[c] = sigma_t[c] > 0.0 ? sigma_t[c] / mu : 0.0;
+    e.tau_beyond = tau_beyond;
+    add_optical_depth(&tau_beyond, sigma_t, layer.thickness / mu);  // for the layers further in
+  }
+}
+
+ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w) {
+  ExitDirection exit;
+  prepare_exit(stack, w, &exit);
+  return exit;
+}
+
+DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
+  DirectExit out;
+  if (exit.layers.empty()) return out;
+  const ExitDirection::LayerExit& path = exit.layers[event.layer];
+  if (!path.exists) return out;
+  const Layer& layer = stack.layers[event.layer];
+  // Emission towards the inside direction per unit path (p / mu, or albedo / pi at the
+  // substrate; see the derivation below) and the walk's sampling density of that direction in
+  // the inside solid angle, per channel as the hero's technique.
+  Spectrum emission, sampling;
+  if (event.kind == ScatterEvent::Kind::Substrate) {
+    if (stack.below.kind != Below::Kind::Lambert || !exit.up) return out;
+    emission = stack.below.albedo * kInvPi;
+    sampling = Spectrum(path.mu_inside * kInvPi);  // cosine sampling
   } else {
-    for (int k = l + 1; k <= n_layers; ++k) {  // interface k: bottom of layer k-1
-      const double mu_k = mu_in(k - 1);
-      if (mu_k <= 0.0) return path;
-      fresnel_t *= 1.0 - fresnel_dielectric(mu_k, stack.layers[k - 1].ior, stack.ior_below_interface(k));
-      if (k < n_layers) {
-        const double mu_below = mu_in(k);
-        if (mu_below <= 0.0) return path;
-        add_optical_depth(&tau, stack.layers[k].sigma_t(), stack.layers[k].thickness / mu_below);
+    const double cos_theta = glm::dot(event.direction, path.inside);
+    if (path.grey_phase) {
+      const double p = path.single_lobe ? henyey_greenstein(cos_theta, path.single_g) : layer.phase(0, cos_theta);
+      emission = Spectrum(p / path.mu_inside);
+      sampling = Spectrum(p);
+    } else {
+      const Spectrum sigma_s = layer.sigma_s();
+      for (int c = 0; c < kChannels; ++c) {
+        const double p = layer.phase(c, cos_theta);
+        emission[c] = p / path.mu_inside;
+        sampling[c] = sigma_s[c] > 0.0 ? p : kInv4Pi;  // phase_sampling_pdf
       }
     }
   }
-  const double r = n_out / layer.ior;
-  path.exists = true;
-  path.inside = {w.x * r, w.y * r, up ? mu_l : -mu_l};
-  path.mu_inside = mu_l;
-  path.mu_out = mu_out;
-  path.n_ratio2 = r * r;
-  path.fresnel_t = fresnel_t;
-  path.tau = tau;
-  return path;
+  const double distance = exit.up ? event.depth : layer.thickness - event.depth;
+  double pdf_sum = 0.0;
+  for (int c = 0; c < kChannels; ++c) {
+    const double tau = path.tau_beyond[c] + (path.depth_rate[c] > 0.0 ? path.depth_rate[c] * distance : 0.0);
+    const double transmittance = std::exp(-tau);
+    out.weight[c] = emission[c] * transmittance * path.radiance_scale;
+    // The walk flies in its hero channel: no collision on the way out with probability
+    // exp(-tau_hero), each Fresnel transmission taken with probability (1 - R).
+    const double pdf = sampling[c] * path.jacobian * transmittance * path.fresnel_t;
+    pdf_sum += pdf;
+    if (c == event.hero) out.pdf_hero = pdf;
+  }
+  out.pdf_for_mis = pdf_sum / kChannels;
+  return out;
 }
-
-}  // namespace
 
 // ---------------------------------------------------------------------------------------------
 // connection_weight: derivation.
@@ -209,21 +251,7 @@ ExitPath exit_path(const LayerStack& stack, int l, double depth, const glm::dvec
 // = W_e p (n_out/n_l)^2 / |mu'| exp(-tau) prod(1-R): the same (tests/materials/test_random_walk).
 // ---------------------------------------------------------------------------------------------
 Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
-  const ExitPath path = exit_path(stack, event.layer, event.depth, w);
-  if (!path.exists) return Spectrum(0.0);
-  const Layer& layer = stack.layers[event.layer];
-  const double common = path.fresnel_t * path.n_ratio2;
-  Spectrum value;
-  if (event.kind == ScatterEvent::Kind::Substrate) {
-    if (stack.below.kind != Below::Kind::Lambert || w.z <= 0.0) return Spectrum(0.0);
-    for (int c = 0; c < kChannels; ++c)
-      value[c] = stack.below.albedo[c] * kInvPi * std::exp(-path.tau[c]) * common;
-    return value;
-  }
-  const double cos_theta = glm::dot(event.direction, path.inside);
-  for (int c = 0; c < kChannels; ++c)
-    value[c] = layer.phase(c, cos_theta) / path.mu_inside * std::exp(-path.tau[c]) * common;
-  return value;
+  return connect_direct(stack, event, prepare_exit(stack, w)).weight;
 }
 
 // connection_weight_all_paths: with the notation of the derivation above, let the event sit in
@@ -317,23 +345,10 @@ Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent
 }
 
 double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
-  const ExitPath path = exit_path(stack, event.layer, event.depth, w);
-  if (!path.exists) return 0.0;
-  // The walk flies in its hero channel h: the probability of no collision on the way out is
-  // exp(-tau_h); Fresnel transmissions are taken with probability (1 - R).
-  const int h = event.hero;
-  const double escape = std::exp(-path.tau[h]) * path.fresnel_t;
   // Jacobian of the refraction: n_l^2 mu' d(omega') = n_out^2 mu_out d(omega) (from
   // n_l sin' = n_out sin and n_l cos' dtheta' = n_out cos dtheta), so
-  // d(omega')/d(omega) = (n_out/n_l)^2 mu_out / mu'.
-  if (event.kind == ScatterEvent::Kind::Substrate) {
-    if (stack.below.kind != Below::Kind::Lambert || w.z <= 0.0) return 0.0;
-    // Cosine sampling mu'/pi times the Jacobian.
-    return kInvPi * path.n_ratio2 * path.mu_out * escape;
-  }
-  const Layer& layer = stack.layers[event.layer];
-  const double p = phase_sampling_pdf(layer, h, glm::dot(event.direction, path.inside));
-  return p * path.n_ratio2 * path.mu_out / path.mu_inside * escape;
+  // d(omega')/d(omega) = (n_out/n_l)^2 mu_out / mu' (ExitDirection::LayerExit::jacobian).
+  return connect_direct(stack, event, prepare_exit(stack, w)).pdf_hero;
 }
 
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
@@ -354,11 +369,19 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   // Per-layer coefficients, summed over the lobes once per walk instead of at every step.
   struct LayerCache {
     Spectrum sigma_t, sigma_s;
+    Spectrum log_sigma_t;  // -inf where sigma_t = 0
     bool grey_phase;
   };
-  std::vector<LayerCache> cache(n_layers);
-  for (int k = 0; k < n_layers; ++k)
-    cache[k] = {stack.layers[k].sigma_t(), stack.layers[k].sigma_s(), phase_is_grey(stack.layers[k])};
+  thread_local std::vector<LayerCache> cache;
+  cache.resize(n_layers);
+  for (int k = 0; k < n_layers; ++k) {
+    const Layer& layer = stack.layers[k];
+    cache[k].sigma_t = layer.sigma_t();
+    cache[k].sigma_s = layer.sigma_s();
+    for (int c = 0; c < kChannels; ++c)
+      cache[k].log_sigma_t[c] = cache[k].sigma_t[c] > 0.0 ? std::log(cache[k].sigma_t[c]) : -kInf;
+    cache[k].grey_phase = phase_is_grey(layer);
+  }
 
   // The hero channel: every decision of this walk is sampled in its coefficients. Uniform (the
   // one-sample MIS weights of PathWeight assume probability 1/3 per channel), or the caller's
@@ -517,9 +540,10 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     const Spectrum& sigma_t = cache[l].sigma_t;
     const Spectrum& sigma_s = cache[l].sigma_s;
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
+    const Spectrum& log_sigma_t = cache[l].log_sigma_t;
     for (int k = 0; k < kChannels; ++k) {
       if (k == hero) continue;
-      pw.lr[k] += sigma_t[k] > 0.0 ? std::log(sigma_t[k] / sigma_t[hero]) - (tau[k] - tau[hero]) : -kInf;
+      pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
     }
     // What the collision absorbs (direct tally) and scatters: the albedo splits the weight.
     {
@@ -553,9 +577,9 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       const double ph = phase_sampling_pdf(layer, hero, cos_theta);
       for (int k = 0; k < kChannels; ++k)
         if (k != hero) pw.lr[k] += std::log(phase_sampling_pdf(layer, k, cos_theta) / ph);
+      weight = pw.value();
     }
     d = d_new;
-    weight = pw.value();
     if (!roulette(true)) return result;
   }
 }

@@ -116,10 +116,50 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event = {}, const WalkSettings& settings = {},
                        int hero = kRandomHero);
 
+// Everything about the unscattered path from a layer straight out to the outside direction w
+// that does not depend on where in the layer the event is or where it came from: Snell's law
+// fixes the direction in every layer, so per layer the inside direction, the Fresnel
+// transmissions of the interfaces on the way, (n_out / n_layer)^2, the refraction's Jacobian and
+// the optical depth of the layers beyond are known from w alone. Prepared once per outside
+// direction (a light sample), it leaves an event only its phase function and its own layer's
+// attenuation (connect_direct). prepare_exit reuses out's storage.
+struct ExitDirection {
+  struct LayerExit {
+    bool exists = false;        // some direction in this layer refracts out to w
+    glm::dvec3 inside{0.0};     // that propagation direction
+    double mu_inside = 0.0;     // |cos| of it
+    double fresnel_t = 0.0;     // product of (1 - R) over the interfaces crossed
+    double radiance_scale = 0.0;  // fresnel_t * (n_out / n_layer)^2
+    double jacobian = 0.0;      // d(omega_inside) / d(omega_outside) = (n_out/n_layer)^2 mu_out / mu_inside
+    bool grey_phase = false;    // the layer's phase function is the same in every channel
+    bool single_lobe = false;   // ... and one HG lobe (all its lobes share one g): single_g
+    double single_g = 0.0;
+    Spectrum depth_rate;        // optical depth per mm of depth travelled in this layer: sigma_t / mu
+    Spectrum tau_beyond;        // optical depth of the layers between this one and the outside
+  };
+  glm::dvec3 w{0.0, 0.0, 1.0};
+  bool up = true;
+  double mu_out = 0.0;
+  std::vector<LayerExit> layers;  // empty: w itself cannot be reached (grazing, or no transmission)
+};
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out);
+ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w);
+
+// An event's direct exit towards a prepared direction: its connection_weight and its
+// exit_pdf_for_mis (materials/walk_estimator.h), computed together because they share the phase
+// function values and the attenuations.
+struct DirectExit {
+  Spectrum weight;            // connection_weight
+  double pdf_for_mis = 0.0;   // exit_pdf_for_mis: the walk's exit density, mean over the heroes
+  double pdf_hero = 0.0;      // connection_pdf: the same in the event's own hero channel
+};
+DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
+
 // The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
 // towards the outside direction w (unit): f(wi -> w) += event.throughput * connection_weight.
 // Zero where no inside direction refracts out to w, or w points to a side that does not transmit.
-// Derivation: see random_walk.cpp, above its definition.
+// Derivation: see random_walk.cpp, above its definition. (connect_direct with a prepared
+// direction is the same, cheaper when many events connect to one w.)
 Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
 
 // Like connection_weight, but summed over ALL unscattered paths from the event out to w: the

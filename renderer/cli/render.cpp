@@ -105,9 +105,8 @@ void print_render_summary(const RenderRequest& request, const RenderResult& r) {
       static_cast<double>(rays.closest), static_cast<double>(rays.camera), rays.closest / s,
       static_cast<double>(rays.shadow), rays.shadow / s, peak_memory_bytes() / 1048576.0);
   if (r.layered_materials > 0)
-    std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events, %.3g shadow rays from events\n",
-                request.subsurface.c_str(), r.layered_materials, static_cast<double>(rays.scatter_events),
-                static_cast<double>(rays.event_shadow));
+    std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events\n", request.subsurface.c_str(),
+                r.layered_materials, static_cast<double>(rays.scatter_events));
   if (r.stats.invalid_samples > 0)
     std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
                  static_cast<unsigned long long>(r.stats.invalid_samples));
@@ -153,6 +152,11 @@ int run_render(int argc, char** argv) {
       ->check(cli::environment());
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str()->check(cli::integer(0, kMaxDepth));
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
+  std::string pool_samples = "per-event";
+  app.add_option("--pool-samples", pool_samples,
+                 "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"per-event", "shared"}));
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
                  "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
@@ -206,6 +210,7 @@ int run_render(int argc, char** argv) {
   request.subsurface = subsurface;
   request.tolerance = tolerance;
   request.cache_dir = cache_dir;
+  request.per_event_pool_samples = pool_samples == "per-event";
   request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {

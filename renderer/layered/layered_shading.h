@@ -33,6 +33,11 @@ struct LayeredShading {
   // (HeroStrata below; integrator.cpp has the derivation). false: every walk draws its hero
   // independently (the library's default), kept for the tests and the noise measurements.
   bool stratified_hero = true;
+  // random-walk mode: each event of a walk also connects to a light sample of its own from the
+  // pool (environment, emissive triangles; renderer/surfaces/random_walk_surface.h), with its own
+  // shadow ray. false (`--pool-samples shared`): the walk's events share one pool sample, as they
+  // always share the delta lights' directions.
+  bool per_event_pool_samples = true;
 };
 
 }  // namespace lamina

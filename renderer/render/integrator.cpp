@@ -10,10 +10,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "materials/fresnel.h"
 #include "materials/random_walk.h"
-#include "materials/walk_estimator.h"
 #include "renderer/surfaces/first_order_surface.h"
+#include "renderer/surfaces/random_walk_surface.h"
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/surfaces/surface.h"
@@ -22,12 +21,6 @@
 
 namespace lamina {
 namespace {
-
-// Power heuristic with beta = 2 (Veach 1997, eq. 9.13), for one sample of each strategy.
-double power_heuristic(double pdf_a, double pdf_b) {
-  const double a = pdf_a * pdf_a, b = pdf_b * pdf_b;
-  return a + b > 0.0 ? a / (a + b) : 0.0;
-}
 
 // Local shading frame around n: to_local(v) = (v.t, v.b, v.n).
 struct Frame {
@@ -47,66 +40,74 @@ double emission_weight(const LightSet& lights, const Light* light, bool unweight
   return power_heuristic(bsdf_pdf, light_pdf);
 }
 
-// Next-event estimation at the scattering events of a layered material's random walk
-// (random-walk mode; derivation in materials/walk_estimator.h and README "Layered materials").
-//
-// At an event e inside the stack (throughput W_e) a light is sampled from the surface point
-// (the model is position free: light leaves where it entered), and connected with
-//   contribution = beta / (1 - R(wo)) * W_e * connection_weight(e, wl) * [n factor]
-//                  * Li |cos theta_l| / (pmf pdf_l) * m_light,
-// where connection_weight = phase / |mu_inside| * exp(-tau) * prod(1 - R_k) * (n_out/n_layer)^2
-// (random_walk.cpp), the n factor is transmission_radiance_factor for lights on the far side,
-// 1 / (1 - R) undoes the walk's entry weight since the walk was chosen with probability 1 - R,
-// and m_light is the power heuristic against the walk leaving straight from e along wl.
-struct WalkConnector {
-  const Scene* scene;
-  const LightSet* lights;
-  const LayerStack* stack;
-  const glm::dvec3* p;
-  const glm::dvec3* ng;  // geometric normal on the viewer's side
-  const glm::dvec3 *t, *b, *n;
-  Rng* rng;
-  RayCounters* rays;
-  Spectrum prefix{};     // beta / (1 - R(wo))
-  double t_factor = 1.0;
-  bool naive = false;
-  bool connections_only = false;
-  Spectrum* radiance = nullptr;
-  ScatterEvent last{};
+// Light samples of the pool drawn one at a time for the events of a layered walk
+// (LightSampler), each with its own shadow ray.
+class PoolSampler final : public LightSampler {
+ public:
+  PoolSampler(const Scene& scene, const LightSet& lights, const glm::dvec3& p, const glm::dvec3& ng,
+              const Frame& frame, const Spectrum& beta, Spectrum* radiance, RayCounters* rays)
+      : scene_(scene), lights_(lights), p_(p), ng_(ng), frame_(frame), beta_(beta), radiance_(radiance), rays_(rays) {}
 
-  void operator()(const ScatterEvent& e) {
-    ++rays->scatter_events;
-    last = e;
-    if (lights->empty()) return;
-    double pmf = 0.0;
-    const Light* light = lights->choose(rng->uniform(), &pmf);
-    const glm::dvec2 u(rng->uniform(), rng->uniform());
-    LightSample ls;
-    if (!(pmf > 0.0) || !light->sample_li(*p, u, &ls)) return;
-    const glm::dvec3 wl{glm::dot(ls.wi, *t), glm::dot(ls.wi, *b), glm::dot(ls.wi, *n)};
-    const double cos_g = glm::dot(ls.wi, *ng);
-    if (!(cos_g * wl.z > 0.0)) return;
-    Spectrum cw = connection_weight(*stack, e, wl);
-    if (cw.is_black()) return;
-    if (wl.z < 0.0) cw *= t_factor;
-    double mis = 1.0;
-    if (naive) {
-      const double ft = exit_fresnel_transmission(*stack, e.layer, wl);
-      if (e.kind == ScatterEvent::Kind::Volume && ft > 0.0) cw /= ft;  // the naive estimator drops Fresnel
-    } else if (!light->is_delta() && !connections_only) {
-      mis = power_heuristic(pmf * ls.pdf, exit_pdf_for_mis(*stack, e, wl));
-    }
-    Ray shadow{offset_ray_origin(*p, cos_g > 0.0 ? *ng : -*ng), ls.wi};
+  bool draw(Rng& rng, LightDirection* light) override {
+    const Light* chosen = lights_.choose(rng.uniform(), &pmf_);
+    const glm::dvec2 u(rng.uniform(), rng.uniform());
+    if (!chosen || !(pmf_ > 0.0) || !chosen->sample_li(p_, u, &sample_)) return false;
+    const glm::dvec3 wi = frame_.to_local(sample_.wi);
+    if (!(glm::dot(sample_.wi, ng_) * wi.z > 0.0)) return false;
+    *light = LightDirection{wi, pmf_ * sample_.pdf, chosen->is_delta(), Spectrum(0.0)};
+    return true;
+  }
+  void add(const Spectrum& f_cos) override {
+    if (visible(scene_, p_, ng_, sample_, rays_)) *radiance_ += beta_ * f_cos * sample_.li / (pmf_ * sample_.pdf);
+  }
+
+  // True if nothing blocks the segment from p (offset off the surface on the light's side) to
+  // the light sample.
+  static bool visible(const Scene& scene, const glm::dvec3& p, const glm::dvec3& ng, const LightSample& ls,
+                      RayCounters* rays) {
+    Ray shadow{offset_ray_origin(p, glm::dot(ls.wi, ng) > 0.0 ? ng : -ng), ls.wi};
     double tmax = 1e300;
     if (!ls.infinite) {
       const glm::dvec3 v = ls.target - shadow.origin;
       const double dist = glm::length(v);
       shadow.direction = v / dist;
-      tmax = dist * (1.0 - 1e-6);
+      tmax = dist * (1.0 - 1e-6);  // stop short of the (offset) point on the light
     }
-    ++rays->event_shadow;
-    if (scene->occluded(shadow, tmax, *rays)) return;
-    *radiance += prefix * e.throughput * cw * ls.li * (std::abs(wl.z) * mis / (pmf * ls.pdf));
+    return !scene.occluded(shadow, tmax, *rays);
+  }
+
+ private:
+  const Scene& scene_;
+  const LightSet& lights_;
+  const glm::dvec3& p_;
+  const glm::dvec3& ng_;
+  const Frame& frame_;
+  const Spectrum& beta_;
+  Spectrum* radiance_;
+  RayCounters* rays_;
+  LightSample sample_;
+  double pmf_ = 0.0;
+};
+
+// The light samples of next-event estimation at one shading point (LightSet: every delta light,
+// and one sample of the pool), as directions offered to the surface.
+struct LightSamples {
+  static constexpr int kMax = static_cast<int>(LightSet::kMaxLightsSampledEach) + 1;
+  int count = 0;
+  LightSample sample[kMax];
+  double pmf[kMax];
+  LightDirection direction[kMax];
+
+  void offer(const Light* light, double pmf_light, glm::dvec2 u, const glm::dvec3& p, const glm::dvec3& ng,
+             const Frame& frame) {
+    LightSample& ls = sample[count];
+    if (!(pmf_light > 0.0) || !light->sample_li(p, u, &ls)) return;
+    const glm::dvec3 wi = frame.to_local(ls.wi);
+    // The shading and geometric normals must agree on the side of wi, or light leaks.
+    if (!(glm::dot(ls.wi, ng) * wi.z > 0.0)) return;
+    pmf[count] = pmf_light;
+    direction[count] = LightDirection{wi, pmf_light * ls.pdf, light->is_delta(), Spectrum(0.0)};
+    ++count;
   }
 };
 
@@ -222,93 +223,50 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       }
     }
 
+    std::optional<RandomWalkSurface> walk;
     if (stack && mode == SubsurfaceMode::RandomWalk) {
-      // The top interface's specular reflection: a delta lobe chosen with probability R(wo)
-      // (weight R / R = 1); else the walk, whose weights carry (1 - R): divided out below.
-      const double r_top = fresnel_dielectric(wo.z, stack->above_ior, stack->layers[0].ior);
-      glm::dvec3 wi;
-      Spectrum weight(1.0);
-      bool delta = true;
-      double pdf = 0.0;
-      if (rng.uniform() < r_top) {
-        wi = {-wo.x, -wo.y, wo.z};
-      } else {
-        WalkConnector connect{&scene, &lights, stack, &hit.p, &ng, &frame.t, &frame.b, &frame.n, &rng, rays};
-        connect.prefix = beta / (1.0 - r_top);
-        connect.t_factor = transmission_radiance_factor(*stack);
-        connect.naive = layered->naive;
-        connect.connections_only = layered->connections_only;
-        connect.radiance = &radiance;
-        const EventCallback on_event = [c = &connect](const ScatterEvent& e) { (*c)(e); };
-        const int hero = strata && layered->stratified_hero ? strata->hero(walks) : kRandomHero;
-        ++walks;
-        const WalkResult walk = random_walk(*stack, wo, rng, on_event, WalkSettings{}, hero);
-        if (walk.side == WalkResult::Side::None) break;  // absorbed or killed by roulette
-        wi = walk.direction;
-        weight = walk.weight / (1.0 - r_top);
-        if (walk.side == WalkResult::Side::Bottom) weight *= connect.t_factor;
-        // An exit straight from the last event competes with that event's light sample (MIS);
-        // any other exit (unscattered, or reflected inside since) cannot be found by light
-        // sampling: full weight, as after a delta lobe.
-        if (walk.straight_from_last_event && !layered->naive) {
-          delta = false;
-          // connections_only: pdf 0 gives such an exit weight 0 on an emitter (emission_weight).
-          pdf = layered->connections_only ? 0.0 : exit_pdf_for_mis(*stack, connect.last, wi);
-        }
-      }
-      const glm::dvec3 wi_world = frame.to_world(wi);
-      const double cos_g = glm::dot(wi_world, ng);
-      if (!(cos_g * wi.z > 0.0)) break;
-      beta *= weight;
-      unweighted = delta;
-      bsdf_pdf = pdf;
-      ray = Ray{offset_ray_origin(hit.p, cos_g > 0.0 ? ng : -ng), wi_world};
-      if (depth >= 2) {
-        const double q = std::max(0.0, 1.0 - beta.max());
-        if (rng.uniform() < q) break;
-        beta /= 1.0 - q;
-      }
-      continue;
+      const int hero = strata && layered->stratified_hero ? strata->hero(walks) : kRandomHero;
+      ++walks;
+      walk.emplace(*stack, hero,
+                   RandomWalkOptions{layered->naive, layered->connections_only, layered->per_event_pool_samples},
+                   &rays->scatter_events);
+      surface_ptr = &*walk;
     }
     const Surface& surface = *surface_ptr;
 
-    // Next-event estimation: one light chosen by power, one point on it.
+    // Next-event estimation: every delta light, and one light of the pool chosen by power; the
+    // surface connects to all of them (a layered walk from every one of its events), then one
+    // shadow ray per direction it lights. A surface that draws per event (a layered walk, by
+    // default) gets the pool through a LightSampler instead.
+    LightSamples nee;
+    const bool per_event = surface.draws_per_event() && !lights.pool_empty();
+    PoolSampler pool(scene, lights, hit.p, ng, frame, beta, &radiance, rays);
     if (!lights.empty() && !surface.is_delta()) {
+      for (const Light* light : lights.sampled_each()) nee.offer(light, 1.0, glm::dvec2(0.5), hit.p, ng, frame);
       double pmf = 0.0;
-      const Light* light = lights.choose(rng.uniform(), &pmf);
-      const glm::dvec2 u(rng.uniform(), rng.uniform());
-      LightSample ls;
-      if (pmf > 0.0 && light->sample_li(hit.p, u, &ls)) {
-        const glm::dvec3 wi = frame.to_local(ls.wi);
-        const double cos_g = glm::dot(ls.wi, ng);
-        // The shading and geometric normals must agree on the side of wi, or light leaks.
-        const Spectrum f = (cos_g * wi.z > 0.0) ? surface.eval(wo, wi) * std::abs(wi.z) : Spectrum(0.0);
-        if (!f.is_black()) {
-          Ray shadow{offset_ray_origin(hit.p, cos_g > 0.0 ? ng : -ng), ls.wi};
-          double tmax = 1e300;
-          if (!ls.infinite) {
-            const glm::dvec3 v = ls.target - shadow.origin;
-            const double dist = glm::length(v);
-            shadow.direction = v / dist;
-            tmax = dist * (1.0 - 1e-6);  // stop short of the (offset) point on the light
-          }
-          if (!scene.occluded(shadow, tmax, *rays)) {
-            const double w = light->is_delta() ? 1.0 : power_heuristic(pmf * ls.pdf, surface.pdf(wo, wi));
-            radiance += beta * f * ls.li * (w / (pmf * ls.pdf));
-          }
+      if (!per_event && !lights.pool_empty())
+        if (const Light* light = lights.choose(rng.uniform(), &pmf)) {
+          const glm::dvec2 u(rng.uniform(), rng.uniform());
+          nee.offer(light, pmf, u, hit.p, ng, frame);
         }
-      }
+    }
+    SurfaceScatter next;
+    const bool continues =
+        surface.scatter(wo, rng, nee.direction, nee.count, per_event ? &pool : nullptr, &next);
+    for (int k = 0; k < nee.count; ++k) {
+      const Spectrum& f_cos = nee.direction[k].f_cos;
+      if (!f_cos.is_black() && PoolSampler::visible(scene, hit.p, ng, nee.sample[k], rays))
+        radiance += beta * f_cos * nee.sample[k].li / (nee.pmf[k] * nee.sample[k].pdf);
     }
 
-    // Continue the path by sampling the BSDF.
-    BsdfSample bs;
-    if (!surface.sample(wo, glm::dvec2(rng.uniform(), rng.uniform()), &bs)) break;
-    const glm::dvec3 wi_world = frame.to_world(bs.wi);
+    // Continue the path as the surface chose.
+    if (!continues) break;
+    const glm::dvec3 wi_world = frame.to_world(next.wi);
     const double cos_g = glm::dot(wi_world, ng);
-    if (!(cos_g * bs.wi.z > 0.0)) break;  // leaks through the geometric surface: no light
-    beta *= bs.f * (std::abs(bs.wi.z) / bs.pdf);
-    unweighted = bs.delta;
-    bsdf_pdf = bs.pdf;
+    if (!(cos_g * next.wi.z > 0.0)) break;  // leaks through the geometric surface: no light
+    beta *= next.weight;
+    unweighted = next.delta;
+    bsdf_pdf = next.pdf;
     ray = Ray{offset_ray_origin(hit.p, cos_g > 0.0 ? ng : -ng), wi_world};
 
     // Russian roulette after three bounces: continue with probability min(1, max beta) and
@@ -327,7 +285,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
   Image image(s.width, s.height);
   constexpr int kTile = 16;
   const int tiles_x = (s.width + kTile - 1) / kTile, tiles_y = (s.height + kTile - 1) / kTile;
-  std::atomic<std::uint64_t> closest{0}, camera_rays{0}, shadow{0}, invalid{0}, events{0}, event_shadow{0};
+  std::atomic<std::uint64_t> closest{0}, camera_rays{0}, shadow{0}, invalid{0}, events{0};
 
   auto render_tile = [&](int tile) {
     const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
@@ -356,7 +314,6 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     camera_rays += rays.camera;
     shadow += rays.shadow;
     events += rays.scatter_events;
-    event_shadow += rays.event_shadow;
     invalid += bad;
     if (on_progress) on_progress(static_cast<std::uint64_t>(x1 - x0) * (y1 - y0) * s.spp);
   };
@@ -372,7 +329,6 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     stats->rays.camera = camera_rays;
     stats->rays.shadow = shadow;
     stats->rays.scatter_events = events;
-    stats->rays.event_shadow = event_shadow;
     stats->invalid_samples = invalid;
   }
   return image;

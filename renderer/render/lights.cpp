@@ -195,22 +195,34 @@ LightSet::LightSet(const Scene& scene, const EnvironmentMap& environment) : envi
     lights_.push_back(std::make_unique<EnvironmentLight>(environment_map_, scene.radius()));
     environment_ = lights_.back().get();
   }
-  std::vector<double> power;
+  std::size_t delta_lights = 0;
   for (std::size_t i = 0; i < lights_.size(); ++i) {
     lights_[i]->id = i;
-    const double p = lights_[i]->power();
-    power.push_back(std::isfinite(p) && p > 0.0 ? p : 0.0);
+    delta_lights += lights_[i]->is_delta();
   }
-  if (!power.empty()) {
+  const bool each_delta = delta_lights <= kMaxLightsSampledEach;
+  std::vector<double> power;
+  for (const std::unique_ptr<Light>& light : lights_) {
+    const double p = light->power();
+    const bool emits = std::isfinite(p) && p > 0.0;
+    if (each_delta && light->is_delta()) {
+      if (emits) sampled_each_.push_back(light.get());
+      continue;
+    }
+    pool_.push_back(light.get());
+    power.push_back(emits ? p : 0.0);
+  }
+  pmf_.assign(lights_.size(), 0.0);
+  if (!pool_.empty()) {
     distribution_ = Distribution1D(power);
-    for (std::size_t i = 0; i < power.size(); ++i) pmf_.push_back(distribution_.pmf(i));
+    for (std::size_t i = 0; i < pool_.size(); ++i) pmf_[pool_[i]->id] = distribution_.pmf(i);
   }
 }
 
 const Light* LightSet::choose(double u, double* pmf) const {
-  if (lights_.empty()) return nullptr;
+  if (pool_.empty()) return nullptr;
   const std::size_t i = distribution_.sample_discrete(u, pmf);
-  return lights_[i].get();
+  return pool_[i];
 }
 
 double LightSet::pmf(const Light* light) const { return pmf_[light->id]; }

@@ -45,13 +45,27 @@ class Light {
 // face (the side ng points to), or both faces for a double-sided material.
 Spectrum emitted_radiance(const Scene& scene, const SurfaceHit& hit, const glm::dvec3& w);
 
+// How next-event estimation samples the lights: every delta light (point, spot, directional)
+// is sampled at every shading point, as long as there are at most kMaxLightsSampledEach of
+// them; one more sample is drawn from the rest (the "pool": emissive triangles, the
+// environment, and delta lights beyond that number) with probability proportional to power.
+// The sum of these estimators is unbiased; sampling the few punctual lights of a portrait each
+// removes the noise of choosing between them, and a layered walk connects all its events to the
+// same few samples (renderer/render/integrator.cpp).
 class LightSet {
  public:
+  static constexpr std::size_t kMaxLightsSampledEach = 8;
+
   LightSet(const Scene& scene, const EnvironmentMap& environment);
   bool empty() const { return lights_.empty(); }
   std::size_t size() const { return lights_.size(); }
-  // Chooses a light with probability pmf (proportional to power).
+  // The lights sampled at every shading point (each with probability 1).
+  const std::vector<const Light*>& sampled_each() const { return sampled_each_; }
+  bool pool_empty() const { return pool_.empty(); }
+  // Chooses a light of the pool with probability pmf (proportional to power); null if the pool
+  // is empty.
   const Light* choose(double u, double* pmf) const;
+  // The probability with which choose() picks `light` (0 for a light sampled each time).
   double pmf(const Light* light) const;
   // The light of an emissive triangle (null if it does not emit), and the environment's (null
   // if it is black).
@@ -61,8 +75,10 @@ class LightSet {
 
  private:
   std::vector<std::unique_ptr<Light>> lights_;
-  std::vector<double> pmf_;
-  Distribution1D distribution_;
+  std::vector<const Light*> sampled_each_;
+  std::vector<const Light*> pool_;
+  std::vector<double> pmf_;  // by Light::id
+  Distribution1D distribution_;  // over pool_
   std::vector<std::vector<int>> triangle_light_;  // [mesh][triangle] -> light index or -1
   const Light* environment_ = nullptr;
   EnvironmentMap environment_map_;

@@ -118,6 +118,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   layered.mode = mode;
   layered.per_material = per_material;
   layered.tables = tables.get();
+  layered.per_event_pool_samples = request.per_event_pool_samples;
   settings.layered = &layered;
 
   RenderResult result;
@@ -145,13 +146,13 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:max_depth", std::to_string(settings.max_depth)},
       {"lamina:env", request.env.empty() ? "0" : request.env},
       {"lamina:subsurface", request.subsurface},
+      {"lamina:pool_samples", request.per_event_pool_samples ? "per-event" : "shared"},
       {"lamina:seconds", sec.str()},
       {"lamina:rays_closest", std::to_string(rays.closest)},
       {"lamina:rays_camera", std::to_string(rays.camera)},
       {"lamina:rays_shadow", std::to_string(rays.shadow)},
       {"lamina:layered_materials", std::to_string(bindings.count())},
       {"lamina:scatter_events", std::to_string(rays.scatter_events)},
-      {"lamina:event_shadow_rays", std::to_string(rays.event_shadow)},
   };
   if (auto_mode) {
     std::ostringstream tol;

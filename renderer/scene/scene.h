@@ -30,14 +30,13 @@ struct RayCounters {
   std::uint64_t closest = 0;  // rtcIntersect1: camera and bounce rays
   std::uint64_t camera = 0;   // of which camera rays
   std::uint64_t shadow = 0;   // rtcOccluded1
-  // Layered materials (random-walk mode): scattering events of the walks, and the shadow rays
-  // traced from them (also counted in `shadow`).
+  // Layered materials (random-walk mode): scattering events of the walks (their light
+  // connections share the shading point's shadow rays, counted in `shadow`).
   std::uint64_t scatter_events = 0;
-  std::uint64_t event_shadow = 0;
   RayLog* log = nullptr;      // if set, every ray is also recorded (single-threaded use only)
   RayCounters& operator+=(const RayCounters& o) {
     closest += o.closest; camera += o.camera; shadow += o.shadow;
-    scatter_events += o.scatter_events; event_shadow += o.event_shadow;
+    scatter_events += o.scatter_events;
     return *this;
   }
 };

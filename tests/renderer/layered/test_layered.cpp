@@ -62,6 +62,7 @@ struct RenderSetup {
   bool naive = false;
   bool connections_only = false;
   bool stratified_hero = true;
+  bool per_event_pool_samples = true;
   int width = 16, height = 16, spp = 16;
   int threads = 0;
   std::uint64_t seed = 11;
@@ -79,6 +80,7 @@ Image render_layered(const SceneDesc& desc, const LayeredBindings& bindings, con
   layered.naive = setup.naive;
   layered.connections_only = setup.connections_only;
   layered.stratified_hero = setup.stratified_hero;
+  layered.per_event_pool_samples = setup.per_event_pool_samples;
   layered.tables = setup.tables;
   RenderSettings s;
   s.width = setup.width;
@@ -653,6 +655,50 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
     if (g >= 0.9) {
       EXPECT_LT(st[0].stderr_[0], st[1].stderr_[0]) << "g " << g;
     }
+  }
+}
+
+// ---- light connections of the walk (renderer/surfaces/random_walk_surface.h) ----
+
+// The walk's events connect to the lights of the pool (environment, emissive triangles) either
+// with a sample of their own each (per-event, the default) or all to one shared sample per walk,
+// and always to one shared direction per delta light. Both are unbiased estimators of the same
+// image: on a skin-like slab lit by an emissive quad, a point light and a uniform environment
+// their means must agree within 3 standard errors of the difference in every channel (any
+// wrong weight, pmf or MIS term in one of them shows here). LAMINA_TEST_VERBOSE prints the
+// per-pixel standard deviations (docs/layered_rendering.md).
+TEST(LayeredLights, SharedAndPerEventPoolSamplesAgree) {
+  Material layered_material, emitter;
+  emitter.emission = Spectrum(4.0, 3.0, 2.0);
+  Mesh quad;
+  quad.material = 1;
+  // Facing down (-y), above the slab on the far side from the camera.
+  add_quad(&quad, {-2.0f, 1.5f, -1.0f}, {-0.5f, 1.5f, -1.0f}, {-0.5f, 1.5f, 1.0f}, {-2.0f, 1.5f, 1.0f});
+  SceneDesc d = make_scene({slab_plane(0), quad}, {layered_material, emitter});
+  LightDesc point;
+  point.type = LightType::kPoint;
+  point.position = {0.5, 2.0, 0.5};
+  point.intensity = Spectrum(2.0);
+  d.lights.push_back(point);
+  const LayeredBindings b = bind(substrate_stack());
+  ImageStats st[2];
+  for (int shared = 0; shared < 2; ++shared) {
+    RenderSetup setup;
+    setup.width = setup.height = 32;
+    setup.spp = 8;
+    setup.per_event_pool_samples = shared == 0;
+    const Image im =
+        render_layered(d, b, EnvironmentMap::constant(Spectrum(0.5)), camera_towards(world_dir(30, 0)), setup);
+    st[shared] = stats_of(im);
+  }
+  const double n = 32.0 * 32.0;
+  for (int c = 0; c < 3; ++c) {
+    if (std::getenv("LAMINA_TEST_VERBOSE"))
+      std::printf("channel %d: per-event %.4f +- %.4f (pixel sd %.4f), shared %.4f +- %.4f (pixel sd %.4f)\n", c,
+                  st[0].mean[c], st[0].stderr_[c], st[0].stderr_[c] * std::sqrt(n), st[1].mean[c], st[1].stderr_[c],
+                  st[1].stderr_[c] * std::sqrt(n));
+    EXPECT_GT(st[0].mean[c], 0.0);
+    EXPECT_NEAR(st[0].mean[c], st[1].mean[c], 3.0 * std::hypot(st[0].stderr_[c], st[1].stderr_[c])) << c;
   }
 }
 

@@ -1,0 +1,133 @@
+// Where the variance of one random walk's light connections comes from (issue 11's
+// decomposition). For a stack, a viewing direction wo and a delta light direction wl, each walk
+// gives X = sum_e W_e connection_weight(e, wl) (what the renderer adds per walk for a delta
+// light, up to Li cos / (1 - R)). Prints, per channel and for luminance, the mean, the relative
+// standard deviation of one walk, the events per walk and the equal-error cost (events x
+// relative variance), for the stack as given and for variants that remove one source of
+// variance each:
+//   hero fixed k   : the walk's hero is channel k (spectral MIS switched off for that channel)
+//   grey <c>       : every channel given channel c's coefficients (no spectral weights at all)
+//   similarity     : g -> 0 with sigma_s (1 - g) in every layer (the phase-function factor gone;
+//                    a different, approximate medium: its mean is shown for comparison)
+// and the share of the mean and of the second moment by event order.
+//   walk_variance STACK.json [walks] [wo_deg] [wl_deg]
+// Not run by the test suite.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "materials/random_walk.h"
+#include "materials/stack_file.h"
+
+using namespace lamina;
+
+namespace {
+
+double luminance(const Spectrum& s) { return 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2]; }
+
+struct Stats {
+  double sum[4] = {0, 0, 0, 0}, sum2[4] = {0, 0, 0, 0};
+  double events = 0;
+  double order_mean[4] = {0, 0, 0, 0};  // luminance by order bucket: 1, 2-9, 10-49, 50+
+  double order_m2[4] = {0, 0, 0, 0};
+  long n = 0;
+};
+
+int bucket(int order) { return order <= 1 ? 0 : order < 10 ? 1 : order < 50 ? 2 : 3; }
+
+Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, long walks, int hero) {
+  Stats st;
+  for (long i = 0; i < walks; ++i) {
+    Rng rng(1234, static_cast<std::uint64_t>(i), 7);
+    Spectrum x(0.0);
+    double by_bucket[4] = {0, 0, 0, 0};
+    long events = 0;
+    random_walk(stack, wo, rng, [&](const ScatterEvent& e) {
+      ++events;
+      const Spectrum c = e.throughput * connection_weight(stack, e, wl);
+      x += c;
+      by_bucket[bucket(e.order)] += luminance(c);
+    }, WalkSettings{}, hero);
+    for (int c = 0; c < 3; ++c) {
+      st.sum[c] += x[c];
+      st.sum2[c] += x[c] * x[c];
+    }
+    const double y = luminance(x);
+    st.sum[3] += y;
+    st.sum2[3] += y * y;
+    for (int b = 0; b < 4; ++b) {
+      st.order_mean[b] += by_bucket[b];
+      st.order_m2[b] += by_bucket[b] * by_bucket[b];
+    }
+    st.events += events;
+    ++st.n;
+  }
+  return st;
+}
+
+void print(const char* label, const Stats& st) {
+  const double n = static_cast<double>(st.n);
+  std::printf("%-16s events/walk %7.1f |", label, st.events / n);
+  for (int c = 0; c < 4; ++c) {
+    const double m = st.sum[c] / n, v = st.sum2[c] / n - m * m;
+    std::printf(" %s %.4g (rsd %5.2f)", c == 3 ? "Y" : c == 0 ? "R" : c == 1 ? "G" : "B", m, std::sqrt(v) / m);
+  }
+  const double my = st.sum[3] / n, vy = st.sum2[3] / n - my * my;
+  std::printf(" | cost(Y) %.1f\n", st.events / n * vy / (my * my));
+  std::printf("%-16s   by order (share of mean Y / of second moment): ", "");
+  double m2 = 0;
+  for (int b = 0; b < 4; ++b) m2 += st.order_m2[b];
+  const char* names[4] = {"1", "2-9", "10-49", "50+"};
+  for (int b = 0; b < 4; ++b)
+    std::printf(" %s: %.2f/%.2f", names[b], st.order_mean[b] / st.sum[3], st.order_m2[b] / m2);
+  std::printf("\n");
+}
+
+LayerStack grey(LayerStack s, int channel) {
+  for (Layer& l : s.layers) {
+    l.sigma_a = Spectrum(l.sigma_a[channel]);
+    for (PhaseLobe& p : l.lobes) {
+      p.sigma_s = Spectrum(p.sigma_s[channel]);
+      p.g = Spectrum(p.g[channel]);
+    }
+  }
+  if (s.below.kind == Below::Kind::Lambert) s.below.albedo = Spectrum(s.below.albedo[channel]);
+  return s;
+}
+
+LayerStack similarity(LayerStack s) {
+  for (Layer& l : s.layers)
+    for (PhaseLobe& p : l.lobes) {
+      for (int c = 0; c < 3; ++c) p.sigma_s[c] *= 1.0 - p.g[c];
+      p.g = Spectrum(0.0);
+    }
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: walk_variance STACK.json [walks] [wo_deg] [wl_deg]\n");
+    return 2;
+  }
+  const LayerStack stack = load_stack_file(argv[1]);
+  const long walks = argc > 2 ? std::atol(argv[2]) : 20000;
+  const double a = (argc > 3 ? std::atof(argv[3]) : 20.0) * M_PI / 180.0;
+  const double b = (argc > 4 ? std::atof(argv[4]) : 40.0) * M_PI / 180.0;
+  const glm::dvec3 wo{std::sin(a), 0.0, std::cos(a)}, wl{-std::sin(b), 0.0, std::cos(b)};
+  print("as given", run(stack, wo, wl, walks, kRandomHero));
+  for (int k = 0; k < 3; ++k) {
+    char label[32];
+    std::snprintf(label, sizeof label, "hero fixed %d", k);
+    print(label, run(stack, wo, wl, walks, k));
+  }
+  for (int k = 0; k < 3; ++k) {
+    char label[32];
+    std::snprintf(label, sizeof label, "grey %c", "RGB"[k]);
+    print(label, run(grey(stack, k), wo, wl, walks, kRandomHero));
+  }
+  print("similarity", run(similarity(stack), wo, wl, walks, kRandomHero));
+  return 0;
+}

@@ -1,0 +1,88 @@
+#include "renderer/surfaces/random_walk_surface.h"
+
+#include <cmath>
+#include <vector>
+
+#include "materials/fresnel.h"
+#include "materials/random_walk.h"
+#include "materials/walk_estimator.h"
+
+namespace lamina {
+
+bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
+                                LightSampler* per_event, SurfaceScatter* next) const {
+  for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
+  const double r_top = fresnel_dielectric(wo.z, stack_.above_ior, stack_.layers[0].ior);
+  if (rng.uniform() < r_top) {
+    next->wi = {-wo.x, -wo.y, wo.z};
+    next->weight = Spectrum(1.0);
+    next->pdf = 0.0;
+    next->delta = true;
+    return true;
+  }
+  const double entry = 1.0 / (1.0 - r_top);
+  const double t_factor = transmission_radiance_factor(stack_);
+  // Per light direction: the prepared exit and the factor every event's connection shares.
+  thread_local std::vector<ExitDirection> exits;
+  thread_local std::vector<double> scale;
+  if (static_cast<int>(exits.size()) < light_count) exits.resize(light_count);
+  scale.assign(light_count, 0.0);
+
+  // An event's contribution towards light direction `light` through its prepared exit.
+  auto contribution = [&](const ScatterEvent& e, const ExitDirection& exit, const LightDirection& light,
+                          double light_scale) {
+    const DirectExit direct = connect_direct(stack_, e, exit);
+    if (direct.weight.is_black()) return Spectrum(0.0);
+    double weight = light_scale;
+    if (options_.naive) {
+      // The naive estimator drops the Fresnel transmission of the way out.
+      const double ft = exit.layers[e.layer].fresnel_t;
+      if (e.kind == ScatterEvent::Kind::Volume && ft > 0.0) weight /= ft;
+    } else if (!light.delta && !options_.connections_only) {
+      weight *= power_heuristic(light.pdf, direct.pdf_for_mis);
+    }
+    return e.throughput * direct.weight * weight;
+  };
+  auto light_scale = [&](const LightDirection& light, const ExitDirection& exit) {
+    return exit.layers.empty() ? 0.0 : entry * std::abs(light.wi.z) * (light.wi.z < 0.0 ? t_factor : 1.0);
+  };
+  for (int k = 0; k < light_count; ++k) {
+    prepare_exit(stack_, lights[k].wi, &exits[k]);
+    scale[k] = light_scale(lights[k], exits[k]);
+  }
+  thread_local ExitDirection own_exit;
+
+  ScatterEvent last{};
+  std::uint64_t events = 0;
+  const EventCallback on_event = [&](const ScatterEvent& e) {
+    ++events;
+    last = e;
+    for (int k = 0; k < light_count; ++k)
+      if (scale[k] != 0.0) lights[k].f_cos += contribution(e, exits[k], lights[k], scale[k]);
+    LightDirection own;
+    if (per_event && per_event->draw(rng, &own)) {
+      prepare_exit(stack_, own.wi, &own_exit);
+      const double own_scale = light_scale(own, own_exit);
+      if (own_scale != 0.0) {
+        const Spectrum c = contribution(e, own_exit, own, own_scale);
+        if (!c.is_black()) per_event->add(c);
+      }
+    }
+  };
+  const WalkResult walk = random_walk(stack_, wo, rng, on_event, WalkSettings{}, hero_);
+  if (events_) *events_ += events;
+  if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette
+  next->wi = walk.direction;
+  next->weight = walk.weight * entry;
+  if (walk.side == WalkResult::Side::Bottom) next->weight *= t_factor;
+  next->delta = true;
+  next->pdf = 0.0;
+  if (walk.straight_from_last_event && !options_.naive) {
+    next->delta = false;
+    // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
+    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_, last, walk.direction);
+  }
+  return true;
+}
+
+}  // namespace lamina

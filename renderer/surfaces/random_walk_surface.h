@@ -1,0 +1,76 @@
+// random-walk mode: the layered material as a stochastic BSDF. It cannot be evaluated, only
+// estimated, so it implements Surface::scatter: one run of the materials/ random walk from the
+// viewer's direction estimates both the connections to the integrator's light directions and
+// the path's continuation (docs/layered_rendering.md derives the estimator and its MIS weights).
+//
+//  * The top interface's specular reflection is a delta lobe chosen with probability R(wo)
+//    (weight R / R = 1; no light connection); otherwise the walk runs, chosen with probability
+//    1 - R, and its weights, which carry (1 - R), are divided by it.
+//  * Shared light connections: every scattering event e of the walk (throughput W_e) connects to
+//    EVERY light direction wl the integrator drew at the shading point (the seed's "send a ray to
+//    the light at each scattering event", one shadow ray per light sample instead of one per
+//    event, as pbrt-v4's LayeredBxDF::f connects all events to one exit direction):
+//        f_cos(wl) += W_e connection_weight(e, wl) [n factor] |cos theta_l| m_e(wl) / (1 - R),
+//    m_e the power heuristic of the light's density against the walk leaving straight from e
+//    along wl (exit_pdf_for_mis); 1 for a delta light. What depends only on wl (the refracted
+//    direction in each layer, the Fresnel transmissions, the n^2 factors, the optical depth of
+//    the layers crossed) is prepared once per light direction (materials/random_walk.h,
+//    ExitDirection); an event pays for its phase function and its own attenuation.
+//    With a LightSampler (RandomWalkOptions::per_event_pool_samples), every event also connects
+//    to a light sample of its own, with its own shadow ray: independent samples of an
+//    environment or area light average over the light where a shared one cannot.
+//  * The continuation is the walk's exit, weight W_exit / (1 - R) [n factor]. An exit straight
+//    from the last event competes with that event's light connection: MIS with pdf
+//    exit_pdf_for_mis; any other exit (unscattered, or reflected inside since) cannot be found
+//    by a light connection: delta (full weight).
+// [n factor] is transmission_radiance_factor for directions on the far side (reciprocity,
+// materials/walk_estimator.h).
+#pragma once
+
+#include <cstdint>
+
+#include "materials/stack.h"
+#include "renderer/surfaces/surface.h"
+
+namespace lamina {
+
+struct RandomWalkOptions {
+  // Tests and the bias report only: the naive estimator of the seed's slides. Connections without
+  // the Fresnel transmission of the way out and with weight 1, and exits that reach a light also
+  // with weight 1 (no MIS: counted twice).
+  bool naive = false;
+  // Measurements only: connections with weight 1 and the walk's straight exits ignored when they
+  // reach a light (unbiased, no MIS), to show what MIS buys at g -> 1.
+  bool connections_only = false;
+  // Connect every event to a fresh light sample of its own from the integrator's LightSampler
+  // (the lights of the pool: environment and emissive triangles), as well as to the shared
+  // directions. false: the pool's sample is shared by the walk's events too.
+  bool per_event_pool_samples = true;
+};
+
+class RandomWalkSurface final : public Surface {
+ public:
+  // stack: its top faces the viewer (wo.z > 0). hero: the walk's hero channel, or kRandomHero
+  // (materials/random_walk.h). events: if not null, counts the scattering events.
+  RandomWalkSurface(const LayerStack& stack, int hero, const RandomWalkOptions& options,
+                    std::uint64_t* events = nullptr)
+      : stack_(stack), hero_(hero), options_(options), events_(events) {}
+
+  // A stochastic BSDF has no value to evaluate: eval and pdf are 0, sample() fails. The
+  // integrator uses scatter().
+  Spectrum eval(const glm::dvec3&, const glm::dvec3&) const override { return Spectrum(0.0); }
+  bool sample(const glm::dvec3&, glm::dvec2, BsdfSample*) const override { return false; }
+  double pdf(const glm::dvec3&, const glm::dvec3&) const override { return 0.0; }
+
+  bool scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
+               SurfaceScatter* next) const override;
+  bool draws_per_event() const override { return options_.per_event_pool_samples; }
+
+ private:
+  const LayerStack& stack_;
+  int hero_;
+  RandomWalkOptions options_;
+  std::uint64_t* events_;
+};
+
+}  // namespace lamina
