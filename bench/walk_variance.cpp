@@ -9,6 +9,7 @@
 //   grey <c>       : every channel given channel c's coefficients (no spectral weights at all)
 //   similarity     : g -> 0 with sigma_s (1 - g) in every layer (the phase-function factor gone;
 //                    a different, approximate medium: its mean is shown for comparison)
+//   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
 // and the share of the mean and of the second moment by event order.
 //   walk_variance STACK.json [walks] [wo_deg] [wl_deg]
 // Not run by the test suite.
@@ -36,7 +37,8 @@ struct Stats {
 
 int bucket(int order) { return order <= 1 ? 0 : order < 10 ? 1 : order < 50 ? 2 : 3; }
 
-Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, long walks, int hero) {
+Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, long walks, int hero,
+          const WalkSettings& settings = {}) {
   Stats st;
   for (long i = 0; i < walks; ++i) {
     Rng rng(1234, static_cast<std::uint64_t>(i), 7);
@@ -45,10 +47,10 @@ Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, l
     long events = 0;
     random_walk(stack, wo, rng, [&](const ScatterEvent& e) {
       ++events;
-      const Spectrum c = e.throughput * connection_weight(stack, e, wl);
+      const Spectrum c = e.throughput * connection_weight(e.similar ? *settings.similar : stack, e, wl);
       x += c;
       by_bucket[bucket(e.order)] += luminance(c);
-    }, WalkSettings{}, hero);
+    }, settings, hero);
     for (int c = 0; c < 3; ++c) {
       st.sum[c] += x[c];
       st.sum2[c] += x[c] * x[c];
@@ -129,5 +131,14 @@ int main(int argc, char** argv) {
     print(label, run(grey(stack, k), wo, wl, walks, kRandomHero));
   }
   print("similarity", run(similarity(stack), wo, wl, walks, kRandomHero));
+  const LayerStack similar = similarity(stack);
+  for (int after : {3, 9, 20}) {
+    WalkSettings ws;
+    ws.similarity_after = after;
+    ws.similar = &similar;
+    char label[32];
+    std::snprintf(label, sizeof label, "similarity >%d", after);
+    print(label, run(stack, wo, wl, walks, kRandomHero, ws));
+  }
   return 0;
 }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 
+#include "materials/random_walk.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
 
@@ -12,7 +13,15 @@ namespace lamina {
 // The diffuse bihemispherical reflectance of a stack by `walks` random walks with cosine-weighted
 // incidence (mu_i = sqrt(u): density 2 mu_i on [0,1], so the walks' mean top exit weight after
 // >= 1 scattering is 2 int R_diffuse(mu) mu dmu). Deterministic: walk i uses Rng(seed, i).
+// settings: the walk's (e.g. an approximate similarity_after, to measure its bias).
 Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
-                                        Spectrum* standard_error = nullptr);
+                                        Spectrum* standard_error = nullptr, const WalkSettings& settings = {});
+
+// The bias of an approximate walk (settings, e.g. similarity_after) on that albedo: the mean and
+// standard error of (approximate - exact) over paired walks that share their random numbers
+// (walk i of both from Rng(seed, i): identical until the approximation starts, so the pairs'
+// differences are far less noisy than either estimate). *exact: the exact albedo of these walks.
+Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkSettings& approximate, int walks, std::uint64_t seed,
+                             Spectrum* standard_error, Spectrum* exact);
 
 }  // namespace lamina

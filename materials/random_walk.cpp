@@ -372,16 +372,22 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     Spectrum log_sigma_t;  // -inf where sigma_t = 0
     bool grey_phase;
   };
-  thread_local std::vector<LayerCache> cache;
-  cache.resize(n_layers);
-  for (int k = 0; k < n_layers; ++k) {
-    const Layer& layer = stack.layers[k];
-    cache[k].sigma_t = layer.sigma_t();
-    cache[k].sigma_s = layer.sigma_s();
-    for (int c = 0; c < kChannels; ++c)
-      cache[k].log_sigma_t[c] = cache[k].sigma_t[c] > 0.0 ? std::log(cache[k].sigma_t[c]) : -kInf;
-    cache[k].grey_phase = phase_is_grey(layer);
+  // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
+  const bool may_switch = settings.similarity_after >= 0 && settings.similar != nullptr &&
+                          settings.similar->layers.size() == stack.layers.size();
+  thread_local std::vector<LayerCache> caches;
+  caches.resize(may_switch ? 2 * n_layers : n_layers);
+  for (int k = 0; k < static_cast<int>(caches.size()); ++k) {
+    const Layer& layer = k < n_layers ? stack.layers[k] : settings.similar->layers[k - n_layers];
+    LayerCache& c = caches[k];
+    c.sigma_t = layer.sigma_t();
+    c.sigma_s = layer.sigma_s();
+    for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
+    c.grey_phase = phase_is_grey(layer);
   }
+  const LayerCache* cache = caches.data();  // switches to the similar half
+  const std::vector<Layer>* layers = &stack.layers;
+  bool similar = false;
 
   // The hero channel: every decision of this walk is sampled in its coefficients. Uniform (the
   // one-sample MIS weights of PathWeight assume probability 1/3 per channel), or the caller's
@@ -421,6 +427,15 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     weight /= q;
     return true;
   };
+  // The similarity option: after the similarity_after-th event has sampled its new direction,
+  // everything that follows happens in the similar stack.
+  auto switch_if_due = [&] {
+    if (may_switch && !similar && result.scatter_count >= settings.similarity_after) {
+      similar = true;
+      cache = caches.data() + n_layers;
+      layers = &settings.similar->layers;
+    }
+  };
   auto finish_exit = [&](WalkResult::Side side, const glm::dvec3& out) {
     result.side = side;
     result.end = side == WalkResult::Side::Top ? WalkResult::End::ExitTop : WalkResult::End::ExitBottom;
@@ -428,7 +443,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
-      result.exit_pdf = connection_pdf(stack, last_event, out);
+      result.exit_pdf = connection_pdf(last_event.similar ? *settings.similar : stack, last_event, out);
     }
     return result;
   };
@@ -441,18 +456,20 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     event.direction = d;
     event.throughput = throughput;
     event.hero = hero;
+    event.similar = similar;
     if (on_event) on_event(event);
     last_event = event;
     reflected_since_event = false;
   };
 
+  switch_if_due();  // similarity_after 0: the whole walk
   for (;;) {
     // ---- one free flight in the hero's coefficients, possibly across several interfaces ----
     double tau_left = -std::log(rng.uniform_open0());
     Spectrum tau;  // optical depth of the flight so far, per channel
     bool collided = false;
     while (!collided) {
-      const Layer& layer = stack.layers[l];
+      const Layer& layer = (*layers)[l];
       const Spectrum& sigma_t = cache[l].sigma_t;
       const double to_boundary = d.z < 0.0 ? (layer.thickness - z) / -d.z
                                  : d.z > 0.0 ? z / d.z
@@ -507,6 +524,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
           }
           d = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
           if (!roulette(true)) return result;
+          switch_if_due();
           break;  // a new flight
         }
         const double r = fresnel_dielectric(d.z, layer.ior, stack.below.ior);
@@ -519,13 +537,13 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
         reflected_since_event = true;
       } else {  // between two layers
         const int next = down ? l + 1 : l - 1;
-        const double n_next = stack.layers[next].ior;
+        const double n_next = (*layers)[next].ior;
         const double r = fresnel_dielectric(d.z, layer.ior, n_next);
         glm::dvec3 out = d;
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, n_next)) {
           d = out;
           l = next;
-          z = down ? 0.0 : stack.layers[l].thickness;
+          z = down ? 0.0 : (*layers)[l].thickness;
         } else {
           d = reflect_at_plane(d);
           reflected_since_event = true;
@@ -536,7 +554,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     if (!collided) continue;  // the substrate started a new flight
 
     // ---- collision in layer l (see the spectral MIS notes at the top of the file) ----
-    const Layer& layer = stack.layers[l];
+    const Layer& layer = (*layers)[l];
     const Spectrum& sigma_t = cache[l].sigma_t;
     const Spectrum& sigma_s = cache[l].sigma_s;
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
@@ -581,6 +599,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     }
     d = d_new;
     if (!roulette(true)) return result;
+    switch_if_due();
   }
 }
 

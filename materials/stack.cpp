@@ -88,6 +88,15 @@ LayerStack flipped(const LayerStack& stack) {
   return f;
 }
 
+void similarity_transform_into(const LayerStack& stack, LayerStack* out) {
+  *out = stack;
+  for (Layer& layer : out->layers)
+    for (PhaseLobe& lobe : layer.lobes) {
+      for (int c = 0; c < kChannels; ++c) lobe.sigma_s[c] *= 1.0 - lobe.g[c];
+      lobe.g = Spectrum(0.0);
+    }
+}
+
 void flip_into(const LayerStack& stack, LayerStack* out) {
   *out = stack;
   std::reverse(out->layers.begin(), out->layers.end());

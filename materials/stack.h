@@ -84,6 +84,15 @@ LayerStack flipped(const LayerStack& stack);
 // per-hit stacks built in a scratch. `out` must not be `&stack`.
 void flip_into(const LayerStack& stack, LayerStack* out);
 
+// The similarity relation (van de Hulst; Wyman, Patterson and Wilson 1989): every lobe's
+// scattering becomes sigma_s (1 - g) with g = 0, per channel; absorption, indices, thicknesses
+// and the substrate stay. The transformed medium has the same diffusion-limit transport (the
+// same reduced scattering coefficient) and about 1/(1 - g) times fewer scattering events, but it
+// is an APPROXIMATION: low orders and near-specular directions differ (the random walk's
+// WalkSettings::similarity_after uses it after a number of exact events; the bias is measured).
+// Into *out, reusing its storage; `out` must not be `&stack`.
+void similarity_transform_into(const LayerStack& stack, LayerStack* out);
+
 // Every number of the stack that affects light transport, exactly (hexadecimal floating point),
 // in a fixed order: equal fingerprints mean the same physics (names are left out). For cache
 // keys (the renderer's walk cache).

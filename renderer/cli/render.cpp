@@ -157,6 +157,12 @@ int run_render(int argc, char** argv) {
                  "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
       ->capture_default_str()
       ->check(CLI::IsMember({"per-event", "shared"}));
+  int similarity_after = -1;
+  app.add_option("--similarity-after", similarity_after,
+                 "random-walk, APPROXIMATE: after N exact events (0: none) continue in the similarity-transformed "
+                 "medium (g -> 0, sigma_s (1 - g)); its bias is measured and printed (-1: exact)")
+      ->capture_default_str()
+      ->check(cli::integer(-1, 1000000));
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
                  "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
@@ -211,6 +217,7 @@ int run_render(int argc, char** argv) {
   request.tolerance = tolerance;
   request.cache_dir = cache_dir;
   request.per_event_pool_samples = pool_samples == "per-event";
+  request.similarity_after = similarity_after;
   request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {

@@ -38,6 +38,9 @@ struct LayeredShading {
   // shadow ray. false (`--pool-samples shared`): the walk's events share one pool sample, as they
   // always share the delta lights' directions.
   bool per_event_pool_samples = true;
+  // random-walk mode, APPROXIMATE (-1: exact): the walk continues in the similarity-transformed
+  // stack after this many events (`--similarity-after N`; RandomWalkOptions).
+  int similarity_after = -1;
 };
 
 }  // namespace lamina

@@ -228,7 +228,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       const int hero = strata && layered->stratified_hero ? strata->hero(walks) : kRandomHero;
       ++walks;
       walk.emplace(*stack, hero,
-                   RandomWalkOptions{layered->naive, layered->connections_only, layered->per_event_pool_samples},
+                   RandomWalkOptions{layered->naive, layered->connections_only, layered->per_event_pool_samples,
+                                     layered->similarity_after},
                    &rays->scatter_events);
       surface_ptr = &*walk;
     }

@@ -1,12 +1,15 @@
 #include "renderer/render/render_job.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 
+#include "materials/albedo.h"
+#include "materials/random_walk.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/layered/subsurface_auto.h"
@@ -113,7 +116,42 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     say(log.info, string_printf("lambert mode: albedos by the walk in %.2f s (%d from the cache)",
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), from_cache));
   }
+  // --similarity-after N: an approximation; its bias on each material's diffuse albedo, measured
+  // against the exact walk (the lambert mode's albedo, from the cache if there), is printed and
+  // recorded before the render.
+  Metadata similarity_meta;
+  constexpr int kSimilarityBiasWalks = 1 << 15;
+  if (request.similarity_after >= 0 && bindings.count() > 0 && uses(SubsurfaceMode::RandomWalk)) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
+      const auto& m = bindings.by_material[i];
+      if (!m) continue;
+      LayerStack similar;
+      similarity_transform_into(m->base_stack(), &similar);
+      WalkSettings ws;
+      ws.similarity_after = request.similarity_after;
+      ws.similar = &similar;
+      Spectrum se_diff, exact;
+      const Spectrum diff = diffuse_albedo_bias(m->base_stack(), ws, kSimilarityBiasWalks, LayeredMaterial::kAlbedoSeed, &se_diff, &exact);
+      Spectrum bias, se, approx;
+      for (int c = 0; c < kChannels; ++c) {
+        approx[c] = exact[c] + diff[c];
+        bias[c] = exact[c] > 0.0 ? diff[c] / exact[c] : 0.0;
+        se[c] = exact[c] > 0.0 ? se_diff[c] / exact[c] : 0.0;
+      }
+      say(log.info, string_printf("similarity after %d events (approximate): material %s (%s): diffuse albedo %.4f %.4f %.4f "
+                                  "against exact %.4f %.4f %.4f: bias %+.1f%% %+.1f%% %+.1f%% (+- %.1f%% %.1f%% %.1f%%)",
+                                  request.similarity_after, desc_names[i].c_str(), m->source().c_str(), approx[0], approx[1],
+                                  approx[2], exact[0], exact[1], exact[2], 100 * bias[0], 100 * bias[1], 100 * bias[2],
+                                  100 * se[0], 100 * se[1], 100 * se[2]));
+      similarity_meta.emplace_back("lamina:similarity_bias:" + desc_names[i],
+                                   string_printf("%.5f %.5f %.5f +- %.5f %.5f %.5f", bias[0], bias[1], bias[2], se[0], se[1], se[2]));
+    }
+    say(log.info, string_printf("similarity: bias measured in %.2f s",
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()));
+  }
   LayeredShading layered;
+  layered.similarity_after = request.similarity_after;
   layered.bindings = &bindings;
   layered.mode = mode;
   layered.per_material = per_material;
@@ -147,6 +185,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:env", request.env.empty() ? "0" : request.env},
       {"lamina:subsurface", request.subsurface},
       {"lamina:pool_samples", request.per_event_pool_samples ? "per-event" : "shared"},
+      {"lamina:similarity_after", std::to_string(request.similarity_after)},
       {"lamina:seconds", sec.str()},
       {"lamina:rays_closest", std::to_string(rays.closest)},
       {"lamina:rays_camera", std::to_string(rays.camera)},
@@ -154,6 +193,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:layered_materials", std::to_string(bindings.count())},
       {"lamina:scatter_events", std::to_string(rays.scatter_events)},
   };
+  meta.insert(meta.end(), similarity_meta.begin(), similarity_meta.end());
   if (auto_mode) {
     std::ostringstream tol;
     tol << request.tolerance;

@@ -33,6 +33,9 @@ struct RenderRequest {
   // random-walk mode: each event connects to a pool light sample of its own (true, `--pool-samples
   // per-event`) or the walk's events share one (`shared`); LayeredShading::per_event_pool_samples.
   bool per_event_pool_samples = true;
+  // random-walk mode, APPROXIMATE (-1: exact): LayeredShading::similarity_after; the bias on each
+  // material's diffuse albedo is measured, printed and recorded (lamina:similarity_bias:<material>).
+  int similarity_after = -1;
   RenderSettings settings;  // width, height, spp, seed, max depth, threads (`layered` is set here)
   std::string command_line;  // lamina:command: the command that reproduces the image
   Metadata extra_metadata;   // appended to the header (lamina batch's job id and hash)

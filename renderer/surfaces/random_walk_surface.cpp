@@ -23,15 +23,29 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   const double entry = 1.0 / (1.0 - r_top);
   const double t_factor = transmission_radiance_factor(stack_);
   // Per light direction: the prepared exit and the factor every event's connection shares.
-  thread_local std::vector<ExitDirection> exits;
+  // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
+  WalkSettings settings;
+  thread_local LayerStack similar;
+  if (options_.similarity_after >= 0) {
+    similarity_transform_into(stack_, &similar);
+    settings.similarity_after = options_.similarity_after;
+    settings.similar = &similar;
+  }
+  auto stack_of = [&](const ScatterEvent& e) -> const LayerStack& { return e.similar ? similar : stack_; };
+  // Per light direction: the prepared exit (through each stack) and the factor every event's
+  // connection shares.
+  thread_local std::vector<ExitDirection> exits, similar_exits;
   thread_local std::vector<double> scale;
-  if (static_cast<int>(exits.size()) < light_count) exits.resize(light_count);
+  if (static_cast<int>(exits.size()) < light_count) {
+    exits.resize(light_count);
+    similar_exits.resize(light_count);
+  }
   scale.assign(light_count, 0.0);
 
   // An event's contribution towards light direction `light` through its prepared exit.
   auto contribution = [&](const ScatterEvent& e, const ExitDirection& exit, const LightDirection& light,
                           double light_scale) {
-    const DirectExit direct = connect_direct(stack_, e, exit);
+    const DirectExit direct = connect_direct(stack_of(e), e, exit);
     if (direct.weight.is_black()) return Spectrum(0.0);
     double weight = light_scale;
     if (options_.naive) {
@@ -48,6 +62,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   };
   for (int k = 0; k < light_count; ++k) {
     prepare_exit(stack_, lights[k].wi, &exits[k]);
+    if (settings.similar) prepare_exit(similar, lights[k].wi, &similar_exits[k]);
     scale[k] = light_scale(lights[k], exits[k]);
   }
   thread_local ExitDirection own_exit;
@@ -58,10 +73,11 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     ++events;
     last = e;
     for (int k = 0; k < light_count; ++k)
-      if (scale[k] != 0.0) lights[k].f_cos += contribution(e, exits[k], lights[k], scale[k]);
+      if (scale[k] != 0.0)
+        lights[k].f_cos += contribution(e, e.similar ? similar_exits[k] : exits[k], lights[k], scale[k]);
     LightDirection own;
     if (per_event && per_event->draw(rng, &own)) {
-      prepare_exit(stack_, own.wi, &own_exit);
+      prepare_exit(stack_of(e), own.wi, &own_exit);
       const double own_scale = light_scale(own, own_exit);
       if (own_scale != 0.0) {
         const Spectrum c = contribution(e, own_exit, own, own_scale);
@@ -69,7 +85,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       }
     }
   };
-  const WalkResult walk = random_walk(stack_, wo, rng, on_event, WalkSettings{}, hero_);
+  const WalkResult walk = random_walk(stack_, wo, rng, on_event, settings, hero_);
   if (events_) *events_ += events;
   if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette
   next->wi = walk.direction;
@@ -80,7 +96,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   if (walk.straight_from_last_event && !options_.naive) {
     next->delta = false;
     // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
-    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_, last, walk.direction);
+    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction);
   }
   return true;
 }

@@ -46,6 +46,10 @@ struct RandomWalkOptions {
   // (the lights of the pool: environment and emissive triangles), as well as to the shared
   // directions. false: the pool's sample is shared by the walk's events too.
   bool per_event_pool_samples = true;
+  // APPROXIMATE (-1: exact, the default): after this many exact events (0: none) the walk
+  // continues in the similarity-transformed stack (WalkSettings::similarity_after;
+  // `--similarity-after N`).
+  int similarity_after = -1;
 };
 
 class RandomWalkSurface final : public Surface {

@@ -312,5 +312,83 @@ TEST(RandomWalk, CallerChosenHero) {
   }
 }
 
+// ---- the similarity option (WalkSettings::similarity_after; approximate) ----
+
+// Isotropic layers are their own similarity transform, so switching to it must change nothing:
+// the same events, weights and ends bit for bit, on a coloured multi-layer stack with a
+// substrate (catches a switch that loses the layer, the coefficients or the random stream).
+TEST(RandomWalkSimilarity, IsotropicStackUnchangedBySwitching) {
+  LayerStack s = coloured_stack();
+  for (Layer& l : s.layers)
+    for (PhaseLobe& lobe : l.lobes) lobe.g = Spectrum(0.0);
+  LayerStack similar;
+  similarity_transform_into(s, &similar);
+  WalkSettings approx;
+  approx.similarity_after = 1;
+  approx.similar = &similar;
+  int switched = 0;
+  for (int i = 0; i < 500; ++i) {
+    const glm::dvec3 wi = incident_direction(35.0, 10.0 * i);
+    std::vector<ScatterEvent> a, b;
+    Rng r1(3, i), r2(3, i);
+    const WalkResult x = random_walk(s, wi, r1, [&](const ScatterEvent& e) { a.push_back(e); });
+    const WalkResult y = random_walk(s, wi, r2, [&](const ScatterEvent& e) { b.push_back(e); }, approx);
+    ASSERT_EQ(a.size(), b.size()) << i;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      EXPECT_EQ(b[k].similar, k >= 1) << i;
+      for (int c = 0; c < kChannels; ++c) ASSERT_EQ(a[k].throughput[c], b[k].throughput[c]) << i;
+    }
+    switched += b.size() > 1;
+    ASSERT_EQ(x.end, y.end) << i;
+    for (int c = 0; c < kChannels; ++c) ASSERT_EQ(x.weight[c], y.weight[c]) << i;
+  }
+  EXPECT_GT(switched, 100);
+}
+
+// After the switch the walk samples the similar medium, and its events must be connected
+// through the similar stack: as in StraightExitsMatchConnectionWeight, a grey walk that leaves
+// straight from its last event has W_exit pdf / |mu_out| = throughput connection_weight, with
+// both through the stack the event happened in (forward scattering, g = 0.8, switch after 2).
+TEST(RandomWalkSimilarity, SimilarEventsConnectThroughTheSimilarStack) {
+  LayerStack s = one_layer(1.4, 0.5, Spectrum(0.2), Spectrum(8.0), Spectrum(0.8), 1.0, 1.2);
+  s.layers.push_back(make_layer("under", 1.3, 0.3, Spectrum(0.1), Spectrum(5.0), Spectrum(0.6)));
+  LayerStack similar;
+  similarity_transform_into(s, &similar);
+  WalkSettings approx;
+  approx.roulette_threshold = 0.0;
+  approx.similarity_after = 2;
+  approx.similar = &similar;
+  int checked = 0;
+  for (std::uint64_t i = 0; i < 6000; ++i) {
+    Rng rng(9, i);
+    ScatterEvent last;
+    const WalkResult r = random_walk(s, incident_direction(30.0, 0.0), rng, [&](const ScatterEvent& e) { last = e; }, approx);
+    if (!r.straight_from_last_event || !last.similar) continue;
+    const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
+    const Spectrum rhs = last.throughput * connection_weight(similar, last, r.direction);
+    for (int c = 0; c < kChannels; ++c) ASSERT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c])));
+    ++checked;
+  }
+  EXPECT_GT(checked, 300);
+}
+
+// The transform: sigma_s (1 - g) per lobe and channel, g = 0, everything else kept.
+TEST(RandomWalkSimilarity, TransformKeepsReducedScattering) {
+  const LayerStack s = coloured_stack();
+  LayerStack t;
+  similarity_transform_into(s, &t);
+  ASSERT_EQ(t.layers.size(), s.layers.size());
+  for (std::size_t l = 0; l < s.layers.size(); ++l) {
+    EXPECT_EQ(t.layers[l].sigma_a, s.layers[l].sigma_a);
+    EXPECT_EQ(t.layers[l].thickness, s.layers[l].thickness);
+    for (std::size_t k = 0; k < s.layers[l].lobes.size(); ++k)
+      for (int c = 0; c < kChannels; ++c) {
+        EXPECT_EQ(t.layers[l].lobes[k].g[c], 0.0);
+        EXPECT_DOUBLE_EQ(t.layers[l].lobes[k].sigma_s[c], s.layers[l].lobes[k].sigma_s[c] * (1.0 - s.layers[l].lobes[k].g[c]));
+      }
+  }
+  EXPECT_EQ(t.below.albedo, s.below.albedo);
+}
+
 }  // namespace
 }  // namespace lamina
