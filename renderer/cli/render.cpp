@@ -19,6 +19,7 @@
 #include "renderer/layered/walk_cache.h"
 #include "renderer/render/render_job.h"
 #include "renderer/util/progress.h"
+#include "renderer/util/string_format.h"
 
 namespace lamina {
 namespace {
@@ -68,10 +69,15 @@ std::string gib(double bytes) {
 }
 
 void check_image_memory(const RenderSettings& s, bool png) {
-  const double bytes = static_cast<double>(s.width) * s.height * (3 * sizeof(float) + (png ? 3 : 0));
+  // Adaptive sampling and time limits keep per pixel a sum (3 doubles), a planned and a done
+  // count, and write the counts as a 4th EXR channel (interleaved with RGB on writing).
+  const bool counts = s.noise_threshold > 0.0 || s.time_limit > 0.0;
+  const double per_pixel = 3 * sizeof(float) + (png ? 3 : 0) + (counts ? 3 * sizeof(double) + 2 * 4 + 4 + 16 : 0);
+  const double bytes = static_cast<double>(s.width) * s.height * per_pixel;
   std::string bound;
   const double available = memory_limit_bytes(&bound);
-  const std::string size = std::to_string(s.width) + "x" + std::to_string(s.height) + " image" + (png ? " with --png" : "");
+  const std::string size = std::to_string(s.width) + "x" + std::to_string(s.height) + " image" + (png ? " with --png" : "") +
+                           (counts ? " with per-pixel sample counts" : "");
   if (bytes > kMaxImageBytes)
     throw UsageError("--width x --height: a " + size + " needs " + gib(bytes) + ", above the limit of " + gib(kMaxImageBytes));
   if (bytes > 0.5 * available)
@@ -107,6 +113,23 @@ void print_render_summary(const RenderRequest& request, const RenderResult& r) {
   if (r.layered_materials > 0)
     std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events\n", request.subsurface.c_str(),
                 r.layered_materials, static_cast<double>(rays.scatter_events));
+  if (!r.stats.pixel_samples.empty()) {
+    std::uint32_t lo = r.stats.pixel_samples.front(), hi = lo;
+    for (std::uint32_t n : r.stats.pixel_samples) {
+      lo = std::min(lo, n);
+      hi = std::max(hi, n);
+    }
+    std::printf("lamina render: samples per pixel: mean %.1f (min %u, max %u)%s%s%s\n", mean_spp(r.stats, settings), lo,
+                hi,
+                settings.noise_threshold > 0.0
+                    ? string_printf("; noise threshold %g: %.0f%% of pixels planned below %d spp, %.3g of the samples in the pilot",
+                                    settings.noise_threshold, 100.0 * r.stats.converged_fraction, settings.spp,
+                                    static_cast<double>(r.stats.pilot_samples))
+                          .c_str()
+                    : "",
+                settings.time_limit > 0.0 ? string_printf("; time limit %g s", settings.time_limit).c_str() : "",
+                r.stats.time_limit_reached ? " (reached)" : "");
+  }
   if (r.stats.invalid_samples > 0)
     std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
                  static_cast<unsigned long long>(r.stats.invalid_samples));
@@ -157,6 +180,18 @@ int run_render(int argc, char** argv) {
                  "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
       ->capture_default_str()
       ->check(CLI::IsMember({"per-event", "shared"}));
+  app.add_option("--noise-threshold", settings.noise_threshold,
+                 "adaptive sampling: target relative standard error of each pixel's luminance, in (0, 1) "
+                 "(--spp is then the most samples a pixel gets)")
+      ->check(cli::real(0.0, 1.0, true, true));
+  CLI::Option* pilot_opt =
+      app.add_option("--pilot-spp", settings.pilot_spp,
+                     "with --noise-threshold: samples per pixel of the pilot pass from which each pixel's neighbours are planned")
+          ->capture_default_str()
+          ->check(cli::integer(1, kMaxSpp));
+  app.add_option("--time-limit", settings.time_limit,
+                 "stop the render loop after this many seconds (rounds of 8 samples per pixel; the first always completes)")
+      ->check(cli::real(0.0, 1e9, true, false));
   int similarity_after = -1;
   app.add_option("--similarity-after", similarity_after,
                  "random-walk, APPROXIMATE: after N exact events (0: none) continue in the similarity-transformed "
@@ -186,6 +221,10 @@ int run_render(int argc, char** argv) {
     auto_mode = subsurface == "auto";
     if (!auto_mode && !parse_subsurface_mode(subsurface, &mode))
       throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table, lambert or auto");
+    if (pilot_opt->count() > 0 && !(settings.noise_threshold > 0.0))
+      throw UsageError("--pilot-spp is only meaningful with --noise-threshold");
+    if (settings.noise_threshold > 0.0 && settings.pilot_spp > settings.spp)
+      throw UsageError("--pilot-spp " + std::to_string(settings.pilot_spp) + " exceeds --spp " + std::to_string(settings.spp));
     if (tolerance_opt->count() > 0 && !auto_mode)
       throw UsageError("--tolerance is only meaningful with --subsurface auto");
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");

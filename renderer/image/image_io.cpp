@@ -84,11 +84,32 @@ double srgb_decode(double encoded) {
 }
 
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata) {
+  write_exr(path, image, metadata, {});
+}
+
+void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
+               const std::vector<ExtraChannel>& extra) {
   check_size(path, image);
-  OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::FLOAT);
+  const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
+  for (const ExtraChannel& c : extra)
+    if (c.values.size() != pixels) throw ImageIoError(path + ": channel " + c.name + " has the wrong size");
+  const int channels = 3 + static_cast<int>(extra.size());
+  OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::FLOAT);
   spec.attribute("compression", "zip");
   for (const auto& [key, value] : metadata) spec.attribute(key, value);
-  write_atomically(path, "openexr", spec, image.rgb.data());
+  if (extra.empty()) {
+    write_atomically(path, "openexr", spec, image.rgb.data());
+    return;
+  }
+  spec.channelnames = {"R", "G", "B"};
+  for (const ExtraChannel& c : extra) spec.channelnames.push_back(c.name);
+  std::vector<float> interleaved(pixels * static_cast<std::size_t>(channels));
+  for (std::size_t i = 0; i < pixels; ++i) {
+    float* p = &interleaved[i * static_cast<std::size_t>(channels)];
+    for (int c = 0; c < 3; ++c) p[c] = image.rgb[i * 3 + static_cast<std::size_t>(c)];
+    for (std::size_t k = 0; k < extra.size(); ++k) p[3 + k] = extra[k].values[i];
+  }
+  write_atomically(path, "openexr", spec, interleaved.data());
 }
 
 void write_png(const std::string& path, const Image& image) {

@@ -22,6 +22,14 @@ using Metadata = std::vector<std::pair<std::string, std::string>>;  // EXR heade
 // Writes a linear RGB half/float EXR atomically: to a temporary file beside `path`, then
 // rename(2), so a failed or killed write never leaves a half-written `path`.
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata = {});
+// The same with more float channels after R, G, B (e.g. adaptive sampling's per-pixel sample
+// count): each a name and width * height values, row major.
+struct ExtraChannel {
+  std::string name;
+  std::vector<float> values;
+};
+void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
+               const std::vector<ExtraChannel>& extra);
 // Writes an 8-bit sRGB PNG (exposure 1, clamped), atomically as above.
 void write_png(const std::string& path, const Image& image);
 // Reads any image OpenImageIO reads (EXR, HDR, PNG, JPEG) as linear RGB (8-bit files are

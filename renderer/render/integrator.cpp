@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <optional>
 
@@ -281,56 +282,204 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
   return radiance;
 }
 
-Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& s,
-                   RenderStats* stats, const std::function<void(std::uint64_t)>& on_progress) {
-  Image image(s.width, s.height);
-  constexpr int kTile = 16;
-  const int tiles_x = (s.width + kTile - 1) / kTile, tiles_y = (s.height + kTile - 1) / kTile;
-  std::atomic<std::uint64_t> closest{0}, camera_rays{0}, shadow{0}, invalid{0}, events{0};
+// Adaptive sampling, unbiased by construction. A pilot pass renders the first `pilot_spp`
+// samples of every pixel and keeps, per pixel, the mean m_q and variance v_q of their luminance.
+// Pixel p is then planned from its NEIGHBOURS (the up to 8 pixels around it, not p itself):
+//     N_p = clamp(ceil(v / (E^2 m^2)), pilot_spp, spp),  m, v the means of m_q, v_q over them,
+// enough for a relative standard error E of p's mean if p's noise is like theirs. Since N_p does
+// not depend on p's own samples (pixels' samples are independent streams), p's image value, the
+// mean of its N_p samples (the pilot's included), is unbiased whatever N_p is. (The usual scheme,
+// stopping a pixel when its own running estimate looks converged, is biased: a heavy-tailed pixel
+// that has not yet drawn its rare large sample looks converged early and stays dark.) Pooling 8
+// neighbours also estimates v from 8x the samples, which matters for the heavy tails of layered
+// walks. A pixel without neighbours (a 1x1 image) gets spp; one whose neighbours are all black in
+// the pilot gets pilot_spp.
+// Rounds: the planned samples are rendered in rounds of kRoundSamples per pixel over the whole
+// image (sample indices in increasing order, so a pixel's sum is the same as in one pass: the
+// image does not depend on the thread count, nor on the rounds). A time limit is checked before
+// each tile of every round after the first; the count of each pixel's samples goes to
+// RenderStats::pixel_samples (an EXR channel).
+namespace {
 
-  auto render_tile = [&](int tile) {
-    const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-    const int x1 = std::min(x0 + kTile, s.width), y1 = std::min(y0 + kTile, s.height);
-    RayCounters rays;
-    rays.log = s.ray_log;
-    std::uint64_t bad = 0;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const std::uint64_t pixel = static_cast<std::uint64_t>(y) * s.width + x;
-        Spectrum sum(0.0);
-        for (int i = 0; i < s.spp; ++i) {
-          Rng rng(s.seed, pixel, static_cast<std::uint64_t>(i));
-          const glm::dvec2 d = sample_tent_filter({rng.uniform(), rng.uniform()});
-          const Ray ray = camera.generate_ray({x + 0.5 + d.x, y + 0.5 + d.y});
-          ++rays.camera;
-          const HeroStrata strata{s.seed, pixel, static_cast<std::uint64_t>(i)};
-          const Spectrum l = path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered, &strata);
-          if (l.is_finite()) sum += l;
-          else ++bad;
-        }
-        float* p = image.pixel(x, y);
-        for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(sum[c] / s.spp);
-      }
+constexpr int kRoundSamples = 8;
+constexpr int kTile = 16;
+
+struct TileCounters {
+  std::atomic<std::uint64_t> closest{0}, camera{0}, shadow{0}, invalid{0}, events{0};
+  void add(const RayCounters& rays, std::uint64_t bad) {
     closest += rays.closest;
-    camera_rays += rays.camera;
+    camera += rays.camera;
     shadow += rays.shadow;
     events += rays.scatter_events;
     invalid += bad;
-    if (on_progress) on_progress(static_cast<std::uint64_t>(x1 - x0) * (y1 - y0) * s.spp);
+  }
+};
+
+}  // namespace
+
+Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& s,
+                   RenderStats* stats, const std::function<void(std::uint64_t)>& on_progress) {
+  RenderProgress progress;
+  progress.advance = on_progress;
+  return render_image(scene, lights, camera, s, stats, progress);
+}
+
+Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& s,
+                   RenderStats* stats, const RenderProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const int tiles_x = (s.width + kTile - 1) / kTile, tiles_y = (s.height + kTile - 1) / kTile;
+  const int tiles = tiles_x * tiles_y;
+  const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
+  TileCounters counters;
+
+  // Samples [first, first + count) of a pixel (sample index offset `stream`), added to *sum;
+  // the luminance of each also to *y_sum, *y_sum2 if given.
+  auto sample_pixel = [&](int x, int y, std::uint64_t stream, int first, int count, Spectrum* sum, RayCounters& rays,
+                          std::uint64_t* bad, double* y_sum, double* y_sum2) {
+    const std::uint64_t pixel = static_cast<std::uint64_t>(y) * s.width + x;
+    for (int i = first; i < first + count; ++i) {
+      const std::uint64_t index = stream + static_cast<std::uint64_t>(i);
+      Rng rng(s.seed, pixel, index);
+      const glm::dvec2 d = sample_tent_filter({rng.uniform(), rng.uniform()});
+      const Ray ray = camera.generate_ray({x + 0.5 + d.x, y + 0.5 + d.y});
+      ++rays.camera;
+      const HeroStrata strata{s.seed, pixel, index};
+      const Spectrum l = path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered, &strata);
+      if (!l.is_finite()) {
+        ++*bad;
+        continue;
+      }
+      *sum += l;
+      if (y_sum) {
+        const double lum = 0.2126 * l[0] + 0.7152 * l[1] + 0.0722 * l[2];
+        *y_sum += lum;
+        *y_sum2 += lum * lum;
+      }
+    }
+  };
+  // Runs body(x, y) for every pixel of every tile in `todo`, in parallel; false from keep_going
+  // skips the tiles not yet started.
+  tbb::task_arena arena(s.ray_log ? 1 : s.threads > 0 ? s.threads : tbb::task_arena::automatic);
+  auto for_tiles = [&](const std::function<std::uint64_t(int, int, RayCounters&, std::uint64_t*)>& body,
+                       const std::function<bool()>& keep_going) {
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
+        for (int tile = r.begin(); tile != r.end(); ++tile) {
+          if (keep_going && !keep_going()) continue;
+          const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+          const int x1 = std::min(x0 + kTile, s.width), y1 = std::min(y0 + kTile, s.height);
+          RayCounters rays;
+          rays.log = s.ray_log;
+          std::uint64_t bad = 0, done = 0;
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) done += body(x, y, rays, &bad);
+          counters.add(rays, bad);
+          if (progress.advance) progress.advance(done);
+        }
+      });
+    });
   };
 
-  tbb::task_arena arena(s.ray_log ? 1 : s.threads > 0 ? s.threads : tbb::task_arena::automatic);
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
-      for (int t = r.begin(); t != r.end(); ++t) render_tile(t);
-    });
-  });
+  Image image(s.width, s.height);
+  const bool adaptive = s.noise_threshold > 0.0;
+  if (!adaptive && !(s.time_limit > 0.0)) {
+    // Every pixel its spp samples in one pass.
+    for_tiles(
+        [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
+          Spectrum sum(0.0);
+          sample_pixel(x, y, 0, 0, s.spp, &sum, rays, bad, nullptr, nullptr);
+          float* p = image.pixel(x, y);
+          for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(sum[c] / s.spp);
+          return static_cast<std::uint64_t>(s.spp);
+        },
+        {});
+  } else {
+    std::vector<std::uint32_t> planned(pixels, static_cast<std::uint32_t>(s.spp));
+    double converged = 0.0;
+    std::vector<Spectrum> sums(pixels, Spectrum(0.0));
+    std::vector<std::uint32_t> counts(pixels, 0);
+    int first_round = 0;
+    if (adaptive) {
+      const int pilot = std::clamp(s.pilot_spp, 1, s.spp);
+      std::vector<double> pilot_mean(pixels), pilot_var(pixels);
+      for_tiles(
+          [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
+            const std::size_t i = static_cast<std::size_t>(y) * s.width + x;
+            double y_sum = 0.0, y_sum2 = 0.0;
+            sample_pixel(x, y, 0, 0, pilot, &sums[i], rays, bad, &y_sum, &y_sum2);
+            counts[i] = static_cast<std::uint32_t>(pilot);
+            const double m = y_sum / pilot;
+            pilot_mean[i] = m;
+            pilot_var[i] = pilot > 1 ? std::max(0.0, (y_sum2 - pilot * m * m) / (pilot - 1.0)) : 0.0;
+            return static_cast<std::uint64_t>(pilot);
+          },
+          {});
+      const double e2 = s.noise_threshold * s.noise_threshold;
+      std::uint64_t below = 0, total = 0;
+      for (int y = 0; y < s.height; ++y)
+        for (int x = 0; x < s.width; ++x) {
+          double m = 0.0, v = 0.0;
+          int n = 0;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int qx = x + dx, qy = y + dy;
+              if ((dx == 0 && dy == 0) || qx < 0 || qy < 0 || qx >= s.width || qy >= s.height) continue;
+              const std::size_t q = static_cast<std::size_t>(qy) * s.width + qx;
+              m += pilot_mean[q];
+              v += pilot_var[q];
+              ++n;
+            }
+          double target = s.spp;
+          if (n > 0) {
+            m /= n;
+            v /= n;
+            target = m > 0.0 ? std::ceil(v / (e2 * m * m)) : pilot;
+          }
+          const auto planned_n = static_cast<std::uint32_t>(std::clamp(target, static_cast<double>(pilot), static_cast<double>(s.spp)));
+          planned[static_cast<std::size_t>(y) * s.width + x] = planned_n;
+          below += planned_n < static_cast<std::uint32_t>(s.spp);
+          total += planned_n;
+        }
+      converged = static_cast<double>(below) / static_cast<double>(pixels);
+      if (progress.planned) progress.planned(total, converged);
+      first_round = pilot;
+    }
+    std::atomic<bool> out_of_time{false};
+    auto in_time = [&] {
+      if (out_of_time.load()) return false;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (s.time_limit > 0.0 && elapsed >= s.time_limit) out_of_time = true;
+      return !out_of_time.load();
+    };
+    for (int first = first_round; first < s.spp && !out_of_time.load(); first += kRoundSamples) {
+      for_tiles(
+          [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
+            const std::size_t i = static_cast<std::size_t>(y) * s.width + x;
+            const int count = std::min(static_cast<int>(planned[i]) - first, kRoundSamples);
+            if (count <= 0) return std::uint64_t{0};
+            sample_pixel(x, y, 0, first, count, &sums[i], rays, bad, nullptr, nullptr);
+            counts[i] += static_cast<std::uint32_t>(count);
+            return static_cast<std::uint64_t>(count);
+          },
+          first == 0 ? std::function<bool()>() : std::function<bool()>(in_time));  // round 0 always completes
+    }
+    for (std::size_t i = 0; i < pixels; ++i) {
+      float* p = &image.rgb[i * 3];
+      for (int c = 0; c < 3; ++c) p[c] = counts[i] > 0 ? static_cast<float>(sums[i][c] / counts[i]) : 0.0f;
+    }
+    if (stats) {
+      stats->pixel_samples = counts;
+      stats->pilot_samples = adaptive ? pixels * static_cast<std::uint64_t>(first_round) : 0;
+      stats->time_limit_reached = out_of_time.load();
+      stats->converged_fraction = converged;
+    }
+  }
   if (stats) {
-    stats->rays.closest = closest;
-    stats->rays.camera = camera_rays;
-    stats->rays.shadow = shadow;
-    stats->rays.scatter_events = events;
-    stats->invalid_samples = invalid;
+    stats->rays.closest = counters.closest;
+    stats->rays.camera = counters.camera;
+    stats->rays.shadow = counters.shadow;
+    stats->rays.scatter_events = counters.events;
+    stats->invalid_samples = counters.invalid;
   }
   return image;
 }

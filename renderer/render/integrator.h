@@ -41,11 +41,35 @@ struct RenderSettings {
   int threads = 0;     // 0: all cores
   RayLog* ray_log = nullptr;  // benchmark only: records every ray (forces one thread)
   const LayeredShading* layered = nullptr;  // null: no layered materials
+  // Adaptive sampling (render_image has the scheme): 0 = off; else the target relative standard
+  // error of each pixel's mean luminance, with `spp` the most samples a pixel gets and
+  // `pilot_spp` the samples of the pilot pass from which each pixel's NEIGHBOURS are planned
+  // (they stay in the image).
+  double noise_threshold = 0.0;
+  int pilot_spp = 16;
+  // Wall-clock budget of the render loop in seconds (0: none): the samples are rendered in
+  // rounds over the whole image, and rounds stop when the budget is spent (the first round
+  // always completes, so every pixel has samples). Not deterministic (it depends on the speed).
+  double time_limit = 0.0;
 };
 
 struct RenderStats {
   RayCounters rays;
   std::uint64_t invalid_samples = 0;  // NaN/Inf path estimates, dropped (should stay 0)
+  // With adaptive sampling or a time limit: each pixel's number of samples in the image (row
+  // major; empty otherwise), how many of them the pilot pass rendered, and whether the time limit
+  // stopped the render before every pixel had its planned samples.
+  std::vector<std::uint32_t> pixel_samples;
+  std::uint64_t pilot_samples = 0;
+  bool time_limit_reached = false;
+  double converged_fraction = 0.0;  // pixels whose planned count is below spp (adaptive)
+};
+
+// Progress of a render: samples done (per tile), and, for adaptive sampling, the planned total
+// once the pilot pass has decided it, with the fraction of pixels that converge before spp.
+struct RenderProgress {
+  std::function<void(std::uint64_t samples)> advance;
+  std::function<void(std::uint64_t total_samples, double converged_fraction)> planned;
 };
 
 // Radiance arriving at ray.origin along -ray.direction, estimated by one path.
@@ -58,6 +82,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
 // Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
                    RenderStats* stats, const std::function<void(std::uint64_t)>& on_progress = {});
+Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
+                   RenderStats* stats, const RenderProgress& progress);
 
 // A film offset in [-1, 1]^2 distributed as the tent filter of radius 1 pixel, so each
 // sample has weight 1 (filter importance sampling, pbrt-v4 8.8.1).

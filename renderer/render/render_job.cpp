@@ -27,6 +27,14 @@
 #include "renderer/util/version.h"
 
 namespace lamina {
+
+// Mean samples per pixel in the image (adaptive sampling and time limits vary it).
+double mean_spp(const RenderStats& stats, const RenderSettings& settings) {
+  if (stats.pixel_samples.empty()) return settings.spp;
+  double sum = 0.0;
+  for (std::uint32_t n : stats.pixel_samples) sum += n;
+  return sum / static_cast<double>(stats.pixel_samples.size());
+}
 namespace {
 
 void say(const std::function<void(const std::string&)>& to, const std::string& line) {
@@ -162,9 +170,16 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   RenderResult result;
   result.camera = cam.name;
   result.layered_materials = bindings.count();
-  Progress progress("render", static_cast<std::uint64_t>(settings.width) * settings.height * settings.spp);
-  const Image image = render_image(scene, lights, camera, settings, &result.stats,
-                                   [&](std::uint64_t n) { progress.advance(n); });
+  const std::uint64_t pixels = static_cast<std::uint64_t>(settings.width) * settings.height;
+  Progress progress("render", pixels * static_cast<std::uint64_t>(settings.spp) +
+                                  (settings.noise_threshold > 0.0 ? pixels * settings.pilot_spp : 0));
+  RenderProgress on_progress;
+  on_progress.advance = [&](std::uint64_t n) { progress.advance(n); };
+  on_progress.planned = [&](std::uint64_t total, double converged) {
+    progress.set_total(total);
+    progress.set_note(string_printf("adaptive: %.0f%% of pixels converge below %d spp", 100.0 * converged, settings.spp));
+  };
+  const Image image = render_image(scene, lights, camera, settings, &result.stats, on_progress);
   progress.finish();
   result.seconds = progress.elapsed_seconds();
   if (cache)
@@ -186,6 +201,11 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:subsurface", request.subsurface},
       {"lamina:pool_samples", request.per_event_pool_samples ? "per-event" : "shared"},
       {"lamina:similarity_after", std::to_string(request.similarity_after)},
+      {"lamina:noise_threshold", string_printf("%.17g", settings.noise_threshold)},
+      {"lamina:pilot_spp", std::to_string(settings.noise_threshold > 0.0 ? settings.pilot_spp : 0)},
+      {"lamina:time_limit", string_printf("%.17g", settings.time_limit)},
+      {"lamina:time_limit_reached", result.stats.time_limit_reached ? "1" : "0"},
+      {"lamina:mean_spp", string_printf("%.6g", mean_spp(result.stats, settings))},
       {"lamina:seconds", sec.str()},
       {"lamina:rays_closest", std::to_string(rays.closest)},
       {"lamina:rays_camera", std::to_string(rays.camera)},
@@ -230,7 +250,13 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       throw ImageIoError(message);
     }
   };
-  stage(request.out_path, [&](const std::string& tmp) { write_exr(tmp, image, meta); });
+  std::vector<ExtraChannel> extra;
+  if (!result.stats.pixel_samples.empty()) {
+    ExtraChannel spp{"spp", {}};
+    spp.values.assign(result.stats.pixel_samples.begin(), result.stats.pixel_samples.end());
+    extra.push_back(std::move(spp));
+  }
+  stage(request.out_path, [&](const std::string& tmp) { write_exr(tmp, image, meta, extra); });
   if (!request.png_path.empty()) stage(request.png_path, [&](const std::string& tmp) { write_png(tmp, image); });
   for (std::size_t i = 0; i < staged.size(); ++i) {
     try {

@@ -68,4 +68,8 @@ struct RenderLog {
 // camera) with one line naming the file.
 RenderResult render_job(const RenderRequest& request, const RenderLog& log = {});
 
+// Mean samples per pixel in the image (settings.spp unless adaptive sampling or a time limit
+// varied it).
+double mean_spp(const RenderStats& stats, const RenderSettings& settings);
+
 }  // namespace lamina

@@ -49,6 +49,13 @@ void Progress::advance(std::uint64_t units) {
   if (since >= (tty_ ? kTerminalInterval : kLogInterval)) draw(false);
 }
 
+void Progress::set_total(std::uint64_t total_units) { total_.store(total_units); }
+
+void Progress::set_note(std::string note) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  note_ = std::move(note);
+}
+
 void Progress::finish() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (finished_) return;
@@ -64,24 +71,26 @@ double Progress::elapsed_seconds() const {
 void Progress::draw(bool final_draw) {
   last_draw_ = Clock::now();
   const double elapsed = elapsed_seconds();
-  const std::uint64_t done = std::min(done_.load(std::memory_order_relaxed), total_);
-  const double fraction = total_ > 0 ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
+  const std::uint64_t total = total_.load();
+  const std::uint64_t done = std::min(done_.load(std::memory_order_relaxed), total);
+  const double fraction = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
+  const std::string note = note_.empty() ? "" : "  " + note_;
   // ETA assuming the remaining units take as long on average as the finished ones.
   const std::string eta = fraction > 0.0 ? format_duration(elapsed * (1.0 - fraction) / fraction) : "?";
 
   if (final_draw) {
-    std::fprintf(stderr, "%s%s: %.0f%% in %s\n", tty_ ? "\r\033[K" : "", label_.c_str(), 100.0 * fraction,
-                 format_duration(elapsed).c_str());
+    std::fprintf(stderr, "%s%s: %.0f%% in %s%s\n", tty_ ? "\r\033[K" : "", label_.c_str(), 100.0 * fraction,
+                 format_duration(elapsed).c_str(), note.c_str());
   } else if (tty_) {
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar.resize(kWidth, '.');
-    std::fprintf(stderr, "\r\033[K%s [%s] %5.1f%%  ETA %s", label_.c_str(), bar.c_str(), 100.0 * fraction,
-                 eta.c_str());
+    std::fprintf(stderr, "\r\033[K%s [%s] %5.1f%%  ETA %s%s", label_.c_str(), bar.c_str(), 100.0 * fraction,
+                 eta.c_str(), note.c_str());
   } else {
-    std::fprintf(stderr, "%s: %.1f%% (%s elapsed, ETA %s)\n", label_.c_str(), 100.0 * fraction,
-                 format_duration(elapsed).c_str(), eta.c_str());
+    std::fprintf(stderr, "%s: %.1f%% (%s elapsed, ETA %s)%s\n", label_.c_str(), 100.0 * fraction,
+                 format_duration(elapsed).c_str(), eta.c_str(), note.c_str());
   }
   std::fflush(stderr);
 }

@@ -2,6 +2,7 @@
 // loader has its own tests). Tolerances: the image mean of N pixels, each an independent
 // estimate of the same expected radiance, has standard error s/sqrt(N) with s the sample
 // standard deviation of the pixels; we allow 4 standard errors (two-sided false alarm 6e-5).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -32,11 +33,12 @@ CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
 }
 
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp,
-             int max_depth = 1000, int threads = 0, RenderStats* stats_out = nullptr) {
+             int max_depth = 1000, int threads = 0, RenderStats* stats_out = nullptr,
+             const RenderSettings& base = RenderSettings{}) {
   const Scene scene{SceneDesc(desc)};
   const LightSet lights(scene, env);
   const Camera camera(cam, w, h);
-  RenderSettings s;
+  RenderSettings s = base;
   s.width = w;
   s.height = h;
   s.spp = spp;
@@ -217,6 +219,85 @@ TEST(Integrator, DeterministicAcrossThreadCounts) {
   EXPECT_EQ(s1.rays.closest, s2.rays.closest);
   EXPECT_EQ(s1.rays.shadow, s2.rays.shadow);
   EXPECT_EQ(s1.rays.camera, 40u * 36u * 4u);
+}
+
+// ---- adaptive sampling and the time limit (render_image) ----
+
+// The emissive Lambert enclosure (L = Le / (1 - a), a = 0.8: long paths, noisy pixels) with
+// adaptive sampling: each pixel's count is planned from its neighbours' pilot samples, not its
+// own, so the mean stays unbiased (4 standard errors of the image mean); the counts vary between pixels and stay within
+// [pilot, spp]; the sample counts reported add up to the camera rays.
+TEST(Integrator, AdaptiveSamplingUnbiasedInTheFurnace) {
+  Material mat;
+  mat.base_color = Spectrum(0.8);
+  mat.emission = Spectrum(1.0, 0.5, 2.0);
+  mat.double_sided = true;
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  RenderSettings adaptive;
+  adaptive.noise_threshold = 0.05;
+  adaptive.pilot_spp = 8;
+  RenderStats st;
+  const Image im = render(d, EnvironmentMap(), camera_at({0.1, 0.2, 0.3}, {0.3, -0.2, -1.0}, 70.0), 24, 16, 256, 1000,
+                          0, &st, adaptive);
+  const ImageStats s = stats_of(im);
+  for (int c = 0; c < 3; ++c) {
+    const double expected = mat.emission[c] / (1.0 - 0.8);
+    EXPECT_NEAR(s.mean[c], expected, 4.0 * s.stderr_[c]) << "channel " << c;
+  }
+  ASSERT_EQ(st.pixel_samples.size(), 24u * 16u);
+  std::uint64_t total = 0;
+  std::uint32_t lo = 1u << 31, hi = 0;
+  for (std::uint32_t n : st.pixel_samples) {
+    total += n;
+    lo = std::min(lo, n);
+    hi = std::max(hi, n);
+  }
+  EXPECT_GE(lo, 8u);
+  EXPECT_LE(hi, 256u);
+  EXPECT_LT(lo, hi) << "the counts should follow the pixels' noise";
+  EXPECT_EQ(st.pilot_samples, 24u * 16u * 8u);
+  EXPECT_EQ(st.rays.camera, total);
+}
+
+// Adaptive sampling is deterministic for any thread count: counts and pixels bit for bit.
+TEST(Integrator, AdaptiveSamplingDeterministicAcrossThreads) {
+  Material wall;
+  wall.base_color = Spectrum(0.7, 0.5, 0.3);
+  Material lamp;
+  lamp.emission = Spectrum(5.0);
+  lamp.double_sided = true;
+  Mesh light;
+  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
+  light.material = 1;
+  const SceneDesc d = make_scene({cube(0), light}, {wall, lamp});
+  const CameraDesc cam = camera_at({0.0, 0.0, 0.9}, {0.0, 0.0, -1.0}, 60.0);
+  RenderSettings adaptive;
+  adaptive.noise_threshold = 0.1;
+  adaptive.pilot_spp = 4;
+  RenderStats s1, s2;
+  const Image a = render(d, EnvironmentMap(), cam, 40, 36, 64, 64, 1, &s1, adaptive);
+  const Image b = render(d, EnvironmentMap(), cam, 40, 36, 64, 64, 2, &s2, adaptive);
+  EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)));
+  EXPECT_EQ(s1.pixel_samples, s2.pixel_samples);
+}
+
+// A time limit that is over at once: the first round (8 samples per pixel) still completes for
+// every pixel, the render reports that the limit stopped it, and the image is that of 8 spp.
+TEST(Integrator, TimeLimitKeepsTheFirstRound) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  RenderSettings limited;
+  limited.time_limit = 1e-9;
+  RenderStats st;
+  const CameraDesc cam = camera_at({0.0, 0.0, 3.0}, {0.0, 0.0, -1.0}, 30.0);
+  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
+  const Image im = render(d, env, cam, 20, 20, 64, 1000, 0, &st, limited);
+  EXPECT_TRUE(st.time_limit_reached);
+  ASSERT_EQ(st.pixel_samples.size(), 400u);
+  for (std::uint32_t n : st.pixel_samples) EXPECT_EQ(n, 8u);
+  const Image eight = render(d, env, cam, 20, 20, 8);
+  EXPECT_EQ(0, std::memcmp(im.rgb.data(), eight.rgb.data(), im.rgb.size() * sizeof(float)));
 }
 
 // The tent filter sampler: the sample mean of x is 0 and E[x^2] = 1/6 for f(x) = 1 - |x|.
