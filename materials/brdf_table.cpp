@@ -21,7 +21,8 @@ constexpr int kEndKinds = 5;  // number of WalkResult::End values
 // each block accumulates into its own vector of `size` doubles in photon order, and the blocks
 // are summed in block order, so the result has the same bits for any number of threads.
 template <typename PhotonFn>
-std::vector<double> run_photons(std::uint64_t n, std::size_t size, const PhotonFn& photon) {
+std::vector<double> run_photons(std::uint64_t n, std::size_t size, const PhotonFn& photon,
+                                const std::function<void(std::uint64_t)>& on_progress = {}) {
   const std::uint64_t blocks = std::max<std::uint64_t>(1, std::min<std::uint64_t>(n, 64));
   std::vector<std::vector<double>> partial(blocks);
   tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, blocks, 1),
@@ -30,7 +31,12 @@ std::vector<double> run_photons(std::uint64_t n, std::size_t size, const PhotonF
                         std::vector<double>& acc = partial[b];
                         acc.assign(size, 0.0);
                         const std::uint64_t first = n * b / blocks, last = n * (b + 1) / blocks;
-                        for (std::uint64_t i = first; i < last; ++i) photon(i, acc);
+                        constexpr std::uint64_t kReportEvery = 4096;
+                        for (std::uint64_t i = first; i < last; ++i) {
+                          photon(i, acc);
+                          if (on_progress && (i - first + 1) % kReportEvery == 0) on_progress(kReportEvery);
+                        }
+                        if (on_progress) on_progress((last - first) % kReportEvery);
                       }
                     });
   std::vector<double> total(size, 0.0);
@@ -70,7 +76,7 @@ BrdfTable empty_table(const BrdfOptions& options) {
 }
 
 // Fractions of incident power: totals slots in the accumulator.
-enum TotalSlot { kRs, kRd, kTb, kTd, kAbs, kAbsDirect, kRsWalk, kTbWalk, kTotalSlots };
+enum TotalSlot { kRs, kRd, kTb, kTd, kAbs, kAbsDirect, kRsWalk, kTbWalk, kUnresolved, kTotalSlots };
 
 }  // namespace
 
@@ -101,7 +107,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
   // single2].
-  const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds;
+  const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds + 1;
   const std::size_t size = bins_at + nb * kChannels * 4;
 
   const std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
@@ -118,12 +124,14 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
     // Conservation by construction: this photon's absorbed part is what did not leave.
     x[kAbs] = Spectrum(1.0) - x[kRs] - x[kRd] - x[kTb] - x[kTd];
     x[kAbsDirect] = walk.absorbed;
+    x[kUnresolved] = walk.cut_weight;
     for (int s = 0; s < kTotalSlots; ++s)
       for (int c = 0; c < kChannels; ++c) {
         a[totals_at + (s * kChannels + c) * 2] += x[s][c];
         a[totals_at + (s * kChannels + c) * 2 + 1] += x[s][c] * x[s][c];
       }
     a[ends_at + static_cast<int>(walk.end)] += 1.0;
+    if (!walk.cut_weight.is_black()) a[ends_at + kEndKinds] += 1.0;
     if (!delta && walk.side != WalkResult::Side::None) {
       const int b = bin_of(table, walk.direction, phi_i);
       if (b >= 0) {
@@ -141,13 +149,14 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
         }
       }
     }
-  });
+  }, options.on_progress);
 
   const std::uint64_t n = options.samples;
   Estimate* totals[kTotalSlots] = {&table.totals.R_specular, &table.totals.R_diffuse,
                                    &table.totals.T_ballistic, &table.totals.T_diffuse,
                                    &table.totals.absorbed, &table.totals.absorbed_direct,
-                                   &table.totals.R_specular_walk, &table.totals.T_ballistic_walk};
+                                   &table.totals.R_specular_walk, &table.totals.T_ballistic_walk,
+                                   &table.totals.unresolved};
   for (int s = 0; s < kTotalSlots; ++s)
     for (int c = 0; c < kChannels; ++c)
       mean_and_error(acc[totals_at + (s * kChannels + c) * 2], acc[totals_at + (s * kChannels + c) * 2 + 1],
@@ -156,6 +165,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
   table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
   for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
+  table.totals.unresolved_walks = static_cast<std::uint64_t>(acc[ends_at + kEndKinds]);
   for (std::size_t b = 0; b < nb; ++b)
     for (int c = 0; c < kChannels; ++c) {
       const double* slot = &acc[bins_at + (b * kChannels + c) * 4];

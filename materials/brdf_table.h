@@ -34,6 +34,9 @@ struct BrdfOptions {
   int bins_phi = 36;    // M
   std::uint64_t seed = 1;
   WalkSettings walk;
+  // Monte Carlo: called (from any thread) with the number of photons just finished, every few
+  // thousand photons; may be empty.
+  std::function<void(std::uint64_t)> on_progress;
 };
 
 // The direction towards the light for (theta_i, phi_i) in degrees.
@@ -54,6 +57,12 @@ struct EnergyTotals {
   // Independent Monte Carlo estimates of the same quantities, for tests: the walk's direct tally
   // of absorption, and its unscattered exits (top Fresnel reflection included) as delta parts.
   Estimate absorbed_direct, R_specular_walk, T_ballistic_walk;
+  // Power carried by walks still running after WalkSettings::forced_exponential_after
+  // interactions (WalkResult::cut_weight; Monte Carlo only): the part of the answer that the
+  // final roulette makes a lottery of. Up to this much may be missing from R and T (and appear
+  // in absorbed) beyond their standard errors.
+  Estimate unresolved;
+  std::uint64_t unresolved_walks = 0;
 };
 
 enum class BrdfSide { Reflect = 0, Transmit = 1 };

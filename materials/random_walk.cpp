@@ -413,6 +413,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     if (at_scatter && weight.max() < settings.roulette_threshold * (1.0 - r_entry))
       q = settings.roulette_survival;
     const int t = result.interactions;
+    if (t > settings.forced_exponential_after && result.cut_weight.is_black()) result.cut_weight = weight;
     if (t > settings.forced_exponential_after) {
       q *= settings.forced_survival;
     } else if (t > settings.forced_after) {

@@ -75,6 +75,12 @@ struct WalkResult {
   // Direct estimate of the absorbed power (what collisions and the substrate removed), for
   // energy-balance checks; its expectation equals 1 - R - T.
   Spectrum absorbed;
+  // The walk's weight when it passed WalkSettings::forced_exponential_after interactions (0 if
+  // it never did). From there a constant survival decides its fate: unbiased, but the few
+  // survivors carry weights that grow exponentially, so an average over walks all but never
+  // sees this power come out. Its mean over walks, `unresolved` in lamina brdf, bounds what the
+  // totals may miss beyond their standard errors (docs/random_walk.md, "Heavy tails").
+  Spectrum cut_weight;
 };
 
 // Tuning of Russian roulette (every value keeps the estimator unbiased; they only trade variance

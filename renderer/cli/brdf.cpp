@@ -18,6 +18,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -27,6 +28,7 @@
 #include "materials/stack_file.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
+#include "renderer/util/progress.h"
 #include "renderer/cli/outputs.h"
 #include "renderer/util/atomic_file.h"
 
@@ -90,6 +92,10 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
     nlohmann::ordered_json ends;
     for (std::size_t e = 0; e < t.ends.size() && e < 5; ++e) ends[kEnds[e]] = t.ends[e];
     j["walk_ends"] = ends;
+    // Power still carried by walks past the forced roulette's last phase (materials/brdf_table.h):
+    // R and T may miss up to this much beyond their standard errors.
+    put("unresolved", t.totals.unresolved);
+    j["unresolved_walks"] = t.totals.unresolved_walks;
   }
   return j.dump(2) + "\n";
 }
@@ -107,6 +113,7 @@ int run_brdf(int argc, char** argv) {
   double theta_i = std::nan(""), phi_i = 0.0;
   std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
+  int roulette_cap = lamina::WalkSettings{}.forced_exponential_after;
   namespace cli = lamina::cli;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();
   app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")
@@ -121,6 +128,10 @@ int run_brdf(int argc, char** argv) {
   app.add_option("--bins-phi", bins_phi, "M bins uniform in phi_o (default 36)")->check(cli::integer(1, kMaxBins));
   app.add_option("--seed", seed, "random seed, 0 to 2^64-1 (default 1); results do not depend on threads")
       ->check(cli::seed());
+  app.add_option("--roulette-cap", roulette_cap,
+                 "interactions after which a walk survives each further one with probability 0.99 (default 1000000); "
+                 "raise it when 'unresolved' is not small against the errors")
+      ->check(cli::integer(1000, 2000000000));
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
 
@@ -152,8 +163,15 @@ int run_brdf(int argc, char** argv) {
     options.bins_theta = bins_theta;
     options.bins_phi = bins_phi;
     options.seed = seed;
+    options.walk.forced_exponential_after = roulette_cap;
+    std::optional<lamina::Progress> progress;
+    if (method == "monte-carlo") {
+      progress.emplace("brdf", samples);
+      options.on_progress = [&](std::uint64_t n) { progress->advance(n); };
+    }
     const BrdfTable table = method == "first-order" ? lamina::brdf_table_first_order(stack, options)
                                                     : lamina::brdf_table_monte_carlo(stack, options);
+    if (progress) progress->finish();
     const std::string json = totals_json(table, method);
     cli::StagedOutputs outputs;  // both files or neither
     if (!out_path.empty()) {
