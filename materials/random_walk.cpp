@@ -51,16 +51,23 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 bool all_equal(const Spectrum& s) { return s[0] == s[1] && s[1] == s[2]; }
 
-// Phase function identical in all channels, so that the phase sampling ratios are exactly 1 and
-// need not be computed.
+// Phase function identical in all channels, so that the phase sampling ratios are 1 and need
+// not be computed. The lobes' shares of the scattering must agree across channels; to 1e-12
+// relative, not exactly: a composite layer's shares are products and sums of its components'
+// fractions and coefficients, which round differently per channel even when the components
+// scatter in the same proportions (skin: the same sigma_s in every component), and an exact test
+// would send such layers down the coloured path, six HG evaluations per connection instead of one,
+// for a ratio that differs from 1 by 1e-16.
 bool phase_is_grey(const Layer& layer) {
   const Spectrum total = layer.sigma_s();
   for (int c = 0; c < kChannels; ++c)
     if (!(total[c] > 0.0)) return false;
   for (const PhaseLobe& lobe : layer.lobes) {
     if (!all_equal(lobe.g)) return false;
-    for (int c = 1; c < kChannels; ++c)
-      if (lobe.sigma_s[c] * total[0] != lobe.sigma_s[0] * total[c]) return false;
+    for (int c = 1; c < kChannels; ++c) {
+      const double a = lobe.sigma_s[c] * total[0], b = lobe.sigma_s[0] * total[c];
+      if (std::abs(a - b) > 1e-12 * std::max(std::abs(a), std::abs(b))) return false;
+    }
   }
   return true;
 }
