@@ -171,6 +171,8 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
     const Spectrum sigma_t = layer.sigma_t();
     for (int c = 0; c < kChannels; ++c) e.depth_rate[c] = sigma_t[c] > 0.0 ? sigma_t[c] / mu : 0.0;
     e.tau_beyond = tau_beyond;
+    e.min_depth_rate = std::min(e.depth_rate[0], std::min(e.depth_rate[1], e.depth_rate[2]));
+    e.min_tau_beyond = std::min(tau_beyond[0], std::min(tau_beyond[1], tau_beyond[2]));
     add_optical_depth(&tau_beyond, sigma_t, layer.thickness / mu);  // for the layers further in
   }
 }
@@ -179,6 +181,13 @@ ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w) {
   ExitDirection exit;
   prepare_exit(stack, w, &exit);
   return exit;
+}
+
+double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
+  if (exit.layers.empty() || !exit.layers[event.layer].exists) return kInf;
+  const ExitDirection::LayerExit& path = exit.layers[event.layer];
+  const double distance = exit.up ? event.depth : stack.layers[event.layer].thickness - event.depth;
+  return path.min_tau_beyond + (path.min_depth_rate > 0.0 ? path.min_depth_rate * distance : 0.0);
 }
 
 DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {

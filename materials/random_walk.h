@@ -152,6 +152,8 @@ struct ExitDirection {
     double single_g = 0.0;
     Spectrum depth_rate;        // optical depth per mm of depth travelled in this layer: sigma_t / mu
     Spectrum tau_beyond;        // optical depth of the layers between this one and the outside
+    double min_depth_rate = 0.0;  // the smallest channel of depth_rate, and of tau_beyond
+    double min_tau_beyond = 0.0;
   };
   glm::dvec3 w{0.0, 0.0, 1.0};
   bool up = true;
@@ -170,6 +172,11 @@ struct DirectExit {
   double pdf_hero = 0.0;      // connection_pdf: the same in the event's own hero channel
 };
 DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
+
+// A lower bound, over the channels, of the optical depth of the event's direct way out towards
+// the prepared direction (infinity where there is none): exp(-bound) bounds its attenuation.
+// Two multiplications, no exponential: for deciding cheaply which events are worth connecting.
+double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
 
 // The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
 // towards the outside direction w (unit): f(wi -> w) += event.throughput * connection_weight.

@@ -41,6 +41,8 @@ struct LayeredShading {
   // random-walk mode, APPROXIMATE (-1: exact): the walk continues in the similarity-transformed
   // stack after this many events (`--similarity-after N`; RandomWalkOptions).
   int similarity_after = -1;
+  // Tests only: RandomWalkOptions::connection_roulette_depth.
+  double connection_roulette_depth = 6.0;
 };
 
 }  // namespace lamina

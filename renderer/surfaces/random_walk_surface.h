@@ -50,6 +50,10 @@ struct RandomWalkOptions {
   // continues in the similarity-transformed stack (WalkSettings::similarity_after;
   // `--similarity-after N`).
   int similarity_after = -1;
+  // Connection roulette (random_walk_surface.cpp): events whose way out is attenuated by more
+  // than exp(-depth) in every channel are connected with probability exp(depth - bound). Tests
+  // lower it to make the roulette matter.
+  double connection_roulette_depth = 6.0;
 };
 
 class RandomWalkSurface final : public Surface {

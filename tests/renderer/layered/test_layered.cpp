@@ -63,6 +63,7 @@ struct RenderSetup {
   bool connections_only = false;
   bool stratified_hero = true;
   bool per_event_pool_samples = true;
+  double connection_roulette_depth = 6.0;
   int width = 16, height = 16, spp = 16;
   int threads = 0;
   std::uint64_t seed = 11;
@@ -81,6 +82,7 @@ Image render_layered(const SceneDesc& desc, const LayeredBindings& bindings, con
   layered.connections_only = setup.connections_only;
   layered.stratified_hero = setup.stratified_hero;
   layered.per_event_pool_samples = setup.per_event_pool_samples;
+  layered.connection_roulette_depth = setup.connection_roulette_depth;
   layered.tables = setup.tables;
   RenderSettings s;
   s.width = setup.width;
@@ -131,7 +133,8 @@ LightDesc sun(const glm::dvec3& wl, double irradiance) {
 // with E f(wl -> wo) |cos theta_l|, f from the library's connection estimator on `stack` (a
 // flipped stack when the light is below, as the library wants light from above).
 void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm::dvec3 wo_world, SubsurfaceMode mode,
-                              double k_sigma, const char* what, int spp = 16, int size = 16) {
+                              double k_sigma, const char* what, int spp = 16, int size = 16,
+                              double connection_roulette_depth = 6.0) {
   const double E = 3.0;
   SceneDesc d = make_scene({slab_plane(0)});
   d.lights.push_back(sun(wl_world, E));
@@ -141,6 +144,7 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
   setup.mode = mode;
   setup.spp = spp;
   setup.width = setup.height = size;
+  setup.connection_roulette_depth = connection_roulette_depth;
   if (mode == SubsurfaceMode::Table) {
     TableSettings ts;
     ts.walks_per_node = 40000;
@@ -210,6 +214,24 @@ TEST(LayeredSlab, RandomWalkReflection) {
                            "coloured slab, reflection");
   expect_slab_matches_brdf(substrate_stack(), world_dir(60, 0), world_dir(20, 0), SubsurfaceMode::RandomWalk, 3.0,
                            "substrate stack, reflection");
+}
+
+// Connection roulette (random_walk_surface.cpp): events whose way out is attenuated by more
+// than exp(-D) are connected with probability exp(D - bound) and weight 1/p. A thick, bright,
+// coloured medium over a substrate (most events deep), rendered with the default D = 6 and with
+// D = 0.5 (then nearly every event is a roulette, and most of the light comes through it: a
+// wrong 1/p or probability would be off by far more than the errors), must match the library's
+// connection estimator, which connects every event.
+TEST(LayeredSlab, DeepEventsConnectedByRoulette) {
+  LayerStack deep;
+  deep.above_ior = 1.0;
+  deep.layers.push_back(make_layer("d", 1.4, 2.0, Spectrum(0.02, 0.1, 0.4), Spectrum(20.0, 15.0, 12.0), Spectrum(0.7)));
+  deep.below.kind = Below::Kind::Lambert;
+  deep.below.albedo = Spectrum(0.6);
+  expect_slab_matches_brdf(deep, world_dir(40, 0), world_dir(25, 180), SubsurfaceMode::RandomWalk, 3.0,
+                           "deep bright slab, reflection");
+  expect_slab_matches_brdf(deep, world_dir(40, 0), world_dir(25, 180), SubsurfaceMode::RandomWalk, 3.0,
+                           "deep bright slab, reflection, roulette from depth 0.5", 16, 16, 0.5);
 }
 
 TEST(LayeredSlab, RandomWalkTransmissionBothWays) {
