@@ -23,6 +23,7 @@
 #include "renderer/image/false_colour.h"
 #include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
+#include "renderer/util/string_format.h"
 
 namespace lamina {
 namespace {
@@ -33,6 +34,7 @@ struct CompareArgs {
   double epsilon = kDefaultGuardEpsilon;
   std::vector<int> crop;
   double fail_above = -1.0;
+  double smooth = 0.0;  // Gaussian sigma in pixels, 0: none
 };
 
 Image read_checked(const std::string& path, int* channels) {
@@ -63,6 +65,13 @@ int compare(const CompareArgs& args) {
     test = crop(test, args.crop[0], args.crop[1], args.crop[2], args.crop[3]);
   }
 
+  if (args.smooth > 0.0) {
+    // Both smoothed over the reference's non-black pixels (the reference's mask for both).
+    const Image mask = ref;
+    ref = smooth_over_mask(ref, mask, args.smooth);
+    test = smooth_over_mask(test, mask, args.smooth);
+    std::printf("both images smoothed by a Gaussian of sigma %g px over the reference's non-black pixels\n", args.smooth);
+  }
   const CompareMetrics m = compare_images(ref, test, args.epsilon);
   std::printf("compared %dx%d pixels (relative difference guarded at %.4g = %g x mean reference)\n", ref.width,
               ref.height, m.guard_floor, args.epsilon);
@@ -81,13 +90,16 @@ int compare(const CompareArgs& args) {
                 {{"lamina:compare:reference", args.reference},
                  {"lamina:compare:test", args.test},
                  {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
-                 {"lamina:compare:guard_floor", std::to_string(m.guard_floor)}});
+                 {"lamina:compare:guard_floor", std::to_string(m.guard_floor)},
+                 {"lamina:compare:smooth_sigma", string_printf("%g", args.smooth)}});
     });
   }
   if (!args.out_png.empty()) {
     const std::vector<float> rel = relative_luminance_difference(ref, test, args.epsilon);
     outputs.write(args.out_png, [&](const std::string& tmp) {
-      write_png(tmp, false_colour_with_legend(rel, ref.width, ref.height, args.range));
+      const std::string caption =
+          args.smooth > 0.0 ? string_printf("sigma %g px: blue TEST<REF, red TEST>REF", args.smooth) : "";
+      write_png(tmp, false_colour_with_legend(rel, ref.width, ref.height, args.range, caption));
     });
   }
   if (!args.out_json.empty()) {
@@ -100,6 +112,7 @@ int compare(const CompareArgs& args) {
     j["guard_epsilon"] = args.epsilon;
     j["guard_floor"] = m.guard_floor;
     j["range"] = args.range;
+    j["smooth_sigma"] = args.smooth;
     j["mean_relative"] = m.mean_relative;
     j["rms_relative"] = m.rms_relative;
     j["max_abs_relative"] = m.max_abs_relative;
@@ -145,6 +158,10 @@ int run_compare(int argc, char** argv) {
       ->check(lamina::cli::integer(0, kMaxInt, "y").application_index(1))
       ->check(lamina::cli::integer(1, kMaxInt, "w").application_index(2))
       ->check(lamina::cli::integer(1, kMaxInt, "h").application_index(3));
+  app.add_option("--smooth", args.smooth,
+                 "Smooth both images by a Gaussian of this sigma in pixels over the reference's non-black pixels first "
+                 "(shows the pattern of a difference of noisy renders; the legend says so)")
+      ->check(lamina::cli::real(0.0, 64.0, true, false));
   app.add_option("--fail-above", args.fail_above, "Exit with status 1 if the RMS relative difference exceeds X")
       ->check(lamina::cli::non_negative());
   try {

@@ -175,7 +175,7 @@ int run_render(int argc, char** argv) {
       ->check(cli::environment());
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str()->check(cli::integer(0, kMaxDepth));
   app.add_option("--png", png_path, "also write an sRGB PNG preview");
-  std::string pool_samples = "per-event";
+  std::string pool_samples = "shared";
   app.add_option("--pool-samples", pool_samples,
                  "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
       ->capture_default_str()

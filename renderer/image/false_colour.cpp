@@ -90,7 +90,8 @@ std::array<float, 3> diverging_colour(double t) {
   return {1.0f - a, 1.0f - a, 1.0f};
 }
 
-Image false_colour_with_legend(const std::vector<float>& relative, int width, int height, double range) {
+Image false_colour_with_legend(const std::vector<float>& relative, int width, int height, double range,
+                               const std::string& caption) {
   Canvas canvas{std::max(width, kMinLegendWidth), height + kLegendHeight, {}};
   canvas.px.assign(static_cast<std::size_t>(canvas.w) * canvas.h * 3, 0.85f);  // light grey
   for (int y = 0; y < height; ++y)
@@ -110,7 +111,8 @@ Image false_colour_with_legend(const std::vector<float>& relative, int width, in
     canvas.set(x0 - 1, y, {0.0f, 0.0f, 0.0f});
     canvas.set(x1 + 1, y, {0.0f, 0.0f, 0.0f});
   }
-  bool truetype = draw_truetype_text(canvas, canvas.w / 2, height + 15, "blue: TEST < REF    red: TEST > REF");
+  bool truetype = draw_truetype_text(canvas, canvas.w / 2, height + 15,
+                                     caption.empty() ? "blue: TEST < REF    red: TEST > REF" : caption);
   for (int k = -2; k <= 2; ++k) {
     const int x = x0 + (x1 - x0) * (k + 2) / 4;
     for (int y = bar_bottom + 2; y <= bar_bottom + 4; ++y) canvas.set(x, y, {0.0f, 0.0f, 0.0f});

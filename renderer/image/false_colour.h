@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include "renderer/image/image.h"
@@ -22,6 +23,8 @@ std::array<float, 3> diverging_colour(double t);
 // Returns LINEAR values (the display colours decoded from sRGB), ready for write_png.
 constexpr int kMinLegendWidth = 280;
 constexpr int kLegendHeight = 56;
-Image false_colour_with_legend(const std::vector<float>& relative, int width, int height, double range);
+// caption: empty for the default "blue: TEST < REF    red: TEST > REF".
+Image false_colour_with_legend(const std::vector<float>& relative, int width, int height, double range,
+                               const std::string& caption = "");
 
 }  // namespace lamina

@@ -145,4 +145,37 @@ Image crop(const Image& image, int x, int y, int w, int h) {
   return out;
 }
 
+Image smooth_over_mask(const Image& image, const Image& mask, double sigma) {
+  if (image.width != mask.width || image.height != mask.height)
+    throw std::invalid_argument("smooth_over_mask: sizes differ");
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
+  std::vector<double> kernel(static_cast<std::size_t>(radius) + 1);
+  for (int d = 0; d <= radius; ++d) kernel[d] = std::exp(-0.5 * d * d / (sigma * sigma));
+  auto inside = [&](int x, int y) {
+    const float* m = mask.pixel(x, y);
+    return m[0] > 0.0f || m[1] > 0.0f || m[2] > 0.0f;
+  };
+  Image out = image;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      if (!inside(x, y)) continue;
+      double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0;
+      for (int dy = -radius; dy <= radius; ++dy) {
+        const int qy = y + dy;
+        if (qy < 0 || qy >= image.height) continue;
+        for (int dx = -radius; dx <= radius; ++dx) {
+          const int qx = x + dx;
+          if (qx < 0 || qx >= image.width || !inside(qx, qy)) continue;
+          const double w = kernel[std::abs(dx)] * kernel[std::abs(dy)];
+          const float* p = image.pixel(qx, qy);
+          for (int c = 0; c < 3; ++c) sum[c] += w * p[c];
+          weight += w;
+        }
+      }
+      float* o = out.pixel(x, y);
+      for (int c = 0; c < 3; ++c) o[c] = static_cast<float>(sum[c] / weight);
+    }
+  return out;
+}
+
 }  // namespace lamina

@@ -53,6 +53,13 @@ CompareMetrics compare_images(const Image& reference, const Image& test, double 
 // counts and images smaller than the window still work. 1 for identical images.
 double ssim_luminance(const Image& reference, const Image& test);
 
+// The image smoothed by a Gaussian of standard deviation `sigma` pixels (truncated at 3 sigma),
+// averaging only over the pixels where `mask` (the reference) is not black and renormalising the
+// weights, so that a silhouette does not mix the background into the object; pixels where the
+// mask is black are kept as they are. `lamina compare --smooth`: a difference of two noisy
+// renders shows its pattern, not its noise (the legend says so). Sizes must match.
+Image smooth_over_mask(const Image& image, const Image& mask, double sigma);
+
 // The w x h region at (x, y); throws std::invalid_argument if it is not inside the image.
 Image crop(const Image& image, int x, int y, int w, int h);
 

@@ -35,9 +35,9 @@ struct LayeredShading {
   bool stratified_hero = true;
   // random-walk mode: each event of a walk also connects to a light sample of its own from the
   // pool (environment, emissive triangles; renderer/surfaces/random_walk_surface.h), with its own
-  // shadow ray. false (`--pool-samples shared`): the walk's events share one pool sample, as they
-  // always share the delta lights' directions.
-  bool per_event_pool_samples = true;
+  // shadow ray (`--pool-samples per-event`). false (the default, `shared`): the walk's events
+  // share one pool sample, as they always share the delta lights' directions.
+  bool per_event_pool_samples = false;
   // random-walk mode, APPROXIMATE (-1: exact): the walk continues in the similarity-transformed
   // stack after this many events (`--similarity-after N`; RandomWalkOptions).
   int similarity_after = -1;

@@ -238,8 +238,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
 
     // Next-event estimation: every delta light, and one light of the pool chosen by power; the
     // surface connects to all of them (a layered walk from every one of its events), then one
-    // shadow ray per direction it lights. A surface that draws per event (a layered walk, by
-    // default) gets the pool through a LightSampler instead.
+    // shadow ray per direction it lights. A surface that draws per event (a layered walk with
+    // --pool-samples per-event) gets the pool through a LightSampler instead.
     LightSamples nee;
     const bool per_event = surface.draws_per_event() && !lights.pool_empty();
     PoolSampler pool(scene, lights, hit.p, ng, frame, beta, &radiance, rays);

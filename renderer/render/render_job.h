@@ -31,8 +31,9 @@ struct RenderRequest {
   double tolerance = 0.0;  // with auto: the largest predicted relative error per material
   std::string cache_dir;   // "" for no walk cache (renderer/layered/walk_cache.h)
   // random-walk mode: each event connects to a pool light sample of its own (true, `--pool-samples
-  // per-event`) or the walk's events share one (`shared`); LayeredShading::per_event_pool_samples.
-  bool per_event_pool_samples = true;
+  // per-event`) or the walk's events share one (false, `shared`, the default);
+  // LayeredShading::per_event_pool_samples.
+  bool per_event_pool_samples = false;
   // random-walk mode, APPROXIMATE (-1: exact): LayeredShading::similarity_after; the bias on each
   // material's diffuse albedo is measured, printed and recorded (lamina:similarity_bias:<material>).
   int similarity_after = -1;

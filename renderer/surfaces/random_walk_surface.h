@@ -16,9 +16,9 @@
 //    direction in each layer, the Fresnel transmissions, the n^2 factors, the optical depth of
 //    the layers crossed) is prepared once per light direction (materials/random_walk.h,
 //    ExitDirection); an event pays for its phase function and its own attenuation.
-//    With a LightSampler (RandomWalkOptions::per_event_pool_samples), every event also connects
-//    to a light sample of its own, with its own shadow ray: independent samples of an
-//    environment or area light average over the light where a shared one cannot.
+//    With a LightSampler (RandomWalkOptions::per_event_pool_samples, off by default), every event
+//    also connects to a light sample of its own, with its own shadow ray: independent samples of
+//    an environment or area light average over the light where a shared one cannot.
 //  * The continuation is the walk's exit, weight W_exit / (1 - R) [n factor]. An exit straight
 //    from the last event competes with that event's light connection: MIS with pdf
 //    exit_pdf_for_mis; any other exit (unscattered, or reflected inside since) cannot be found
@@ -44,8 +44,8 @@ struct RandomWalkOptions {
   bool connections_only = false;
   // Connect every event to a fresh light sample of its own from the integrator's LightSampler
   // (the lights of the pool: environment and emissive triangles), as well as to the shared
-  // directions. false: the pool's sample is shared by the walk's events too.
-  bool per_event_pool_samples = true;
+  // directions. false (the default): the pool's sample is shared by the walk's events too.
+  bool per_event_pool_samples = false;
   // APPROXIMATE (-1: exact, the default): after this many exact events (0: none) the walk
   // continues in the similarity-transformed stack (WalkSettings::similarity_after;
   // `--similarity-after N`).

@@ -2,6 +2,7 @@
 #include "renderer/image/image_compare.h"
 
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -104,6 +105,52 @@ TEST(FalseColour, RedBrighterBlueDarkerWhiteEqual) {
   const Image picture = false_colour_with_legend({0.25f, -0.25f}, 2, 1, 0.5);
   EXPECT_EQ(picture.width, kMinLegendWidth);
   EXPECT_EQ(picture.height, 1 + kLegendHeight);
+}
+
+// --smooth: a Gaussian over the reference's non-black pixels. A disc of value 1 on black stays
+// exactly 1 up to its edge (the background is not mixed in) and the background stays 0; white
+// noise on the disc keeps its mean and loses variance by the kernel's factor
+// sum w^2 / (sum w)^2 (about 1 / (4 pi sigma^2) inside), checked within 15 % in the interior.
+TEST(ImageCompare, SmoothOverMaskKeepsEdgesAndAveragesNoise) {
+  const int n = 64;
+  Image disc(n, n), noisy(n, n);
+  std::uint64_t state = 12345;
+  auto uniform = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const bool in = (x - 32) * (x - 32) + (y - 32) * (y - 32) < 28 * 28;
+      for (int c = 0; c < 3; ++c) {
+        disc.pixel(x, y)[c] = in ? 1.0f : 0.0f;
+        noisy.pixel(x, y)[c] = in ? static_cast<float>(1.0 + (uniform() - 0.5) * std::sqrt(12.0)) : 0.0f;
+      }
+    }
+  const double sigma = 2.0;
+  const Image flat = smooth_over_mask(disc, disc, sigma);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) EXPECT_FLOAT_EQ(flat.pixel(x, y)[0], disc.pixel(x, y)[0]) << x << "," << y;
+  const Image smooth = smooth_over_mask(noisy, disc, sigma);
+  double sum = 0.0, sum2 = 0.0, count = 0.0;
+  for (int y = 20; y < 44; ++y)
+    for (int x = 20; x < 44; ++x) {
+      const double v = smooth.pixel(x, y)[1];
+      sum += v;
+      sum2 += v * v;
+      ++count;
+    }
+  const double mean = sum / count, var = sum2 / count - mean * mean;
+  double w1 = 0.0, w2 = 0.0;
+  for (int dy = -6; dy <= 6; ++dy)
+    for (int dx = -6; dx <= 6; ++dx) {
+      const double w = std::exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma));
+      w1 += w;
+      w2 += w * w;
+    }
+  EXPECT_NEAR(mean, 1.0, 0.05);
+  EXPECT_NEAR(var, w2 / (w1 * w1), 0.15 * w2 / (w1 * w1));
+  EXPECT_THROW(smooth_over_mask(noisy, Image(3, 3), sigma), std::invalid_argument);
 }
 
 }  // namespace
