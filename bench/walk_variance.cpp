@@ -10,6 +10,8 @@
 //   similarity     : g -> 0 with sigma_s (1 - g) in every layer (the phase-function factor gone;
 //                    a different, approximate medium: its mean is shown for comparison)
 //   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
+//   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
+//   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
 // and the share of the mean and of the second moment by event order.
 //   walk_variance STACK.json [walks] [wo_deg] [wl_deg]
 // Not run by the test suite.
@@ -131,6 +133,15 @@ int main(int argc, char** argv) {
     print(label, run(grey(stack, k), wo, wl, walks, kRandomHero));
   }
   print("similarity", run(similarity(stack), wo, wl, walks, kRandomHero));
+  for (double q : {0.25, 0.5, 0.75}) {
+    WalkSettings ws;
+    ws.guiding = q;
+    char label[32];
+    std::snprintf(label, sizeof label, "guided %.2f", q);
+    print(label, run(stack, wo, wl, walks, kRandomHero, ws));
+    std::snprintf(label, sizeof label, "sim.+guided %.2f", q);
+    print(label, run(similarity(stack), wo, wl, walks, kRandomHero, ws));
+  }
   const LayerStack similar = similarity(stack);
   for (int after : {3, 9, 20}) {
     WalkSettings ws;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "materials/dwivedi.h"
 #include "materials/fresnel.h"
 #include "materials/henyey_greenstein.h"
 #include "materials/zeroth_order.h"
@@ -82,6 +83,42 @@ bool single_henyey_greenstein(const Layer& layer, double* g) {
   return true;
 }
 
+// Dwivedi's v0 of each channel of a layer (0: no guiding there), from its reduced single-
+// scattering albedo sigma_s (1 - g) / (sigma_s (1 - g) + sigma_a), g the scattering-weighted mean
+// of its lobes (the similarity relation: the zero-variance theory is for isotropic scattering).
+Spectrum layer_dwivedi_v0(const Layer& layer) {
+  Spectrum v0;
+  for (int c = 0; c < kChannels; ++c) {
+    double s = 0.0, sg = 0.0;
+    for (const PhaseLobe& lobe : layer.lobes) {
+      s += lobe.sigma_s[c];
+      sg += lobe.sigma_s[c] * lobe.g[c];
+    }
+    const double reduced = s - sg;  // sigma_s (1 - mean g)
+    v0[c] = reduced > 0.0 ? dwivedi_v0(reduced / (reduced + layer.sigma_a[c])) : 0.0;
+  }
+  return v0;
+}
+
+// Guided walks apply only to flights from layers that scatter isotropically (every lobe g = 0,
+// e.g. after the similarity transform). Dwivedi's density is the zero-variance direction for
+// isotropic scattering; against a forward-peaked phase function the mixture's weights,
+// phase / (mixture), vary so much that their products over a long walk are heavy-tailed (an
+// exact skin stack, g = 0.6-0.8: the reflectance of 2e4 guided walks came out 20-40 % low,
+// docs/random_walk.md, "Guided walks").
+bool scatters_isotropically(const Layer& layer) {
+  for (const PhaseLobe& lobe : layer.lobes)
+    for (int c = 0; c < kChannels; ++c)
+      if (lobe.g[c] != 0.0) return false;
+  return !layer.lobes.empty();
+}
+
+// The guided technique's extinction for a flight along direction cosine mu (with +z, towards the
+// top): sigma_t (1 - mu / v0), or sigma_t where the channel is not guided.
+double guided_sigma(double sigma_t, double v0, double mu) { return v0 > 0.0 ? sigma_t * (1.0 - mu / v0) : sigma_t; }
+// Its direction density per steradian: Dwivedi's, or isotropic where the channel is not guided.
+double guided_direction_pdf(double v0, double mu) { return v0 > 0.0 ? dwivedi_pdf(v0, mu) : kInv4Pi; }
+
 // The sampling density of a new direction for the technique of channel k (see above).
 double phase_sampling_pdf(const Layer& layer, int k, double cos_theta) {
   return layer.sigma_s()[k] > 0.0 ? layer.phase(k, cos_theta) : kInv4Pi;
@@ -133,9 +170,11 @@ void flight_escaped(PathWeight* pw, const Spectrum& tau, int hero) {
 // l-1 ... 0; going down, the bottom interfaces of layers l ... N-1 and the layers below l. So
 // the per-layer terms accumulate from the outside inwards.
 // ---------------------------------------------------------------------------------------------
-void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out) {
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding) {
   out->w = w;
   out->layers.clear();
+  out->guided.clear();
+  out->guiding = guiding;
   if (!(w.z != 0.0)) return;
   const bool up = w.z > 0.0;
   if (!up && !stack.transmits()) return;
@@ -146,9 +185,10 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
   out->up = up;
   out->mu_out = mu_out;
   out->layers.resize(n_layers);
+  if (guiding > 0.0) out->guided.resize(n_layers);
   bool reachable = true;  // every layer between this one and the outside propagates towards w
   double fresnel_t = 1.0;
-  Spectrum tau_beyond;
+  Spectrum tau_beyond, guided_tau_beyond;
   for (int step = 0; step < n_layers; ++step) {
     const int l = up ? step : n_layers - 1 - step;
     const Layer& layer = stack.layers[l];
@@ -171,15 +211,28 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
     const Spectrum sigma_t = layer.sigma_t();
     for (int c = 0; c < kChannels; ++c) e.depth_rate[c] = sigma_t[c] > 0.0 ? sigma_t[c] / mu : 0.0;
     e.tau_beyond = tau_beyond;
+    if (guiding > 0.0) {
+      ExitDirection::GuidedExit& g = out->guided[l];
+      g.guiding = scatters_isotropically(layer) ? guiding : 0.0;
+      const Spectrum v0 = g.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
+      const double mu_dir = up ? mu : -mu;  // the inside direction's cosine with +z
+      for (int c = 0; c < kChannels; ++c) {
+        const double rate = guided_sigma(sigma_t[c], v0[c], mu_dir);
+        g.depth_rate[c] = rate > 0.0 ? rate / mu : 0.0;
+        g.direction_pdf[c] = guided_direction_pdf(v0[c], mu_dir);
+      }
+      g.tau_beyond = guided_tau_beyond;
+      add_optical_depth(&guided_tau_beyond, g.depth_rate * mu, layer.thickness / mu);
+    }
     e.min_depth_rate = std::min(e.depth_rate[0], std::min(e.depth_rate[1], e.depth_rate[2]));
     e.min_tau_beyond = std::min(tau_beyond[0], std::min(tau_beyond[1], tau_beyond[2]));
     add_optical_depth(&tau_beyond, sigma_t, layer.thickness / mu);  // for the layers further in
   }
 }
 
-ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w) {
+ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding) {
   ExitDirection exit;
-  prepare_exit(stack, w, &exit);
+  prepare_exit(stack, w, &exit, guiding);
   return exit;
 }
 
@@ -220,6 +273,10 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
     }
   }
   const double distance = exit.up ? event.depth : layer.thickness - event.depth;
+  // A volume event's next flight is guided with probability q (WalkSettings::guiding): its
+  // density is the mixture of the two techniques' direction densities times their escape
+  // probabilities.
+  const double q = event.kind == ScatterEvent::Kind::Volume && !exit.guided.empty() ? exit.guided[event.layer].guiding : 0.0;
   double pdf_sum = 0.0;
   for (int c = 0; c < kChannels; ++c) {
     const double tau = path.tau_beyond[c] + (path.depth_rate[c] > 0.0 ? path.depth_rate[c] * distance : 0.0);
@@ -227,7 +284,13 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
     out.weight[c] = emission[c] * transmittance * path.radiance_scale;
     // The walk flies in its hero channel: no collision on the way out with probability
     // exp(-tau_hero), each Fresnel transmission taken with probability (1 - R).
-    const double pdf = sampling[c] * path.jacobian * transmittance * path.fresnel_t;
+    double technique = sampling[c] * transmittance;
+    if (q > 0.0) {
+      const ExitDirection::GuidedExit& g = exit.guided[event.layer];
+      const double tau_g = g.tau_beyond[c] + (g.depth_rate[c] > 0.0 ? g.depth_rate[c] * distance : 0.0);
+      technique = (1.0 - q) * technique + q * g.direction_pdf[c] * std::exp(-tau_g);
+    }
+    const double pdf = technique * path.jacobian * path.fresnel_t;
     pdf_sum += pdf;
     if (c == event.hero) out.pdf_hero = pdf;
   }
@@ -360,11 +423,11 @@ Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent
   return value;
 }
 
-double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
+double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding) {
   // Jacobian of the refraction: n_l^2 mu' d(omega') = n_out^2 mu_out d(omega) (from
   // n_l sin' = n_out sin and n_l cos' dtheta' = n_out cos dtheta), so
   // d(omega')/d(omega) = (n_out/n_l)^2 mu_out / mu' (ExitDirection::LayerExit::jacobian).
-  return connect_direct(stack, event, prepare_exit(stack, w)).pdf_hero;
+  return connect_direct(stack, event, prepare_exit(stack, w, guiding)).pdf_hero;
 }
 
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
@@ -387,6 +450,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     Spectrum sigma_t, sigma_s;
     Spectrum log_sigma_t;  // -inf where sigma_t = 0
     bool grey_phase;
+    Spectrum v0;           // guided walks: Dwivedi's v0 per channel (0: not guided)
+    double guiding;        // the probability of the guided technique for flights from here
   };
   // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
   const bool may_switch = settings.similarity_after >= 0 && settings.similar != nullptr &&
@@ -400,6 +465,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.sigma_s = layer.sigma_s();
     for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
     c.grey_phase = phase_is_grey(layer);
+    c.guiding = settings.guiding > 0.0 && scatters_isotropically(layer) ? settings.guiding : 0.0;
+    c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
   }
   const LayerCache* cache = caches.data();  // switches to the similar half
   const std::vector<Layer>* layers = &stack.layers;
@@ -460,7 +527,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
-      result.exit_pdf = connection_pdf(last_event.similar ? *settings.similar : stack, last_event, out);
+      result.exit_pdf = connection_pdf(last_event.similar ? *settings.similar : stack, last_event, out, settings.guiding);
     }
     return result;
   };
@@ -479,11 +546,54 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     reflected_since_event = false;
   };
 
+  // ---- guided walks (WalkSettings::guiding): the current flight's mixture ----
+  // A flight that starts at a volume event chose, with probability q, the guided technique for
+  // its direction and its distance. Then its sampling density in channel k is the mixture
+  //   p_k = (1 - q) phase_k(d) D_k + q guided_k(d) G_k,
+  // D_k = sigma_t,k(l) exp(-T_k) (collision in layer l) or exp(-T_k) (leaving or reaching the
+  // substrate), G_k the same with the stretched sigma_t,k (1 - mu / v0_k) and its optical depth
+  // T'_k; the kernel of channel c is phase_c(d) sigma_s,c exp(-T_c) (or phase_c exp(-T_c)). So at
+  // the flight's end a_c *= kernel_c / p_c and lr_k += log(p_k / p_h): the one-sample MIS over
+  // techniques and channels at once. flight_q = 0 is the classic walk, bookkept as before.
+  double flight_q = 0.0;
+  bool flight_guided = false;          // the hero's technique for this flight
+  Spectrum dir_classic, dir_guided;    // the channels' direction densities of the flight's start
+  Spectrum phase_true;                 // the kernel's phase function per channel
+  auto guided_flight_end = [&](const Spectrum& tau, const Spectrum& tau_g, bool collision) {
+    Spectrum p, kernel_scatter, kernel_absorb;
+    for (int k = 0; k < kChannels; ++k) {
+      const double sigma_t = cache[l].sigma_t[k];
+      const double sigma_g = guided_sigma(sigma_t, cache[l].v0[k], d.z);
+      const double classic = std::exp(-tau[k]) * (collision ? sigma_t : 1.0);
+      const double guided = std::exp(-tau_g[k]) * (collision ? sigma_g : 1.0);
+      p[k] = (1.0 - flight_q) * dir_classic[k] * classic + flight_q * dir_guided[k] * guided;
+      const double attenuation = phase_true[k] * std::exp(-tau[k]);
+      kernel_scatter[k] = attenuation * (collision ? cache[l].sigma_s[k] : 1.0);
+      kernel_absorb[k] = collision ? attenuation * (*layers)[l].sigma_a[k] : 0.0;
+    }
+    PathWeight absorbed = pw;
+    for (int c = 0; c < kChannels; ++c) {
+      const double ratio = p[c] > 0.0 ? pw.a[c] / p[c] : 0.0;
+      absorbed.a[c] = ratio * kernel_absorb[c];
+      pw.a[c] = ratio * kernel_scatter[c];
+    }
+    for (int k = 0; k < kChannels; ++k) {
+      if (k == hero) continue;
+      const double lr = p[k] > 0.0 && p[hero] > 0.0 ? std::log(p[k] / p[hero]) : -kInf;
+      pw.lr[k] += lr;
+      absorbed.lr[k] += lr;
+    }
+    if (collision) result.absorbed += absorbed.value();
+    flight_q = 0.0;
+    flight_guided = false;
+  };
+
   switch_if_due();  // similarity_after 0: the whole walk
   for (;;) {
     // ---- one free flight in the hero's coefficients, possibly across several interfaces ----
     double tau_left = -std::log(rng.uniform_open0());
-    Spectrum tau;  // optical depth of the flight so far, per channel
+    Spectrum tau;    // optical depth of the flight so far, per channel
+    Spectrum tau_g;  // guided flights: the stretched optical depth
     bool collided = false;
     while (!collided) {
       const Layer& layer = (*layers)[l];
@@ -491,9 +601,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       const double to_boundary = d.z < 0.0 ? (layer.thickness - z) / -d.z
                                  : d.z > 0.0 ? z / d.z
                                              : kInf;
-      const double s = sigma_t[hero] > 0.0 ? tau_left / sigma_t[hero] : kInf;
+      Spectrum sigma_g;  // the stretched extinction of this segment (guided flights)
+      if (flight_q > 0.0)
+        for (int k = 0; k < kChannels; ++k) sigma_g[k] = guided_sigma(sigma_t[k], cache[l].v0[k], d.z);
+      const double rate = flight_guided ? sigma_g[hero] : sigma_t[hero];
+      const double s = rate > 0.0 ? tau_left / rate : kInf;
       if (s < to_boundary) {
         add_optical_depth(&tau, sigma_t, s);
+        if (flight_q > 0.0) add_optical_depth(&tau_g, sigma_g, s);
         z = std::clamp(z - s * d.z, 0.0, layer.thickness);
         collided = true;
         break;
@@ -503,14 +618,20 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
           // Lost into the depth of a semi-infinite layer that is clear in the hero channel:
           // power transmitted downwards for good.
           add_optical_depth(&tau, sigma_t, kInf);
-          flight_escaped(&pw, tau, hero);
+          if (flight_q > 0.0) {
+            add_optical_depth(&tau_g, sigma_g, kInf);
+            guided_flight_end(tau, tau_g, false);
+          } else {
+            flight_escaped(&pw, tau, hero);
+          }
           return finish_exit(WalkResult::Side::Bottom, d);
         }
         result.end = WalkResult::End::Lost;  // parallel to the layers: never returns
         return result;
       }
       add_optical_depth(&tau, sigma_t, to_boundary);
-      tau_left = std::max(0.0, tau_left - sigma_t[hero] * to_boundary);
+      if (flight_q > 0.0) add_optical_depth(&tau_g, sigma_g, to_boundary);
+      tau_left = std::max(0.0, tau_left - rate * to_boundary);
       ++result.interactions;
       const bool down = d.z < 0.0;
       z = down ? layer.thickness : 0.0;
@@ -519,7 +640,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
         const double r = fresnel_dielectric(d.z, layer.ior, stack.above_ior);
         glm::dvec3 out = d;
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.above_ior)) {
-          flight_escaped(&pw, tau, hero);
+          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+          else flight_escaped(&pw, tau, hero);
           return finish_exit(WalkResult::Side::Top, out);
         }
         d = reflect_at_plane(d);
@@ -527,7 +649,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       } else if (down && l == n_layers - 1) {  // bottom of the stack
         if (stack.below.kind == Below::Kind::Lambert) {
           // The flight ends at the substrate: a scattering event of its own kind.
-          flight_escaped(&pw, tau, hero);
+          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+          else flight_escaped(&pw, tau, hero);
           ++result.scatter_count;
           weight = pw.value();
           emit(ScatterEvent::Kind::Substrate, weight);
@@ -547,7 +670,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
         const double r = fresnel_dielectric(d.z, layer.ior, stack.below.ior);
         glm::dvec3 out = d;
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.below.ior)) {
-          flight_escaped(&pw, tau, hero);
+          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+          else flight_escaped(&pw, tau, hero);
           return finish_exit(WalkResult::Side::Bottom, out);
         }
         d = reflect_at_plane(d);
@@ -574,6 +698,9 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     const Layer& layer = (*layers)[l];
     const Spectrum& sigma_t = cache[l].sigma_t;
     const Spectrum& sigma_s = cache[l].sigma_s;
+    if (flight_q > 0.0) {
+      guided_flight_end(tau, tau_g, true);
+    } else {
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
     const Spectrum& log_sigma_t = cache[l].log_sigma_t;
     for (int k = 0; k < kChannels; ++k) {
@@ -589,6 +716,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       }
       result.absorbed += absorbed.value();
     }
+    }
     ++result.scatter_count;
     ++result.interactions;
     weight = pw.value();
@@ -601,13 +729,32 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     // ---- phase sampling in the hero channel: lobe, then HG (isotropic if h does not scatter) ----
     glm::dvec3 d_new;
     const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
-    if (sigma_s[hero] > 0.0) {
+    // Guided walks: the technique of the next flight (direction and distance), then its
+    // densities for every channel, to be combined when the flight ends (guided_flight_end).
+    const double q = cache[l].guiding;
+    flight_guided = q > 0.0 && rng.uniform() < q;
+    if (flight_guided && cache[l].v0[hero] > 0.0) {
+      const double mu = sample_dwivedi_cos(cache[l].v0[hero], u1);
+      const double sin_theta = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
+      const double phi = 2.0 * kPi * u2;
+      d_new = {sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu};
+    } else if (flight_guided) {
+      d_new = sample_uniform_sphere({u1, u2});  // no channel guided here: the isotropic technique
+    } else if (sigma_s[hero] > 0.0) {
       const int lobe = layer.choose_lobe(hero, u0);
       d_new = sample_henyey_greenstein(d, layer.lobes[lobe].g[hero], u1, u2);
     } else {
       d_new = sample_uniform_sphere({u1, u2});
     }
-    if (!cache[l].grey_phase) {
+    if (q > 0.0) {
+      const double cos_theta = glm::dot(d, d_new);
+      for (int k = 0; k < kChannels; ++k) {
+        dir_classic[k] = phase_sampling_pdf(layer, k, cos_theta);
+        dir_guided[k] = guided_direction_pdf(cache[l].v0[k], d_new.z);
+        phase_true[k] = layer.phase(k, cos_theta);
+      }
+      flight_q = q;
+    } else if (!cache[l].grey_phase) {
       const double cos_theta = glm::dot(d, d_new);
       const double ph = phase_sampling_pdf(layer, hero, cos_theta);
       for (int k = 0; k < kChannels; ++k)

@@ -112,6 +112,14 @@ struct WalkSettings {
   // result is biased (the renderer measures and prints how much: docs/layered_rendering.md).
   int similarity_after = -1;
   const LayerStack* similar = nullptr;
+  // Guided walks (0: off, the default): every flight that starts at a volume scattering event in
+  // a layer that scatters isotropically (every lobe g = 0; elsewhere the walk is classic, bit for
+  // bit) samples its direction and distance, with this probability, from Dwivedi's
+  // zero-variance-based guided technique towards the top (materials/dwivedi.h), else classically; the weights are
+  // those of the mixture (one-sample MIS, balance heuristic, per channel as the spectral MIS
+  // already is), so the walk stays unbiased. Exits and connection pdfs account for it
+  // (connection_pdf, prepare_exit with the same guiding).
+  double guiding = 0.0;
 };
 
 using EventCallback = std::function<void(const ScatterEvent&)>;
@@ -159,9 +167,19 @@ struct ExitDirection {
   bool up = true;
   double mu_out = 0.0;
   std::vector<LayerExit> layers;  // empty: w itself cannot be reached (grazing, or no transmission)
+  // Guided walks (WalkSettings::guiding): the walk leaves a volume event along the inside
+  // direction with the mixture density; per layer, the guided technique's direction density and
+  // stretched optical depths.
+  double guiding = 0.0;
+  struct GuidedExit {
+    double guiding = 0.0;    // the guided technique's probability for flights from this layer
+    Spectrum direction_pdf;  // dwivedi_pdf at the inside direction (isotropic where unguided)
+    Spectrum depth_rate, tau_beyond;
+  };
+  std::vector<GuidedExit> guided;  // per layer, when guiding > 0
 };
-void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out);
-ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w);
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0);
+ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding = 0.0);
 
 // An event's direct exit towards a prepared direction: its connection_weight and its
 // exit_pdf_for_mis (materials/walk_estimator.h), computed together because they share the phase
@@ -219,6 +237,7 @@ Spectrum connection_weight_all_paths(const LayerStack& stack, const ScatterEvent
 // channel event.hero, the one it samples with), times the Fresnel transmission probabilities of
 // the interfaces crossed. Conditional on the hero, this is the density of the walk's exits, the
 // one a renderer needs to weight light samples against exits by MIS.
-double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w,
+                      double guiding = 0.0);
 
 }  // namespace lamina

@@ -13,8 +13,8 @@ double transmission_radiance_factor(const LayerStack& stack) {
   return r * r;
 }
 
-double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
-  return connect_direct(stack, event, prepare_exit(stack, w)).pdf_for_mis;
+double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding) {
+  return connect_direct(stack, event, prepare_exit(stack, w, guiding)).pdf_for_mis;
 }
 
 double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w) {

@@ -28,7 +28,8 @@ double transmission_radiance_factor(const LayerStack& stack);
 // light sample are unbiased for any weights that sum to 1 for each path AND do not depend on
 // which hero drew it (then the hero average of each technique is the technique's full integral
 // times its weight). The hero's own pdf breaks the second condition for coloured media.
-double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
+// guiding: the walk's WalkSettings::guiding (its exits' density is then the mixture's).
+double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding = 0.0);
 
 // The product of Fresnel transmissions (1 - R) of the interfaces a direct exit from `layer`
 // towards the outside direction w crosses (0 where none refracts out to w). Only the naive

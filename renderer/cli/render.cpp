@@ -192,6 +192,12 @@ int run_render(int argc, char** argv) {
   app.add_option("--time-limit", settings.time_limit,
                  "stop the render loop after this many seconds (rounds of 8 samples per pixel; the first always completes)")
       ->check(cli::real(0.0, 1e9, true, false));
+  double guiding = 0.0;
+  app.add_option("--guiding", guiding,
+                 "random-walk: probability of Dwivedi's guided technique for flights in isotropic layers, in [0, 1) "
+                 "(unbiased; 0: off)")
+      ->capture_default_str()
+      ->check(cli::real(0.0, 1.0, false, true));
   int similarity_after = -1;
   app.add_option("--similarity-after", similarity_after,
                  "random-walk, APPROXIMATE: after N exact events (0: none) continue in the similarity-transformed "
@@ -257,6 +263,7 @@ int run_render(int argc, char** argv) {
   request.cache_dir = cache_dir;
   request.per_event_pool_samples = pool_samples == "per-event";
   request.similarity_after = similarity_after;
+  request.guiding = guiding;
   request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {

@@ -43,6 +43,8 @@ struct LayeredShading {
   int similarity_after = -1;
   // Tests only: RandomWalkOptions::connection_roulette_depth.
   double connection_roulette_depth = 6.0;
+  // random-walk: RandomWalkOptions::guiding (`--guiding Q`, 0: off).
+  double guiding = 0.0;
 };
 
 }  // namespace lamina

@@ -230,7 +230,8 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       ++walks;
       walk.emplace(*stack, hero,
                    RandomWalkOptions{layered->naive, layered->connections_only, layered->per_event_pool_samples,
-                                     layered->similarity_after, layered->connection_roulette_depth},
+                                     layered->similarity_after, layered->connection_roulette_depth,
+                                     layered->guiding},
                    &rays->scatter_events);
       surface_ptr = &*walk;
     }

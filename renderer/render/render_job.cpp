@@ -160,6 +160,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   }
   LayeredShading layered;
   layered.similarity_after = request.similarity_after;
+  layered.guiding = request.guiding;
   layered.bindings = &bindings;
   layered.mode = mode;
   layered.per_material = per_material;
@@ -201,6 +202,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:subsurface", request.subsurface},
       {"lamina:pool_samples", request.per_event_pool_samples ? "per-event" : "shared"},
       {"lamina:similarity_after", std::to_string(request.similarity_after)},
+      {"lamina:guiding", string_printf("%.17g", request.guiding)},
       {"lamina:noise_threshold", string_printf("%.17g", settings.noise_threshold)},
       {"lamina:pilot_spp", std::to_string(settings.noise_threshold > 0.0 ? settings.pilot_spp : 0)},
       {"lamina:time_limit", string_printf("%.17g", settings.time_limit)},

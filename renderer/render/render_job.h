@@ -37,6 +37,8 @@ struct RenderRequest {
   // random-walk mode, APPROXIMATE (-1: exact): LayeredShading::similarity_after; the bias on each
   // material's diffuse albedo is measured, printed and recorded (lamina:similarity_bias:<material>).
   int similarity_after = -1;
+  // random-walk: LayeredShading::guiding (0: classic walks).
+  double guiding = 0.0;
   RenderSettings settings;  // width, height, spp, seed, max depth, threads (`layered` is set here)
   std::string command_line;  // lamina:command: the command that reproduces the image
   Metadata extra_metadata;   // appended to the header (lamina batch's job id and hash)

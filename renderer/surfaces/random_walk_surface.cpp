@@ -25,6 +25,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   // Per light direction: the prepared exit and the factor every event's connection shares.
   // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
   WalkSettings settings;
+  settings.guiding = options_.guiding;
   thread_local LayerStack similar;
   if (options_.similarity_after >= 0) {
     similarity_transform_into(stack_, &similar);
@@ -61,8 +62,8 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     return exit.layers.empty() ? 0.0 : entry * std::abs(light.wi.z) * (light.wi.z < 0.0 ? t_factor : 1.0);
   };
   for (int k = 0; k < light_count; ++k) {
-    prepare_exit(stack_, lights[k].wi, &exits[k]);
-    if (settings.similar) prepare_exit(similar, lights[k].wi, &similar_exits[k]);
+    prepare_exit(stack_, lights[k].wi, &exits[k], settings.guiding);
+    if (settings.similar) prepare_exit(similar, lights[k].wi, &similar_exits[k], settings.guiding);
     scale[k] = light_scale(lights[k], exits[k]);
   }
   thread_local ExitDirection own_exit;
@@ -92,7 +93,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     }
     LightDirection own;
     if (per_event && per_event->draw(rng, &own)) {
-      prepare_exit(stack_of(e), own.wi, &own_exit);
+      prepare_exit(stack_of(e), own.wi, &own_exit, settings.guiding);
       const double own_scale = light_scale(own, own_exit);
       if (own_scale != 0.0) {
         const Spectrum c = contribution(e, own_exit, own, own_scale);
@@ -111,7 +112,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   if (walk.straight_from_last_event && !options_.naive) {
     next->delta = false;
     // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
-    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction);
+    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction, settings.guiding);
   }
   return true;
 }

@@ -54,6 +54,11 @@ struct RandomWalkOptions {
   // than exp(-depth) in every channel are connected with probability exp(depth - bound). Tests
   // lower it to make the roulette matter.
   double connection_roulette_depth = 6.0;
+  // Guided walks (WalkSettings::guiding, `--guiding Q`): the probability of Dwivedi's guided
+  // technique for flights from isotropic layers (g = 0: after --similarity-after 0, or isotropic
+  // stacks; an exact skin stack has none). Unbiased; off by default: it wins for long walks in
+  // bright isotropic media and loses where walks are already short (docs/random_walk.md).
+  double guiding = 0.0;
 };
 
 class RandomWalkSurface final : public Surface {
