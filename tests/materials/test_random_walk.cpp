@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -39,6 +40,32 @@ LayerStack coloured_stack() {
 // direction inside, Snell, Jacobian, attenuation, Fresnel, n^2, phase lobes, substrate.
 // (In coloured stacks the MIS weight of the path changes between event and exit, so the identity
 // holds only in expectation: BinCountsAgreeWithConnectionEstimator tests that.)
+// Runs walks i = 0 .. walks-1 (Rng(seed, i)) from wi and, for each that leaves straight from its
+// last event, checks W_exit * exit_pdf / |mu_out| = throughput * connection_weight to 1e-9, the
+// connection through the stack `through(last)` returns (null: skip the walk). Returns how many
+// walks were checked.
+int check_straight_exits(const LayerStack& stack, const glm::dvec3& wi, const WalkSettings& settings,
+                         std::uint64_t seed, int walks,
+                         const std::function<const LayerStack*(const ScatterEvent&)>& through) {
+  int checked = 0;
+  for (int i = 0; i < walks; ++i) {
+    Rng rng(seed, static_cast<std::uint64_t>(i));
+    ScatterEvent last;
+    const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) { last = e; }, settings);
+    if (!r.straight_from_last_event) continue;
+    const LayerStack* s = through(last);
+    if (!s) continue;
+    const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
+    const Spectrum rhs = last.throughput * connection_weight(*s, last, r.direction);
+    for (int c = 0; c < kChannels; ++c) {
+      EXPECT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c]))) << "walk " << i << " channel " << c;
+      if (std::abs(lhs[c] - rhs[c]) > 1e-9 * (1.0 + std::abs(rhs[c]))) return checked;
+    }
+    ++checked;
+  }
+  return checked;
+}
+
 TEST(RandomWalk, StraightExitsMatchConnectionWeight) {
   LayerStack two_lobes = one_layer(1.3, 0.4, Spectrum(0.2), Spectrum(3.0), Spectrum(0.8), 1.1, 1.6);
   two_lobes.layers[0].lobes.push_back({Spectrum(2.0), Spectrum(-0.6)});
@@ -54,21 +81,10 @@ TEST(RandomWalk, StraightExitsMatchConnectionWeight) {
   WalkSettings no_roulette;
   no_roulette.roulette_threshold = 0.0;  // roulette would scale the exit weight after the event
   int checked = 0;
-  for (const LayerStack& stack : stacks) {
-    for (double theta : {0.0, 40.0, 80.0}) {
-      const glm::dvec3 wi = incident_direction(theta, 30.0);
-      for (std::uint64_t i = 0; i < 3000; ++i) {
-        Rng rng(7, i);
-        ScatterEvent last;
-        const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) { last = e; }, no_roulette);
-        if (!r.straight_from_last_event) continue;
-        const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
-        const Spectrum rhs = last.throughput * connection_weight(stack, last, r.direction);
-        for (int c = 0; c < kChannels; ++c) ASSERT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c])));
-        ++checked;
-      }
-    }
-  }
+  for (const LayerStack& stack : stacks)
+    for (double theta : {0.0, 40.0, 80.0})
+      checked += check_straight_exits(stack, incident_direction(theta, 30.0), no_roulette, 7, 3000,
+                                      [&](const ScatterEvent&) { return &stack; });
   EXPECT_GT(checked, 1000);
 }
 
@@ -336,16 +352,8 @@ TEST(RandomWalkGuided, StraightExitsMatchConnectionWeight) {
   guided.guiding = 0.5;
   int checked = 0;
   for (const LayerStack& stack : stacks)
-    for (std::uint64_t i = 0; i < 4000; ++i) {
-      Rng rng(17, i);
-      ScatterEvent last;
-      const WalkResult r = random_walk(stack, incident_direction(35.0, 10.0), rng, [&](const ScatterEvent& e) { last = e; }, guided);
-      if (!r.straight_from_last_event) continue;
-      const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
-      const Spectrum rhs = last.throughput * connection_weight(stack, last, r.direction);
-      for (int c = 0; c < kChannels; ++c) ASSERT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c]))) << i;
-      ++checked;
-    }
+    checked += check_straight_exits(stack, incident_direction(35.0, 10.0), guided, 17, 4000,
+                                    [&](const ScatterEvent&) { return &stack; });
   EXPECT_GT(checked, 1000);
 }
 
@@ -459,17 +467,8 @@ TEST(RandomWalkSimilarity, SimilarEventsConnectThroughTheSimilarStack) {
   approx.roulette_threshold = 0.0;
   approx.similarity_after = 2;
   approx.similar = &similar;
-  int checked = 0;
-  for (std::uint64_t i = 0; i < 6000; ++i) {
-    Rng rng(9, i);
-    ScatterEvent last;
-    const WalkResult r = random_walk(s, incident_direction(30.0, 0.0), rng, [&](const ScatterEvent& e) { last = e; }, approx);
-    if (!r.straight_from_last_event || !last.similar) continue;
-    const Spectrum lhs = r.weight * (r.exit_pdf / std::abs(r.direction.z));
-    const Spectrum rhs = last.throughput * connection_weight(similar, last, r.direction);
-    for (int c = 0; c < kChannels; ++c) ASSERT_NEAR(lhs[c], rhs[c], 1e-9 * (1.0 + std::abs(rhs[c])));
-    ++checked;
-  }
+  const int checked = check_straight_exits(s, incident_direction(30.0, 0.0), approx, 9, 6000,
+                                           [&](const ScatterEvent& last) { return last.similar ? &similar : nullptr; });
   EXPECT_GT(checked, 300);
 }
 

@@ -688,19 +688,14 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
 
 // ---- light connections of the walk (renderer/surfaces/random_walk_surface.h) ----
 
-// The walk's events connect to the lights of the pool (environment, emissive triangles) either
-// with a sample of their own each (per-event, the default) or all to one shared sample per walk,
-// and always to one shared direction per delta light. Both are unbiased estimators of the same
-// image: on a skin-like slab lit by an emissive quad, a point light and a uniform environment
-// their means must agree within 3 standard errors of the difference in every channel (any
-// wrong weight, pmf or MIS term in one of them shows here). LAMINA_TEST_VERBOSE prints the
-// per-pixel standard deviations (docs/layered_rendering.md).
-TEST(LayeredLights, SharedAndPerEventPoolSamplesAgree) {
+// A slab (material 0) lit by an emissive quad (material 1, facing down, above the slab on the far
+// side from the camera), a point light and, when rendered, a uniform environment 0.5: every kind
+// of light, so that connections to delta and to pool lights and the walk's exits (MIS) all count.
+SceneDesc slab_under_every_light() {
   Material layered_material, emitter;
   emitter.emission = Spectrum(4.0, 3.0, 2.0);
   Mesh quad;
   quad.material = 1;
-  // Facing down (-y), above the slab on the far side from the camera.
   add_quad(&quad, {-2.0f, 1.5f, -1.0f}, {-0.5f, 1.5f, -1.0f}, {-0.5f, 1.5f, 1.0f}, {-2.0f, 1.5f, 1.0f});
   SceneDesc d = make_scene({slab_plane(0), quad}, {layered_material, emitter});
   LightDesc point;
@@ -708,66 +703,57 @@ TEST(LayeredLights, SharedAndPerEventPoolSamplesAgree) {
   point.position = {0.5, 2.0, 0.5};
   point.intensity = Spectrum(2.0);
   d.lights.push_back(point);
-  const LayeredBindings b = bind(substrate_stack());
+  return d;
+}
+
+// Renders `stack` in slab_under_every_light at 32x32, 8 spp, with setups a and b, two unbiased
+// estimators of the same image, and expects the same mean within 3 standard errors of the
+// difference in every channel. LAMINA_TEST_VERBOSE prints the means and per-pixel deviations.
+void expect_same_mean(const LayerStack& stack, RenderSetup a, RenderSetup b, const char* name_a, const char* name_b) {
+  const SceneDesc d = slab_under_every_light();
+  const LayeredBindings bindings = bind(stack);
   ImageStats st[2];
-  for (int shared = 0; shared < 2; ++shared) {
-    RenderSetup setup;
-    setup.width = setup.height = 32;
-    setup.spp = 8;
-    setup.per_event_pool_samples = shared == 0;
-    const Image im =
-        render_layered(d, b, EnvironmentMap::constant(Spectrum(0.5)), camera_towards(world_dir(30, 0)), setup);
-    st[shared] = stats_of(im);
+  RenderSetup* setups[2] = {&a, &b};
+  for (int k = 0; k < 2; ++k) {
+    setups[k]->width = setups[k]->height = 32;
+    setups[k]->spp = 8;
+    st[k] = stats_of(render_layered(d, bindings, EnvironmentMap::constant(Spectrum(0.5)),
+                                    camera_towards(world_dir(30, 0)), *setups[k]));
   }
   const double n = 32.0 * 32.0;
   for (int c = 0; c < 3; ++c) {
     if (std::getenv("LAMINA_TEST_VERBOSE"))
-      std::printf("channel %d: per-event %.4f +- %.4f (pixel sd %.4f), shared %.4f +- %.4f (pixel sd %.4f)\n", c,
-                  st[0].mean[c], st[0].stderr_[c], st[0].stderr_[c] * std::sqrt(n), st[1].mean[c], st[1].stderr_[c],
-                  st[1].stderr_[c] * std::sqrt(n));
+      std::printf("channel %d: %s %.4f +- %.4f (pixel sd %.4f), %s %.4f +- %.4f (pixel sd %.4f)\n", c, name_a,
+                  st[0].mean[c], st[0].stderr_[c], st[0].stderr_[c] * std::sqrt(n), name_b, st[1].mean[c],
+                  st[1].stderr_[c], st[1].stderr_[c] * std::sqrt(n));
     EXPECT_GT(st[0].mean[c], 0.0);
-    EXPECT_NEAR(st[0].mean[c], st[1].mean[c], 3.0 * std::hypot(st[0].stderr_[c], st[1].stderr_[c])) << c;
+    EXPECT_NEAR(st[0].mean[c], st[1].mean[c], 3.0 * std::hypot(st[0].stderr_[c], st[1].stderr_[c]))
+        << name_a << " vs " << name_b << ", channel " << c;
   }
 }
 
-// Guided walks in the renderer: on a bright isotropic slab over a substrate, lit by an emissive
-// quad, a point light and the environment (so that the walk's exits and the connections are
-// combined by MIS, with the guided mixture's exit density), guided (0.5) and classic walks give
-// the same image mean within 3 standard errors per channel.
+// The walk's events connect to the lights of the pool (environment, emissive triangles) either
+// all to one shared sample per walk (the default) or each to a sample of its own, and always to
+// one shared direction per delta light: on a skin-like slab the two must give the same mean (any
+// wrong weight, pmf or MIS term in one of them shows here; docs/layered_rendering.md).
+TEST(LayeredLights, SharedAndPerEventPoolSamplesAgree) {
+  RenderSetup per_event, shared;
+  per_event.per_event_pool_samples = true;
+  expect_same_mean(substrate_stack(), per_event, shared, "per-event", "shared");
+}
+
+// Guided walks in the renderer: on a bright isotropic slab over a substrate (the walk's exits
+// and the connections combined by MIS with the guided mixture's exit density), guided (0.5) and
+// classic walks give the same mean.
 TEST(LayeredLights, GuidedWalksSameMean) {
-  Material layered_material, emitter;
-  emitter.emission = Spectrum(4.0, 3.0, 2.0);
-  Mesh quad;
-  quad.material = 1;
-  add_quad(&quad, {-2.0f, 1.5f, -1.0f}, {-0.5f, 1.5f, -1.0f}, {-0.5f, 1.5f, 1.0f}, {-2.0f, 1.5f, 1.0f});
-  SceneDesc d = make_scene({slab_plane(0), quad}, {layered_material, emitter});
-  LightDesc point;
-  point.type = LightType::kPoint;
-  point.position = {0.5, 2.0, 0.5};
-  point.intensity = Spectrum(2.0);
-  d.lights.push_back(point);
   LayerStack iso;
   iso.above_ior = 1.0;
   iso.layers.push_back(make_layer("iso", 1.4, 1.0, Spectrum(0.02, 0.05, 0.2), Spectrum(10.0), Spectrum(0.0)));
   iso.below.kind = Below::Kind::Lambert;
   iso.below.albedo = Spectrum(0.7);
-  const LayeredBindings b = bind(iso);
-  ImageStats st[2];
-  for (int guided = 0; guided < 2; ++guided) {
-    RenderSetup setup;
-    setup.width = setup.height = 32;
-    setup.spp = 8;
-    setup.guiding = guided ? 0.5 : 0.0;
-    const Image im =
-        render_layered(d, b, EnvironmentMap::constant(Spectrum(0.5)), camera_towards(world_dir(30, 0)), setup);
-    st[guided] = stats_of(im);
-  }
-  for (int c = 0; c < 3; ++c) {
-    if (std::getenv("LAMINA_TEST_VERBOSE"))
-      std::printf("channel %d: classic %.4f +- %.4f, guided %.4f +- %.4f\n", c, st[0].mean[c], st[0].stderr_[c],
-                  st[1].mean[c], st[1].stderr_[c]);
-    EXPECT_NEAR(st[0].mean[c], st[1].mean[c], 3.0 * std::hypot(st[0].stderr_[c], st[1].stderr_[c])) << c;
-  }
+  RenderSetup classic, guided;
+  guided.guiding = 0.5;
+  expect_same_mean(iso, classic, guided, "classic", "guided");
 }
 
 // ---- stratified hero channel (integrator.cpp, HeroStrata) ----
