@@ -383,7 +383,9 @@ class Validator {
       for (std::size_t p = 0; p < prims.size(); ++p) {
         const std::string w = at("meshes", m) + "." + at("primitives", p);
         const json& prim = prims[p];
-        if (whole(prim, "mode", w).value_or(4) != 4 || !prim.contains("attributes")) continue;
+        // TRIANGLES (4), TRIANGLE_STRIP (5) and TRIANGLE_FAN (6) become triangles; the others are skipped.
+        const auto mode = whole(prim, "mode", w).value_or(4);
+        if (mode < 4 || mode > 6 || !prim.contains("attributes")) continue;
         const json& attrs = prim["attributes"];
         auto count = [&](const json& obj, const char* key, const std::string& where) -> std::optional<double> {
           const auto a = index(obj, key, where, accessor_count_.size(), "accessor");
@@ -398,7 +400,8 @@ class Validator {
                                                " vertices, more than 32-bit indices can address");
         const double normals = count(attrs, "NORMAL", w + ".attributes").has_value() ? 1.0 : 0.0;
         const double uvs = count(attrs, "TEXCOORD_0", w + ".attributes").has_value() ? 1.0 : 0.0;
-        const double i = count(prim, "indices", w).value_or(*v);
+        const double read = count(prim, "indices", w).value_or(*v);
+        const double i = mode == 4 ? read : 3.0 * std::max(0.0, read - 2.0);  // a strip's or fan's triangle list
         const double stored = *v * (12.0 + 12.0 * normals + 8.0 * uvs) + 4.0 * i;
         const double embree = *v * 12.0 + 4.0 * i;
         const double part = static_cast<double>(instances[m]) * (stored + embree);

@@ -273,8 +273,9 @@ void write_json(const tinygltf::Value& v, std::ostringstream* out) {
 }
 
 void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world) {
-  if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
-    warn("primitives that are not TRIANGLES (points, lines, strips, fans) are skipped");
+  const int mode = prim.mode == -1 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+    warn("primitives of points or lines are skipped");
     return;
   }
   auto pos_it = prim.attributes.find("POSITION");
@@ -310,6 +311,20 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     }
   } else {
     for (std::size_t i = 0; i < nv; ++i) idx.push_back(static_cast<std::uint32_t>(i));
+  }
+  // Strips and fans become triangle lists, keeping the winding glTF 2.0 gives them (section
+  // 3.7.2.1): strip triangle i is (v_i, v_{i+1+i%2}, v_{i+2-i%2}), fan triangle i is
+  // (v_{i+1}, v_{i+2}, v_0).
+  if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+    std::vector<std::uint32_t> list;
+    for (std::size_t i = 0; i + 2 < idx.size(); ++i) {
+      if (mode == TINYGLTF_MODE_TRIANGLE_STRIP)
+        list.insert(list.end(), {idx[i], idx[i + 1 + i % 2], idx[i + 2 - i % 2]});
+      else
+        list.insert(list.end(), {idx[i + 1], idx[i + 2], idx[0]});
+    }
+    if (idx.size() < 3) warn("a strip or fan of fewer than 3 vertices has no triangles");
+    idx = std::move(list);
   }
   if (idx.size() % 3 != 0) fail(path_, "mesh '" + gmesh.name + "' has an index count that is not a multiple of 3");
 

@@ -101,11 +101,47 @@ TEST(SceneGltf, NonIndexedWithoutNormalsAndDegenerates) {
   EXPECT_TRUE(s.meshes[0].normals.empty());  // flat shading
   bool warned_lines = false, warned_degenerate = false;
   for (const std::string& w : s.warnings) {
-    warned_lines |= w.find("TRIANGLES") != std::string::npos;
+    warned_lines |= w.find("points or lines") != std::string::npos;
     warned_degenerate |= w.find("2 degenerate") != std::string::npos;
   }
   EXPECT_TRUE(warned_lines);
   EXPECT_TRUE(warned_degenerate);
+}
+
+// Triangle strips and fans (glTF 2.0 section 3.7.2.1) become triangle lists with the winding the
+// spec gives them: a unit square in z = 0 as a 4-vertex strip (non-indexed) and as a fan
+// (indexed) gives two triangles each, both facing +z (counter-clockwise seen from +z), of total
+// area 1; a strip of 2 vertices has no triangles (a warning, and no mesh).
+TEST(SceneGltf, StripsAndFansBecomeTriangles) {
+  TempDir dir("gltf-strips");
+  GltfBuilder b;
+  // Strip order: (0,0) (1,0) (0,1) (1,1); fan order around (0,0): (1,0) (1,1) (0,1).
+  const int strip = b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0}, {}, {}, -1, 5);
+  b.add_node({{"mesh", strip}});
+  const int fan = b.add_mesh({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, {0, 1, 2, 3}, {}, -1, 6);
+  b.add_node({{"mesh", fan}, {"translation", {3.0, 0.0, 0.0}}});
+  const int stub = b.add_mesh({0, 0, 0, 1, 0, 0}, {}, {}, -1, 5);
+  b.add_node({{"mesh", stub}});
+  b.write_gltf(dir / "s.gltf");
+  const SceneDesc s = load_gltf(dir / "s.gltf");
+  ASSERT_EQ(s.meshes.size(), 2u);  // the stub has no triangles: no mesh
+  EXPECT_EQ(s.triangles, 4u);
+  for (int m = 0; m < 2; ++m) {
+    const Mesh& mesh = s.meshes[m];
+    ASSERT_EQ(mesh.indices.size(), 6u) << m;
+    double area = 0.0;
+    for (std::size_t t = 0; t < mesh.indices.size(); t += 3) {
+      const glm::dvec3 a = mesh.positions[mesh.indices[t]], b2 = mesh.positions[mesh.indices[t + 1]],
+                       c = mesh.positions[mesh.indices[t + 2]];
+      const glm::dvec3 n = glm::cross(b2 - a, c - a);
+      EXPECT_GT(n.z, 0.0) << "mesh " << m << " triangle " << t / 3 << " is wound clockwise";
+      area += 0.5 * glm::length(n);
+    }
+    EXPECT_NEAR(area, 1.0, 1e-6) << m;
+  }
+  bool warned = false;
+  for (const std::string& w : s.warnings) warned |= w.find("fewer than 3 vertices") != std::string::npos;
+  EXPECT_TRUE(warned);
 }
 
 TEST(SceneGltf, CamerasLightsAndMaterials) {
