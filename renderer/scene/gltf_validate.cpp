@@ -249,6 +249,19 @@ class Validator {
     const json& cs = top("cameras");
     for (std::size_t c = 0; c < cs.size(); ++c) {
       const std::string w = at("cameras", c);
+      if (cs[c].is_object() && cs[c].value("type", "") == "orthographic") {
+        // Section 5.16 "Camera Orthographic": xmag and ymag are required and MUST NOT be zero;
+        // zfar MUST be greater than znear (znear >= 0).
+        if (!cs[c].contains("orthographic")) fail(w, "is orthographic but has no \"orthographic\" object");
+        const json& o = cs[c]["orthographic"];
+        const std::string wo = w + ".orthographic";
+        for (const char* key : {"xmag", "ymag"}) {
+          const auto v = number(o, key, wo);
+          if (!v) fail(wo, std::string("has no \"") + key + "\" (it is required)");
+          if (!(*v != 0.0 && std::isfinite(*v))) fail(wo + "." + key, num(*v) + " must be a non-zero finite number");
+        }
+        continue;
+      }
       if (!cs[c].is_object() || cs[c].value("type", "") != "perspective" || !cs[c].contains("perspective")) continue;
       const json& p = cs[c]["perspective"];
       const std::string wp = w + ".perspective";

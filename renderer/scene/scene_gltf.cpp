@@ -408,8 +408,8 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     fail(path_, node_at(index) + ": camera " + std::to_string(node.camera) + " is out of range");
   if (node.camera >= 0) {
     const tinygltf::Camera& c = m_.cameras[node.camera];
-    if (c.type != "perspective") {
-      warn("orthographic cameras are skipped");
+    if (c.type != "perspective" && c.type != "orthographic") {
+      warn("cameras of type '" + c.type + "' are skipped");
     } else {
       CameraDesc cam;
       cam.name = camera_display_name(c.name, node.name);  // batch manifests check --camera by it too
@@ -429,10 +429,21 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
         fail(path_, node_at(index) + ": camera position is beyond the range of single precision (Embree traces in float)");
       cam.forward = *forward;
       cam.up = *up;
-      cam.yfov = c.perspective.yfov;
-      // validate_gltf refused anything else (cameras[i].perspective.yfov, section 5.14).
-      if (!(cam.yfov > 0.0 && cam.yfov < kPi))
-        fail(path_, "cameras[" + std::to_string(node.camera) + "].perspective.yfov: is not in (0, pi)");
+      if (c.type == "orthographic") {
+        // The view's half-height in the camera's frame, so the node's scale along +Y scales it.
+        cam.orthographic = true;
+        const double ymag = std::abs(c.orthographic.ymag);
+        cam.ymag = ymag * glm::length(m3 * glm::dvec3(0.0, 1.0, 0.0));
+        if (c.orthographic.ymag < 0.0) warn("a negative orthographic ymag is read as its magnitude");
+        // validate_gltf refused 0 and non-finite values (section 5.16).
+        if (!(cam.ymag > 0.0 && std::isfinite(cam.ymag)))
+          fail(path_, "cameras[" + std::to_string(node.camera) + "].orthographic.ymag: is not a positive finite size");
+      } else {
+        cam.yfov = c.perspective.yfov;
+        // validate_gltf refused anything else (cameras[i].perspective.yfov, section 5.14).
+        if (!(cam.yfov > 0.0 && cam.yfov < kPi))
+          fail(path_, "cameras[" + std::to_string(node.camera) + "].perspective.yfov: is not in (0, pi)");
+      }
       out_->cameras.push_back(cam);
     }
   }

@@ -71,7 +71,12 @@ struct CameraDesc {
   glm::dvec3 position{0.0};
   glm::dvec3 forward{0.0, 0.0, -1.0};  // glTF cameras look down their local -Z
   glm::dvec3 up{0.0, 1.0, 0.0};
-  double yfov = 0.0;  // radians
+  double yfov = 0.0;  // radians (perspective)
+  // glTF "orthographic" (section 3.10.3): parallel rays along forward from the camera's plane
+  // through its position, over a view ymag high (half-height, scene units) and ymag x the
+  // image's aspect wide (like yfov, the output's width/height decides the width, not xmag).
+  bool orthographic = false;
+  double ymag = 0.0;
 };
 
 enum class LightType { kPoint, kSpot, kDirectional };

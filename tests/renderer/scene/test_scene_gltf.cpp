@@ -12,6 +12,7 @@
 #include "materials/json_limits.h"
 #include "materials/sampling.h"
 #include "renderer/image/image_io.h"
+#include "renderer/scene/camera.h"
 #include "renderer/scene/gltf_document.h"
 #include "renderer/scene/gltf_validate.h"
 #include "renderer/scene/scene_gltf.h"
@@ -142,6 +143,43 @@ TEST(SceneGltf, StripsAndFansBecomeTriangles) {
   bool warned = false;
   for (const std::string& w : s.warnings) warned |= w.find("fewer than 3 vertices") != std::string::npos;
   EXPECT_TRUE(warned);
+}
+
+// Orthographic cameras (glTF 2.0 section 3.10.3): the view is ymag high on each side of the axis
+// (scaled by the node's scale along +Y) and ymag x the image's aspect wide; every ray runs along
+// the camera's -Z from the camera's plane. A negative ymag is read as its magnitude (warned).
+TEST(SceneGltf, OrthographicCamera) {
+  TempDir dir("gltf-ortho");
+  GltfBuilder b;
+  const int mesh = b.add_mesh(kTriangle);
+  b.add_node({{"mesh", mesh}});
+  b.json()["cameras"] = {{{"type", "orthographic"}, {"name", "ortho"},
+                          {"orthographic", {{"xmag", 3.0}, {"ymag", -1.5}, {"znear", 0.1}, {"zfar", 100.0}}}}};
+  b.add_node({{"camera", 0}, {"translation", {0.0, 0.0, 5.0}}, {"scale", {2.0, 2.0, 2.0}}});
+  b.write_gltf(dir / "o.gltf");
+  const SceneDesc s = load_gltf(dir / "o.gltf");
+  ASSERT_EQ(s.cameras.size(), 1u);
+  const CameraDesc& c = s.cameras[0];
+  EXPECT_TRUE(c.orthographic);
+  EXPECT_DOUBLE_EQ(c.ymag, 3.0);  // |-1.5| x the node's scale 2
+  bool warned = false;
+  for (const std::string& w : s.warnings) warned |= w.find("negative orthographic ymag") != std::string::npos;
+  EXPECT_TRUE(warned);
+  const Camera camera(c, 200, 100);  // aspect 2: half-width 6
+  const Ray corner = camera.generate_ray({0.0, 0.0}), centre = camera.generate_ray({100.0, 50.0});
+  const Ray other = camera.generate_ray({200.0, 100.0});
+  for (const Ray* r : {&corner, &centre, &other}) {
+    EXPECT_NEAR(r->direction.x, 0.0, 1e-12);
+    EXPECT_NEAR(r->direction.y, 0.0, 1e-12);
+    EXPECT_NEAR(r->direction.z, -1.0, 1e-12);
+    EXPECT_NEAR(r->origin.z, 5.0, 1e-9);
+  }
+  EXPECT_NEAR(centre.origin.x, 0.0, 1e-9);
+  EXPECT_NEAR(centre.origin.y, 0.0, 1e-9);
+  EXPECT_NEAR(corner.origin.x, -6.0, 1e-9);
+  EXPECT_NEAR(corner.origin.y, 3.0, 1e-9);
+  EXPECT_NEAR(other.origin.x, 6.0, 1e-9);
+  EXPECT_NEAR(other.origin.y, -3.0, 1e-9);
 }
 
 TEST(SceneGltf, CamerasLightsAndMaterials) {
@@ -426,9 +464,12 @@ TEST(SceneGltf, KhronosSamples) {
   }
   {
     const SceneDesc s = load_gltf(root + "Cameras.gltf");
-    ASSERT_EQ(s.cameras.size(), 1u);  // the orthographic one is skipped
+    ASSERT_EQ(s.cameras.size(), 2u);  // a perspective and an orthographic one
     expect_vec(s.cameras[0].position, {0.5, 0.5, 3.0}, 1e-6);
     EXPECT_DOUBLE_EQ(s.cameras[0].yfov, 0.7);
+    EXPECT_FALSE(s.cameras[0].orthographic);
+    EXPECT_TRUE(s.cameras[1].orthographic);
+    EXPECT_DOUBLE_EQ(s.cameras[1].ymag, 1.0);
   }
   {
     const SceneDesc s = load_gltf(root + "OrientationTest.gltf");
