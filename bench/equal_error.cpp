@@ -22,11 +22,10 @@
 #include <vector>
 
 #include "renderer/image/image.h"
+#include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
 
 namespace {
-
-double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
 
 struct Measure {
   double rmse = 0.0, seconds = 0.0, mean = 0.0, se_mean = 0.0;
@@ -59,14 +58,10 @@ int main(int argc, char** argv) {
   }
   try {
     const lamina::Image ref = lamina::read_image(args[0]);
-    std::vector<double> ref_y;
+    const std::vector<float> ref_y = lamina::luminance(ref);
     std::vector<std::size_t> mask;
     double ref_mean_all = 0.0;
-    for (int y = 0; y < ref.height; ++y)
-      for (int x = 0; x < ref.width; ++x) {
-        ref_y.push_back(luminance(ref.pixel(x, y)));
-        ref_mean_all += ref_y.back();
-      }
+    for (float v : ref_y) ref_mean_all += v;
     ref_mean_all /= static_cast<double>(ref_y.size());
     double ref_mean = 0.0;
     for (std::size_t i = 0; i < ref_y.size(); ++i)
@@ -78,10 +73,11 @@ int main(int argc, char** argv) {
     auto measure = [&](const std::string& path) {
       const lamina::Image im = lamina::read_image(path);
       if (im.width != ref.width || im.height != ref.height) throw std::runtime_error(path + ": size differs from the reference");
+      const std::vector<float> y = lamina::luminance(im);
       Measure m;
       double se2 = 0.0, sum = 0.0;
       for (std::size_t i : mask) {
-        const double v = luminance(im.pixel(static_cast<int>(i % ref.width), static_cast<int>(i / ref.width)));
+        const double v = y[i];
         const double d = per_pixel ? (v - ref_y[i]) / ref_y[i] * ref_mean : v - ref_y[i];
         se2 += d * d;
         sum += v;
@@ -90,10 +86,7 @@ int main(int argc, char** argv) {
       m.rmse = std::sqrt(se2 / n) / ref_mean;
       m.mean = sum / n;
       double abs2 = 0.0;
-      for (std::size_t i : mask) {
-        const double v = luminance(im.pixel(static_cast<int>(i % ref.width), static_cast<int>(i / ref.width)));
-        abs2 += (v - ref_y[i]) * (v - ref_y[i]);
-      }
+      for (std::size_t i : mask) abs2 += (y[i] - ref_y[i]) * (y[i] - ref_y[i]);
       m.se_mean = std::sqrt(abs2 / n) / std::sqrt(n);
       const lamina::Metadata meta = lamina::read_metadata(path);
       m.seconds = header_number(meta, "lamina:seconds");

@@ -17,9 +17,4 @@ double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, cons
   return connect_direct(stack, event, prepare_exit(stack, w, guiding)).pdf_for_mis;
 }
 
-double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w) {
-  const ExitDirection exit = prepare_exit(stack, w);
-  return exit.layers.empty() || !exit.layers[layer].exists ? 0.0 : exit.layers[layer].fresnel_t;
-}
-
 }  // namespace lamina

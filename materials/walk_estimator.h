@@ -1,7 +1,7 @@
 // Pieces of the renderer's random-walk estimator at a layered surface that need only the stack:
-// the reciprocity factor of transmission, the walk's exit density for MIS, and the Fresnel
-// transmissions of a direct exit. The integrator (renderer/render/integrator.cpp) combines them
-// with the scene; `lamina brdf` does not need them.
+// the reciprocity factor of transmission and the walk's exit density for MIS.
+// renderer/surfaces/random_walk_surface.cpp combines them with the light directions the
+// integrator draws; `lamina brdf` does not need them.
 //
 // Reciprocity. The walk with incident direction wo estimates f(wo -> w). The path tracer needs
 // f(w -> wo). Reflection is reciprocal: f_r(w -> wo) = f_r(wo -> w). Transmission between media
@@ -30,10 +30,5 @@ double transmission_radiance_factor(const LayerStack& stack);
 // times its weight). The hero's own pdf breaks the second condition for coloured media.
 // guiding: the walk's WalkSettings::guiding (its exits' density is then the mixture's).
 double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding = 0.0);
-
-// The product of Fresnel transmissions (1 - R) of the interfaces a direct exit from `layer`
-// towards the outside direction w crosses (0 where none refracts out to w). Only the naive
-// estimator uses it, to remove the Fresnel factor from connection_weight.
-double exit_fresnel_transmission(const LayerStack& stack, int layer, const glm::dvec3& w);
 
 }  // namespace lamina

@@ -261,9 +261,9 @@ int run_render(int argc, char** argv) {
   request.subsurface = subsurface;
   request.tolerance = tolerance;
   request.cache_dir = cache_dir;
-  request.per_event_pool_samples = pool_samples == "per-event";
-  request.similarity_after = similarity_after;
-  request.guiding = guiding;
+  request.walk.per_event_pool_samples = pool_samples == "per-event";
+  request.walk.similarity_after = similarity_after;
+  request.walk.guiding = guiding;
   request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {

@@ -41,6 +41,33 @@ double emission_weight(const LightSet& lights, const Light* light, bool unweight
   return power_heuristic(bsdf_pdf, light_pdf);
 }
 
+// Samples `light` (chosen with probability pmf) from p as a direction in the shading frame;
+// false if it gives no light, or if the shading and geometric normals disagree on the side of
+// its direction (light would leak through the surface).
+bool sample_light_direction(const Light& light, double pmf, glm::dvec2 u, const glm::dvec3& p, const glm::dvec3& ng,
+                            const Frame& frame, LightSample* ls, LightDirection* direction) {
+  if (!(pmf > 0.0) || !light.sample_li(p, u, ls)) return false;
+  const glm::dvec3 wi = frame.to_local(ls->wi);
+  if (!(glm::dot(ls->wi, ng) * wi.z > 0.0)) return false;
+  *direction = LightDirection{wi, pmf * ls->pdf, light.is_delta(), Spectrum(0.0)};
+  return true;
+}
+
+// True if nothing blocks the segment from p (offset off the surface on the light's side) to the
+// light sample.
+bool light_visible(const Scene& scene, const glm::dvec3& p, const glm::dvec3& ng, const LightSample& ls,
+                   RayCounters* rays) {
+  Ray shadow{offset_ray_origin(p, glm::dot(ls.wi, ng) > 0.0 ? ng : -ng), ls.wi};
+  double tmax = 1e300;
+  if (!ls.infinite) {
+    const glm::dvec3 v = ls.target - shadow.origin;
+    const double dist = glm::length(v);
+    shadow.direction = v / dist;
+    tmax = dist * (1.0 - 1e-6);  // stop short of the (offset) point on the light
+  }
+  return !scene.occluded(shadow, tmax, *rays);
+}
+
 // Light samples of the pool drawn one at a time for the events of a layered walk
 // (LightSampler), each with its own shadow ray.
 class PoolSampler final : public LightSampler {
@@ -52,29 +79,10 @@ class PoolSampler final : public LightSampler {
   bool draw(Rng& rng, LightDirection* light) override {
     const Light* chosen = lights_.choose(rng.uniform(), &pmf_);
     const glm::dvec2 u(rng.uniform(), rng.uniform());
-    if (!chosen || !(pmf_ > 0.0) || !chosen->sample_li(p_, u, &sample_)) return false;
-    const glm::dvec3 wi = frame_.to_local(sample_.wi);
-    if (!(glm::dot(sample_.wi, ng_) * wi.z > 0.0)) return false;
-    *light = LightDirection{wi, pmf_ * sample_.pdf, chosen->is_delta(), Spectrum(0.0)};
-    return true;
+    return chosen && sample_light_direction(*chosen, pmf_, u, p_, ng_, frame_, &sample_, light);
   }
   void add(const Spectrum& f_cos) override {
-    if (visible(scene_, p_, ng_, sample_, rays_)) *radiance_ += beta_ * f_cos * sample_.li / (pmf_ * sample_.pdf);
-  }
-
-  // True if nothing blocks the segment from p (offset off the surface on the light's side) to
-  // the light sample.
-  static bool visible(const Scene& scene, const glm::dvec3& p, const glm::dvec3& ng, const LightSample& ls,
-                      RayCounters* rays) {
-    Ray shadow{offset_ray_origin(p, glm::dot(ls.wi, ng) > 0.0 ? ng : -ng), ls.wi};
-    double tmax = 1e300;
-    if (!ls.infinite) {
-      const glm::dvec3 v = ls.target - shadow.origin;
-      const double dist = glm::length(v);
-      shadow.direction = v / dist;
-      tmax = dist * (1.0 - 1e-6);  // stop short of the (offset) point on the light
-    }
-    return !scene.occluded(shadow, tmax, *rays);
+    if (light_visible(scene_, p_, ng_, sample_, rays_)) *radiance_ += beta_ * f_cos * sample_.li / (pmf_ * sample_.pdf);
   }
 
  private:
@@ -101,13 +109,8 @@ struct LightSamples {
 
   void offer(const Light* light, double pmf_light, glm::dvec2 u, const glm::dvec3& p, const glm::dvec3& ng,
              const Frame& frame) {
-    LightSample& ls = sample[count];
-    if (!(pmf_light > 0.0) || !light->sample_li(p, u, &ls)) return;
-    const glm::dvec3 wi = frame.to_local(ls.wi);
-    // The shading and geometric normals must agree on the side of wi, or light leaks.
-    if (!(glm::dot(ls.wi, ng) * wi.z > 0.0)) return;
+    if (!sample_light_direction(*light, pmf_light, u, p, ng, frame, &sample[count], &direction[count])) return;
     pmf[count] = pmf_light;
-    direction[count] = LightDirection{wi, pmf_light * ls.pdf, light->is_delta(), Spectrum(0.0)};
     ++count;
   }
 };
@@ -228,11 +231,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     if (stack && mode == SubsurfaceMode::RandomWalk) {
       const int hero = strata && layered->stratified_hero ? strata->hero(walks) : kRandomHero;
       ++walks;
-      walk.emplace(*stack, hero,
-                   RandomWalkOptions{layered->naive, layered->connections_only, layered->per_event_pool_samples,
-                                     layered->similarity_after, layered->connection_roulette_depth,
-                                     layered->guiding},
-                   &rays->scatter_events);
+      walk.emplace(*stack, hero, layered->walk, &rays->scatter_events);
       surface_ptr = &*walk;
     }
     const Surface& surface = *surface_ptr;
@@ -258,7 +257,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
         surface.scatter(wo, rng, nee.direction, nee.count, per_event ? &pool : nullptr, &next);
     for (int k = 0; k < nee.count; ++k) {
       const Spectrum& f_cos = nee.direction[k].f_cos;
-      if (!f_cos.is_black() && PoolSampler::visible(scene, hit.p, ng, nee.sample[k], rays))
+      if (!f_cos.is_black() && light_visible(scene, hit.p, ng, nee.sample[k], rays))
         radiance += beta * f_cos * nee.sample[k].li / (nee.pmf[k] * nee.sample[k].pdf);
     }
 

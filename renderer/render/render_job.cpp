@@ -129,7 +129,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   // recorded before the render.
   Metadata similarity_meta;
   constexpr int kSimilarityBiasWalks = 1 << 15;
-  if (request.similarity_after >= 0 && bindings.count() > 0 && uses(SubsurfaceMode::RandomWalk)) {
+  if (request.walk.similarity_after >= 0 && bindings.count() > 0 && uses(SubsurfaceMode::RandomWalk)) {
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
       const auto& m = bindings.by_material[i];
@@ -137,7 +137,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       LayerStack similar;
       similarity_transform_into(m->base_stack(), &similar);
       WalkSettings ws;
-      ws.similarity_after = request.similarity_after;
+      ws.similarity_after = request.walk.similarity_after;
       ws.similar = &similar;
       Spectrum se_diff, exact;
       const Spectrum diff = diffuse_albedo_bias(m->base_stack(), ws, kSimilarityBiasWalks, LayeredMaterial::kAlbedoSeed, &se_diff, &exact);
@@ -149,7 +149,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       }
       say(log.info, string_printf("similarity after %d events (approximate): material %s (%s): diffuse albedo %.4f %.4f %.4f "
                                   "against exact %.4f %.4f %.4f: bias %+.1f%% %+.1f%% %+.1f%% (+- %.1f%% %.1f%% %.1f%%)",
-                                  request.similarity_after, desc_names[i].c_str(), m->source().c_str(), approx[0], approx[1],
+                                  request.walk.similarity_after, desc_names[i].c_str(), m->source().c_str(), approx[0], approx[1],
                                   approx[2], exact[0], exact[1], exact[2], 100 * bias[0], 100 * bias[1], 100 * bias[2],
                                   100 * se[0], 100 * se[1], 100 * se[2]));
       similarity_meta.emplace_back("lamina:similarity_bias:" + desc_names[i],
@@ -159,13 +159,11 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
                                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()));
   }
   LayeredShading layered;
-  layered.similarity_after = request.similarity_after;
-  layered.guiding = request.guiding;
+  layered.walk = request.walk;
   layered.bindings = &bindings;
   layered.mode = mode;
   layered.per_material = per_material;
   layered.tables = tables.get();
-  layered.per_event_pool_samples = request.per_event_pool_samples;
   settings.layered = &layered;
 
   RenderResult result;
@@ -200,9 +198,9 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:max_depth", std::to_string(settings.max_depth)},
       {"lamina:env", request.env.empty() ? "0" : request.env},
       {"lamina:subsurface", request.subsurface},
-      {"lamina:pool_samples", request.per_event_pool_samples ? "per-event" : "shared"},
-      {"lamina:similarity_after", std::to_string(request.similarity_after)},
-      {"lamina:guiding", string_printf("%.17g", request.guiding)},
+      {"lamina:pool_samples", request.walk.per_event_pool_samples ? "per-event" : "shared"},
+      {"lamina:similarity_after", std::to_string(request.walk.similarity_after)},
+      {"lamina:guiding", string_printf("%.17g", request.walk.guiding)},
       {"lamina:noise_threshold", string_printf("%.17g", settings.noise_threshold)},
       {"lamina:pilot_spp", std::to_string(settings.noise_threshold > 0.0 ? settings.pilot_spp : 0)},
       {"lamina:time_limit", string_printf("%.17g", settings.time_limit)},

@@ -30,15 +30,10 @@ struct RenderRequest {
   std::string subsurface = "random-walk";  // a mode name (renderer/layered/subsurface_mode.h) or "auto"
   double tolerance = 0.0;  // with auto: the largest predicted relative error per material
   std::string cache_dir;   // "" for no walk cache (renderer/layered/walk_cache.h)
-  // random-walk mode: each event connects to a pool light sample of its own (true, `--pool-samples
-  // per-event`) or the walk's events share one (false, `shared`, the default);
-  // LayeredShading::per_event_pool_samples.
-  bool per_event_pool_samples = false;
-  // random-walk mode, APPROXIMATE (-1: exact): LayeredShading::similarity_after; the bias on each
-  // material's diffuse albedo is measured, printed and recorded (lamina:similarity_bias:<material>).
-  int similarity_after = -1;
-  // random-walk: LayeredShading::guiding (0: classic walks).
-  double guiding = 0.0;
+  // random-walk mode: the walk's options (LayeredShading::walk). With similarity_after >= 0
+  // (approximate) the bias on each material's diffuse albedo is measured, printed and recorded
+  // (lamina:similarity_bias:<material>).
+  RandomWalkOptions walk;
   RenderSettings settings;  // width, height, spp, seed, max depth, threads (`layered` is set here)
   std::string command_line;  // lamina:command: the command that reproduces the image
   Metadata extra_metadata;   // appended to the header (lamina batch's job id and hash)

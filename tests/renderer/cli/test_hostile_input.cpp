@@ -95,28 +95,18 @@ fs::path generate(const json& spec, const fs::path& dir) {
     u32(static_cast<std::uint32_t>(chunk.size()));
     u32(0x4E4F534A);  // "JSON"
     text += chunk;
-  } else if (kind == "node_line_gltf") {
-    // A strict tree that is one line of `depth` nodes, each the only child of the last: deeper
-    // than any real scene, and deeper than a recursive traversal may go.
+  } else if (kind == "node_line_gltf" || kind == "node_chain_gltf") {
+    // node_line_gltf: a strict tree that is one line of `depth` nodes, each the only child of the
+    // last: deeper than any real scene, and deeper than a recursive traversal may go.
+    // node_chain_gltf: each node names the next one twice as a child: a DAG, not a tree; visited
+    // naively it takes 2^depth visits.
+    const bool twice = kind == "node_chain_gltf";
     path = dir / "input.gltf";
     std::ostringstream s;
     s << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)";
     for (int i = 0; i < depth; ++i) {
       if (i) s << ", ";
-      if (i + 1 < depth) s << "{\"children\": [" << i + 1 << "]}";
-      else s << "{}";
-    }
-    s << "]}";
-    text = s.str();
-  } else if (kind == "node_chain_gltf") {
-    // Each node names the next one twice as a child: a DAG, not a tree; visited naively it takes
-    // 2^depth visits.
-    path = dir / "input.gltf";
-    std::ostringstream s;
-    s << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)";
-    for (int i = 0; i < depth; ++i) {
-      if (i) s << ", ";
-      if (i + 1 < depth) s << "{\"children\": [" << i + 1 << ", " << i + 1 << "]}";
+      if (i + 1 < depth) s << "{\"children\": [" << i + 1 << (twice ? ", " + std::to_string(i + 1) : "") << "]}";
       else s << "{}";
     }
     s << "]}";

@@ -59,12 +59,8 @@ glm::dvec3 local_dir(const glm::dvec3& w) { return {w.x, w.z, w.y}; }
 
 struct RenderSetup {
   SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
-  bool naive = false;
-  bool connections_only = false;
   bool stratified_hero = true;
-  bool per_event_pool_samples = false;
-  double connection_roulette_depth = 6.0;
-  double guiding = 0.0;
+  RandomWalkOptions walk;
   int width = 16, height = 16, spp = 16;
   int threads = 0;
   std::uint64_t seed = 11;
@@ -79,12 +75,8 @@ Image render_layered(const SceneDesc& desc, const LayeredBindings& bindings, con
   LayeredShading layered;
   layered.bindings = &bindings;
   layered.mode = setup.mode;
-  layered.naive = setup.naive;
-  layered.connections_only = setup.connections_only;
   layered.stratified_hero = setup.stratified_hero;
-  layered.per_event_pool_samples = setup.per_event_pool_samples;
-  layered.connection_roulette_depth = setup.connection_roulette_depth;
-  layered.guiding = setup.guiding;
+  layered.walk = setup.walk;
   layered.tables = setup.tables;
   RenderSettings s;
   s.width = setup.width;
@@ -146,7 +138,7 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
   setup.mode = mode;
   setup.spp = spp;
   setup.width = setup.height = size;
-  setup.connection_roulette_depth = connection_roulette_depth;
+  setup.walk.connection_roulette_depth = connection_roulette_depth;
   if (mode == SubsurfaceMode::Table) {
     TableSettings ts;
     ts.walks_per_node = 40000;
@@ -559,7 +551,7 @@ TEST(LayeredBias, NaiveVariantIsBiasedOursIsNot) {
   RenderSetup setup;
   setup.spp = 16;
   for (bool naive : {false, true}) {
-    setup.naive = naive;
+    setup.walk.naive = naive;
     const Image im = render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(world_dir(30, 0)), setup);
     const ImageStats st = stats_of(im);
     if (std::getenv("LAMINA_TEST_VERBOSE"))
@@ -666,11 +658,11 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
       RenderSetup setup;
       setup.width = setup.height = 24;
       setup.spp = 4;
-      setup.connections_only = only == 1;
+      setup.walk.connections_only = only == 1;
       // Per-event pool samples: with one environment sample shared by the whole walk, the
       // connections-only estimator at g = 0.99 is so heavy-tailed that its standard error means
       // little (docs/layered_rendering.md, "Shared or per-event pool samples").
-      setup.per_event_pool_samples = true;
+      setup.walk.per_event_pool_samples = true;
       const Image im = render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(world_dir(30, 0)), setup);
       st[only] = stats_of(im);
     }
@@ -738,7 +730,7 @@ void expect_same_mean(const LayerStack& stack, RenderSetup a, RenderSetup b, con
 // wrong weight, pmf or MIS term in one of them shows here; docs/layered_rendering.md).
 TEST(LayeredLights, SharedAndPerEventPoolSamplesAgree) {
   RenderSetup per_event, shared;
-  per_event.per_event_pool_samples = true;
+  per_event.walk.per_event_pool_samples = true;
   expect_same_mean(substrate_stack(), per_event, shared, "per-event", "shared");
 }
 
@@ -752,7 +744,7 @@ TEST(LayeredLights, GuidedWalksSameMean) {
   iso.below.kind = Below::Kind::Lambert;
   iso.below.albedo = Spectrum(0.7);
   RenderSetup classic, guided;
-  guided.guiding = 0.5;
+  guided.walk.guiding = 0.5;
   expect_same_mean(iso, classic, guided, "classic", "guided");
 }
 
@@ -836,7 +828,7 @@ TEST(LayeredHero, StratifiedHeroLowersChromaNoise) {
     // Per-event environment samples, as when the numbers in docs/random_walk.md were measured: a
     // single shared sample per walk adds its own between-walk noise, which hides part of what
     // the hero's stratification removes.
-    setup.per_event_pool_samples = true;
+    setup.walk.per_event_pool_samples = true;
     const Image im =
         render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(world_dir(30, 180)), setup);
     st[stratified] = stats_of(im);
