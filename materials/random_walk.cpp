@@ -113,6 +113,11 @@ bool scatters_isotropically(const Layer& layer) {
   return !layer.lobes.empty();
 }
 
+// The probability of the guided technique for flights from this layer.
+double layer_guiding(const Layer& layer, double guiding) {
+  return guiding > 0.0 && scatters_isotropically(layer) ? guiding : 0.0;
+}
+
 // The guided technique's extinction for a flight along direction cosine mu (with +z, towards the
 // top): sigma_t (1 - mu / v0), or sigma_t where the channel is not guided.
 double guided_sigma(double sigma_t, double v0, double mu) { return v0 > 0.0 ? sigma_t * (1.0 - mu / v0) : sigma_t; }
@@ -174,7 +179,6 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
   out->w = w;
   out->layers.clear();
   out->guided.clear();
-  out->guiding = guiding;
   if (!(w.z != 0.0)) return;
   const bool up = w.z > 0.0;
   if (!up && !stack.transmits()) return;
@@ -213,7 +217,7 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
     e.tau_beyond = tau_beyond;
     if (guiding > 0.0) {
       ExitDirection::GuidedExit& g = out->guided[l];
-      g.guiding = scatters_isotropically(layer) ? guiding : 0.0;
+      g.guiding = layer_guiding(layer, guiding);
       const Spectrum v0 = g.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
       const double mu_dir = up ? mu : -mu;  // the inside direction's cosine with +z
       for (int c = 0; c < kChannels; ++c) {
@@ -465,7 +469,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.sigma_s = layer.sigma_s();
     for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
     c.grey_phase = phase_is_grey(layer);
-    c.guiding = settings.guiding > 0.0 && scatters_isotropically(layer) ? settings.guiding : 0.0;
+    c.guiding = layer_guiding(layer, settings.guiding);
     c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
   }
   const LayerCache* cache = caches.data();  // switches to the similar half

@@ -168,9 +168,8 @@ struct ExitDirection {
   double mu_out = 0.0;
   std::vector<LayerExit> layers;  // empty: w itself cannot be reached (grazing, or no transmission)
   // Guided walks (WalkSettings::guiding): the walk leaves a volume event along the inside
-  // direction with the mixture density; per layer, the guided technique's direction density and
-  // stretched optical depths.
-  double guiding = 0.0;
+  // direction with the mixture density; per layer, the guided technique's probability, direction
+  // density and stretched optical depths.
   struct GuidedExit {
     double guiding = 0.0;    // the guided technique's probability for flights from this layer
     Spectrum direction_pdf;  // dwivedi_pdf at the inside direction (isotropic where unguided)

@@ -22,7 +22,6 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   }
   const double entry = 1.0 / (1.0 - r_top);
   const double t_factor = transmission_radiance_factor(stack_);
-  // Per light direction: the prepared exit and the factor every event's connection shares.
   // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
   WalkSettings settings;
   settings.guiding = options_.guiding;
