@@ -137,12 +137,20 @@ double RoughDielectric::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
   const double n_i = index_of(wi);
   if (n_i == n_o) return 0.0;
   if (!refraction_half_vector(wo, n_o, wi, n_i, &m)) return 0.0;
+  return (1.0 - fresnel_dielectric(glm::dot(wo, m), n_o, n_i)) * refraction_pdf(wo, wi);
+}
+
+double RoughDielectric::refraction_pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
+  if (!(wo.z * wi.z < 0.0)) return 0.0;
+  const double n_o = index_of(wo), n_i = index_of(wi);
+  if (n_i == n_o) return 0.0;
+  glm::dvec3 m;
+  if (!refraction_half_vector(wo, n_o, wi, n_i, &m)) return 0.0;
   const glm::dvec3 m_wo = wo.z > 0.0 ? m : -m;
   const double om = glm::dot(wo, m), im = glm::dot(wi, m);
-  const double f = fresnel_dielectric(om, n_o, n_i);
   const double denom = n_i * im + n_o * om;
   // d(omega_m)/d(omega_i) = n_i^2 |wi.m| / (n_i wi.m + n_o wo.m)^2 (Walter eq. 17).
-  return (1.0 - f) * distribution.visible_pdf(wo, m_wo) * n_i * n_i * std::abs(im) / (denom * denom);
+  return distribution.visible_pdf(wo, m_wo) * n_i * n_i * std::abs(im) / (denom * denom);
 }
 
 RoughDielectric::Sample RoughDielectric::sample(const glm::dvec3& wo, glm::dvec2 u, double u_choice,

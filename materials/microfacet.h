@@ -74,6 +74,9 @@ struct RoughDielectric {
   double eval(const glm::dvec3& wo, const glm::dvec3& wi) const;
   // Density (per solid angle of wi) of sample() from wo.
   double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const;
+  // The density of wi (on the far side of wo) for a sampler that always refracts: m ~ D_wo, then
+  // refraction; pdf() of a refraction is (1 - F(wo.m)) times this.
+  double refraction_pdf(const glm::dvec3& wo, const glm::dvec3& wi) const;
   struct Sample {
     glm::dvec3 wi{0.0, 0.0, 1.0};
     double weight = 0.0;  // f |wi.z| / pdf (0: the sample left the surface on the wrong side)

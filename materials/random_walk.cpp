@@ -7,6 +7,7 @@
 #include "materials/dwivedi.h"
 #include "materials/fresnel.h"
 #include "materials/henyey_greenstein.h"
+#include "materials/microfacet.h"
 #include "materials/zeroth_order.h"
 
 namespace lamina {
@@ -175,7 +176,38 @@ void flight_escaped(PathWeight* pw, const Spectrum& tau, int hero) {
 // l-1 ... 0; going down, the bottom interfaces of layers l ... N-1 and the layers below l. So
 // the per-layer terms accumulate from the outside inwards.
 // ---------------------------------------------------------------------------------------------
-void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding) {
+namespace {
+
+// The rough top interface of a stack (LayerStack::top_roughness > 0) as a microfacet BSDF:
+// +z is outside (above_ior), -z layer 0.
+RoughDielectric top_interface(const LayerStack& stack) {
+  return RoughDielectric{{stack.top_roughness}, stack.above_ior, stack.layers[0].ior};
+}
+
+// Through a rough top: layer 0's inside direction, the transmission's radiance estimate and the
+// MIS density ratio for the outside direction w (w.z > 0) and the direction t in layer 0
+// pointing away from the surface (t.z < 0; -t is the propagation direction towards the top).
+// See prepare_exit in random_walk.h.
+struct RoughCrossing {
+  bool exists = false;
+  glm::dvec3 inside{0.0};
+  double radiance_scale = 0.0;  // f_t(w, t) |t.z| / p(t | w)
+  double jacobian = 0.0;        // pdf_walk(w | t) / p(t | w)
+};
+RoughCrossing cross_rough_top(const RoughDielectric& top, const glm::dvec3& w, const glm::dvec3& t) {
+  RoughCrossing c;
+  if (!(t.z < 0.0) || !(w.z > 0.0)) return c;
+  const double p_t = top.refraction_pdf(w, t);  // the connection's sampling density of t
+  if (!(p_t > 0.0)) return c;
+  c.radiance_scale = top.eval(w, t) * -t.z / p_t;
+  c.jacobian = top.pdf(t, w) / p_t;  // the walk meets the facets from t: visible normals of t
+  c.inside = -t;
+  c.exists = c.radiance_scale > 0.0;
+  return c;
+}
+
+void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding,
+                       const RoughCrossing* rough) {
   out->w = w;
   out->layers.clear();
   out->guided.clear();
@@ -185,9 +217,19 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
   const int n_layers = static_cast<int>(stack.layers.size());
   const double n_out = up ? stack.above_ior : stack.below.ior;
   const double mu_out = std::min(1.0, std::abs(w.z));
-  const double sin2_out = std::max(0.0, (1.0 - mu_out) * (1.0 + mu_out));
   out->up = up;
   out->mu_out = mu_out;
+  // Snell's invariant is taken from a reference direction: w outside for smooth interfaces; the
+  // sampled direction in layer 0 behind a rough top (which it has already crossed: its
+  // transmission and density ratio start the products).
+  const bool through_rough = up && rough != nullptr;
+  if (through_rough && !rough->exists) return;
+  const double n_ref = through_rough ? stack.layers[0].ior : n_out;
+  const double tx = through_rough ? rough->inside.x : w.x, ty = through_rough ? rough->inside.y : w.y;
+  const double mu_ref = through_rough ? rough->inside.z : mu_out;
+  const double sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+  const double top_scale = through_rough ? rough->radiance_scale : 1.0;
+  const double top_jacobian = through_rough ? rough->jacobian : 1.0;
   out->layers.resize(n_layers);
   if (guiding > 0.0) out->guided.resize(n_layers);
   bool reachable = true;  // every layer between this one and the outside propagates towards w
@@ -197,19 +239,21 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
     const int l = up ? step : n_layers - 1 - step;
     const Layer& layer = stack.layers[l];
     ExitDirection::LayerExit& e = out->layers[l];
-    const double r = n_out / layer.ior;
-    const double sin2 = r * r * sin2_out;
-    const double mu = sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
+    const double r = n_ref / layer.ior;
+    const double sin2 = r * r * sin2_ref;
+    const double mu = through_rough && l == 0 ? mu_ref : sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
     reachable = reachable && mu > 0.0;
     if (!reachable) continue;  // e.exists stays false, and for every layer further in
-    const double n_next = up ? stack.ior_above_interface(l) : stack.ior_below_interface(l + 1);
-    fresnel_t *= 1.0 - fresnel_dielectric(mu, layer.ior, n_next);
+    if (!(through_rough && l == 0)) {
+      const double n_next = up ? stack.ior_above_interface(l) : stack.ior_below_interface(l + 1);
+      fresnel_t *= 1.0 - fresnel_dielectric(mu, layer.ior, n_next);
+    }
     e.exists = true;
-    e.inside = {w.x * r, w.y * r, up ? mu : -mu};
+    e.inside = {tx * r, ty * r, up ? mu : -mu};
     e.mu_inside = mu;
     e.fresnel_t = fresnel_t;
-    e.radiance_scale = fresnel_t * r * r;
-    e.jacobian = r * r * mu_out / mu;
+    e.radiance_scale = fresnel_t * r * r * top_scale;
+    e.jacobian = top_jacobian * r * r * mu_ref / mu;
     e.grey_phase = phase_is_grey(layer);
     e.single_lobe = e.grey_phase && single_henyey_greenstein(layer, &e.single_g);
     const Spectrum sigma_t = layer.sigma_t();
@@ -232,6 +276,34 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
     e.min_tau_beyond = std::min(tau_beyond[0], std::min(tau_beyond[1], tau_beyond[2]));
     add_optical_depth(&tau_beyond, sigma_t, layer.thickness / mu);  // for the layers further in
   }
+}
+
+}  // namespace
+
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding,
+                  glm::dvec2 u_interface) {
+  if (!stack.rough_top() || !(w.z > 0.0)) {
+    prepare_exit_impl(stack, w, out, guiding, nullptr);
+    return;
+  }
+  // Sample the inside direction: visible normals from w, refraction into layer 0.
+  const RoughDielectric top = top_interface(stack);
+  const glm::dvec3 m = top.distribution.sample_visible(w, u_interface);
+  glm::dvec3 t;
+  RoughCrossing crossing;
+  if (glm::dot(w, m) > 0.0 && refract_about(w, m, stack.above_ior, stack.layers[0].ior, &t))
+    crossing = cross_rough_top(top, w, t);
+  prepare_exit_impl(stack, w, out, guiding, &crossing);
+}
+
+void prepare_exit_through(const LayerStack& stack, const glm::dvec3& w, const glm::dvec3& inside_up,
+                          ExitDirection* out, double guiding) {
+  if (!stack.rough_top() || !(w.z > 0.0)) {
+    prepare_exit_impl(stack, w, out, guiding, nullptr);
+    return;
+  }
+  const RoughCrossing crossing = cross_rough_top(top_interface(stack), w, -inside_up);
+  prepare_exit_impl(stack, w, out, guiding, &crossing);
 }
 
 ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding) {
@@ -441,14 +513,37 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
 
   // Entry: the light arrives along -wi; the walk carries the refracted part (1 - R).
   const double n_top = stack.layers[0].ior;
-  const double r_entry = fresnel_dielectric(wi.z, stack.above_ior, n_top);
+  const bool rough = stack.rough_top();
+  const RoughDielectric top = rough ? top_interface(stack) : RoughDielectric{};
   PathWeight pw;
-  pw.scale = 1.0 - r_entry;
   glm::dvec3 d = -wi;
-  if (!(r_entry < 1.0) || !refract_through_plane(&d, stack.above_ior, n_top)) {
-    result.end = WalkResult::End::Absorbed;  // nothing enters (grazing or TIR from a denser above)
-    return result;
+  if (rough) {
+    // Through a rough top the packet meets a facet m ~ D_wi (the visible normals) and carries
+    // the power refracted there, (1 - F(wi.m)) G2/G1(wi) (Walter eq. 21 sampled as in
+    // RoughDielectric::sample, power mode; the reflected part F is the caller's glossy lobe). A
+    // refraction that points back up, or none at all, is the model's single-scattering loss.
+    const glm::dvec3 m = top.distribution.sample_visible(wi, {rng.uniform(), rng.uniform()});
+    const double cos_m = glm::dot(wi, m);
+    glm::dvec3 t;
+    const double f = cos_m > 0.0 ? fresnel_dielectric(cos_m, stack.above_ior, n_top) : 1.0;
+    if (!(cos_m > 0.0) || !refract_about(wi, m, stack.above_ior, n_top, &t) || !(t.z < 0.0)) {
+      result.interface_loss = Spectrum(1.0 - f);
+      result.end = WalkResult::End::Absorbed;
+      return result;
+    }
+    const double g = top.distribution.g2(wi, t) / top.distribution.g1(wi);
+    pw.scale = (1.0 - f) * g;
+    result.interface_loss = Spectrum((1.0 - f) * (1.0 - g));
+    d = t;
+  } else {
+    const double r_entry = fresnel_dielectric(wi.z, stack.above_ior, n_top);
+    pw.scale = 1.0 - r_entry;
+    if (!(r_entry < 1.0) || !refract_through_plane(&d, stack.above_ior, n_top)) {
+      result.end = WalkResult::End::Absorbed;  // nothing enters (grazing or TIR from a denser above)
+      return result;
+    }
   }
+  const double entry_weight = pw.scale;
   // Per-layer coefficients, summed over the lobes once per walk instead of at every step.
   struct LayerCache {
     Spectrum sigma_t, sigma_s;
@@ -497,7 +592,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     double q = 1.0;
     // Relative to the entering weight 1 - R: at grazing incidence that is tiny, and an absolute
     // threshold would kill almost every walk at once (large relative variance for no gain).
-    if (at_scatter && weight.max() < settings.roulette_threshold * (1.0 - r_entry))
+    if (at_scatter && weight.max() < settings.roulette_threshold * entry_weight)
       q = settings.roulette_survival;
     const int t = result.interactions;
     if (t > settings.forced_exponential_after && result.cut_weight.is_black()) result.cut_weight = weight;
@@ -531,7 +626,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
-      result.exit_pdf = connection_pdf(last_event.similar ? *settings.similar : stack, last_event, out, settings.guiding);
+      const LayerStack& last_stack = last_event.similar ? *settings.similar : stack;
+      if (rough && side == WalkResult::Side::Top) {
+        ExitDirection exit;
+        prepare_exit_through(last_stack, out, result.top_inside, &exit, settings.guiding);
+        result.exit_pdf = connect_direct(last_stack, last_event, exit).pdf_hero;
+      } else {
+        result.exit_pdf = connection_pdf(last_stack, last_event, out, settings.guiding);
+      }
     }
     return result;
   };
@@ -640,7 +742,32 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       const bool down = d.z < 0.0;
       z = down ? layer.thickness : 0.0;
 
-      if (!down && l == 0) {  // top interface
+      if (!down && l == 0 && rough) {  // rough top interface, met from inside
+        // The facets seen from -d (pointing away from the surface into layer 0): reflection with
+        // probability F, else refraction out; the packet keeps G2/G1 (power mode).
+        const double u0 = rng.uniform(), u1 = rng.uniform(), u_choice = rng.uniform();
+        const RoughDielectric::Sample sample = top.sample(-d, {u0, u1}, u_choice, true);
+        // The loss tally needs the prefix's weight including this flight so far (its spectral
+        // ratios are otherwise booked when the flight ends; a guided flight's are left out).
+        PathWeight prefix = pw;
+        if (flight_q == 0.0) flight_escaped(&prefix, tau, hero);
+        const Spectrum before = prefix.value();
+        pw.scale *= sample.weight;
+        result.interface_loss += before * (1.0 - sample.weight);
+        if (!(sample.weight > 0.0)) {
+          result.end = WalkResult::End::Absorbed;
+          return result;
+        }
+        weight = pw.value();
+        if (!sample.reflected) {
+          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+          else flight_escaped(&pw, tau, hero);
+          result.top_inside = d;
+          return finish_exit(WalkResult::Side::Top, sample.wi);
+        }
+        d = sample.wi;
+        reflected_since_event = true;
+      } else if (!down && l == 0) {  // top interface
         const double r = fresnel_dielectric(d.z, layer.ior, stack.above_ior);
         glm::dvec3 out = d;
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.above_ior)) {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "materials/sampling.h"
@@ -81,6 +82,13 @@ struct WalkResult {
   // sees this power come out. Its mean over walks, `unresolved` in lamina brdf, bounds what the
   // totals may miss beyond their standard errors (docs/random_walk.md, "Heavy tails").
   Spectrum cut_weight;
+  // Rough top interface (LayerStack::top_roughness): the walk's direction in layer 0 as it
+  // reached the top before leaving (what exit_pdf_for_mis needs: many inside directions reach one
+  // outside direction), and a direct estimate of the power lost by the single-scattering
+  // microfacet model (directions sampled below the facets), at the entry and inside. Its
+  // expectation closes the energy balance: R + T + absorbed + interface_loss = 1 - R_glossy.
+  glm::dvec3 top_inside{0.0};
+  Spectrum interface_loss;
 };
 
 // Tuning of Russian roulette (every value keeps the estimator unbiased; they only trade variance
@@ -177,8 +185,26 @@ struct ExitDirection {
   };
   std::vector<GuidedExit> guided;  // per layer, when guiding > 0
 };
-void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0);
+//
+// A rough top interface (LayerStack::top_roughness > 0) refracts many inside directions into w:
+// prepare_exit then SAMPLES one, as pbrt-v4's LayeredBxDF pre-samples its exit direction: a
+// microfacet normal m ~ D_w (visible normals from w, two uniforms u_interface), the refraction t
+// of w through m into layer 0; layer 0's inside direction is -t, its radiance_scale the
+// estimate f_t(w, t) |t.z| / p(t | w) = (1 - F) G2/G1(w) (n_above / n_0)^2 of the rough
+// transmission, and its `jacobian` the ratio pdf_walk(w | t) / p(t | w) of the walk's own
+// exit density through the facets to this sampling density, so that connect_direct's
+// pdf_for_mis is the walk's density of the pair (t, w) over p(t | w): the power heuristic of a
+// light density against it is the heuristic of the two strategies' densities of the whole pair
+// (light: p_light(w) p(t | w); walk: phase and flight to t, then the facets to w). Only with
+// uniform random u_interface is the connection unbiased (the default is for smooth stacks, which
+// ignore it). Deeper layers follow from t by Snell's law through the smooth inner interfaces.
+void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0,
+                  glm::dvec2 u_interface = {0.5, 0.5});
 ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding = 0.0);
+// Rough top: the same for a given inside direction, `inside_up` the propagation direction in
+// layer 0 towards the top (z > 0), e.g. WalkResult::top_inside, to weight the walk's own exit.
+void prepare_exit_through(const LayerStack& stack, const glm::dvec3& w, const glm::dvec3& inside_up,
+                          ExitDirection* out, double guiding = 0.0);
 
 // An event's direct exit towards a prepared direction: its connection_weight and its
 // exit_pdf_for_mis (materials/walk_estimator.h), computed together because they share the phase
@@ -196,13 +222,15 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
 double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
 
 // The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
+// (smooth top interfaces; through a rough one, one sample of it: see prepare_exit)
 // towards the outside direction w (unit): f(wi -> w) += event.throughput * connection_weight.
 // Zero where no inside direction refracts out to w, or w points to a side that does not transmit.
 // Derivation: see random_walk.cpp, above its definition. (connect_direct with a prepared
 // direction is the same, cheaper when many events connect to one w.)
 Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w);
 
-// Like connection_weight, but summed over ALL unscattered paths from the event out to w: the
+// Smooth interfaces only (the adding method's closed form; a rough top is ignored):
+// like connection_weight, but summed over ALL unscattered paths from the event out to w: the
 // direct one, and those that are specularly reflected (any number of times) by the interfaces
 // above and below before leaving, in closed form (the adding method of materials/zeroth_order).
 // Then sum over every event of throughput * connection_weight_all_paths(w) estimates the whole

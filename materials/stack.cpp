@@ -104,6 +104,11 @@ void flip_into(const LayerStack& stack, LayerStack* out) {
   out->below.ior = stack.above_ior;
 }
 
+LayerStack with_smooth_top(LayerStack stack) {
+  stack.top_roughness = 0.0;
+  return stack;
+}
+
 std::string stack_fingerprint(const LayerStack& stack) {
   std::ostringstream out;
   out << std::hexfloat;
@@ -111,6 +116,7 @@ std::string stack_fingerprint(const LayerStack& stack) {
     for (int c = 0; c < kChannels; ++c) out << ' ' << v[c];
   };
   out << "above " << stack.above_ior << '\n';
+  if (stack.rough_top()) out << "top_roughness " << stack.top_roughness << '\n';
   for (const Layer& l : stack.layers) {
     out << "layer " << l.ior << ' ' << l.thickness << " sigma_a";
     spectrum(l.sigma_a);
@@ -161,6 +167,11 @@ std::string check_ior(const std::string& path, double n) {
 std::string validate_stack(const LayerStack& stack) {
   if (auto e = check_ior("above_ior", stack.above_ior); !e.empty()) return e;
   if (stack.layers.empty()) return "layers: a stack needs at least one layer";
+  if (!std::isfinite(stack.top_roughness) || stack.top_roughness < 0.0 || stack.top_roughness > 1.0) {
+    std::ostringstream os;
+    os << "roughness: must be a number in [0, 1] (GGX alpha; got " << stack.top_roughness << ")";
+    return os.str();
+  }
   for (std::size_t i = 0; i < stack.layers.size(); ++i) {
     const Layer& layer = stack.layers[i];
     const std::string p = "layers[" + std::to_string(i) + "]";
@@ -194,6 +205,13 @@ std::string validate_stack(const LayerStack& stack) {
   } else {
     if (auto e = check_spectrum("below.lambert", stack.below.albedo, true); !e.empty()) return e;
   }
+  // A rough top on a transmitting stack would be a rough BOTTOM when the stack is seen from
+  // behind (flipped), which the walk does not model yet.
+  if (stack.rough_top() && stack.transmits())
+    return "roughness: a rough top interface is only supported on stacks that do not transmit "
+           "(a semi-infinite last layer or a lambert substrate)";
+  if (stack.rough_top() && stack.above_ior == stack.layers[0].ior)
+    return "roughness: the top interface is index matched (above_ior = layers[0].ior): it cannot be rough";
   return {};
 }
 

@@ -61,12 +61,18 @@ struct Below {
 struct LayerStack {
   std::string name;
   double above_ior = 1.0;
+  // GGX alpha of the top interface (interface 0; materials/microfacet.h): 0 is a smooth
+  // (mirror) interface, the model of Hanrahan and Krueger; > 0 a rough dielectric whose
+  // reflection is a glossy lobe and whose transmission spreads directions. Only for stacks that
+  // do not transmit (validate_stack).
+  double top_roughness = 0.0;
   std::vector<Layer> layers;
   Below below;
 
   // True if light can leave through the bottom (a transmitting medium below, and no
   // semi-infinite layer).
   bool transmits() const;
+  bool rough_top() const { return top_roughness > 0.0; }
   // Index of refraction on the far side of interface k: interface 0 is the top surface
   // (above_ior | layers[0]); interface k (1 <= k < N) lies between layers[k-1] and layers[k];
   // interface N is the bottom (layers[N-1] | below).
@@ -92,6 +98,10 @@ void flip_into(const LayerStack& stack, LayerStack* out);
 // WalkSettings::similarity_after uses it after a number of exact events; the bias is measured).
 // Into *out, reusing its storage; `out` must not be `&stack`.
 void similarity_transform_into(const LayerStack& stack, LayerStack* out);
+
+// The same stack with a smooth top interface (top_roughness 0): what the modes that do not model
+// a rough interface (first order, tables) use; the renderer warns when it does so.
+LayerStack with_smooth_top(LayerStack stack);
 
 // Every number of the stack that affects light transport, exactly (hexadecimal floating point),
 // in a fixed order: equal fingerprints mean the same physics (names are left out). For cache

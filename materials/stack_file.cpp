@@ -204,7 +204,7 @@ class Reader {
 
   StackTemplate stack(const json& root) const {
     require_object(root, "");
-    check_keys(root, "", {"lamina_material", "name", "above_ior", "layers", "below"});
+    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "layers", "below"});
     const json& version = member(root, "", "lamina_material");
     if (!version.is_number() || version.get<double>() != 1.0)
       fail("lamina_material", "unsupported version " + version.dump() + " (this build reads version 1)");
@@ -213,6 +213,7 @@ class Reader {
     LayerStack& s = t.stack;
     if (root.contains("name")) s.name = string(root["name"], "name");
     if (root.contains("above_ior")) s.above_ior = ior(root["above_ior"], "above_ior");
+    if (root.contains("roughness")) s.top_roughness = number(root["roughness"], "roughness");
     const json& layers = member(root, "", "layers");
     if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));
     if (layers.empty()) fail("layers", "a stack needs at least one layer");

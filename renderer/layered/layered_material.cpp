@@ -1,5 +1,7 @@
 #include "renderer/layered/layered_material.h"
 
+#include <sstream>
+
 #include "materials/albedo.h"
 #include "renderer/layered/stack_bindings.h"
 
@@ -58,6 +60,25 @@ int LayeredBindings::count() const {
   int n = 0;
   for (const auto& m : by_material) n += m != nullptr;
   return n;
+}
+
+std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode) {
+  std::string out;
+  auto add = [&](const std::string& what) { out += (out.empty() ? "" : "; ") + what; };
+  const bool maps_dropped = mode == SubsurfaceMode::Table || mode == SubsurfaceMode::Lambert;
+  if (maps_dropped && material.bindings() && !material.bindings()->empty()) {
+    std::string names;
+    for (const StackParameter& p : material.bindings()->parameters()) names += (names.empty() ? "" : ", ") + p.path;
+    add("the texture-driven parameters (" + names + "): the base stack everywhere");
+  }
+  const bool smooth_only = mode == SubsurfaceMode::Table || mode == SubsurfaceMode::FirstOrder;
+  if (smooth_only && material.base_stack().rough_top()) {
+    std::ostringstream os;
+    os << "the roughness " << material.base_stack().top_roughness
+       << " of the top interface: a smooth mirror, no glossy lobe";
+    add(os.str());
+  }
+  return out;
 }
 
 }  // namespace lamina

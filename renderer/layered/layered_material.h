@@ -18,6 +18,7 @@
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 
@@ -42,6 +43,7 @@ struct ShadingPoint {
 struct StackScratch {
   LayerStack stack;
   LayerStack flipped;
+  LayerStack smooth;  // the first-order mode's copy of a rough stack with a smooth top
 };
 
 class LayeredMaterial {
@@ -92,6 +94,13 @@ class LayeredMaterial {
   mutable std::atomic<int> albedo_state_{0};  // 0 unknown, 1 computed, 2 preset
   mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
 };
+
+// What a --subsurface mode leaves out of this material, for the warning and the EXR header
+// (`lamina:ignored:MATERIAL`): "" if it renders everything. The first-order mode evaluates the
+// stack per hit (texture-driven parameters honoured) through a smooth top; the table mode
+// tabulates the base stack with a smooth top; the lambert mode's albedo is the base stack's.
+// Only random-walk renders a rough top's glossy lobe and everything the maps drive.
+std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode);
 
 // The layered materials of a scene, one slot per glTF material (null: not layered).
 struct LayeredBindings {

@@ -28,7 +28,9 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     const auto& m = bindings.by_material[i];
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
-    tables_[{m.get(), false}] = obtain(m->base_stack());
+    // A rough top is not tabulated (its glossy lobe would need its own table): the smooth stack,
+    // with the warning of render_job (renderer/render/render_job.cpp, ignored_by_mode).
+    tables_[{m.get(), false}] = obtain(with_smooth_top(m->base_stack()));
     if (m->transmits()) {
       tables_[{m.get(), true}] = obtain(m->flipped_stack());
     }

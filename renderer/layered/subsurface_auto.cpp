@@ -16,6 +16,7 @@
 #include "materials/sampling.h"
 #include "materials/layered_table.h"
 #include "renderer/layered/subsurface_mode.h"
+#include "renderer/util/string_format.h"
 
 namespace lamina {
 namespace {
@@ -487,6 +488,14 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
       continue;
     }
     const LayeredMaterial& m = *bindings.by_material[i];
+    if (m.base_stack().rough_top()) {
+      // The other modes would drop the glossy lobe (and first order and tables would refract
+      // through a mirror): no prediction can make them right.
+      out[i].mode = SubsurfaceMode::RandomWalk;
+      out[i].reason = string_printf("chose random-walk (rough top interface, roughness %.3g: only the walk renders it; no prediction)",
+                                    m.base_stack().top_roughness);
+      continue;
+    }
     const std::string key = cache ? auto_key(m, settings) : "";
     if (cache) {
       if (std::optional<AutoChoice> c = load_choice(*cache, key)) {

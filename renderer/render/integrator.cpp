@@ -218,6 +218,12 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       sp.triangle = hit.triangle;
       sp.from_below = back_side && lm->transmits();
       stack = &lm->stack_at(sp, scratch);
+      if (mode == SubsurfaceMode::FirstOrder && stack->rough_top()) {
+        // First order through a mirror: the rough top is ignored (render_job warns).
+        scratch.smooth = *stack;
+        scratch.smooth.top_roughness = 0.0;
+        stack = &scratch.smooth;
+      }
       if (mode == SubsurfaceMode::FirstOrder) {
         first_order.emplace(*stack, wo);
         surface_ptr = &*first_order;

@@ -124,6 +124,19 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     say(log.info, string_printf("lambert mode: albedos by the walk in %.2f s (%d from the cache)",
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), from_cache));
   }
+  // What each material's mode leaves out (texture maps, a rough top): a warning and a header key.
+  Metadata ignored_meta;
+  for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
+    const auto& m = bindings.by_material[i];
+    if (!m) continue;
+    if (auto_mode && (i >= choices.size() || !choices[i].visible)) continue;
+    const SubsurfaceMode m_mode = auto_mode ? per_material[i] : mode;
+    const std::string ignored = ignored_by_mode(*m, m_mode);
+    if (ignored.empty()) continue;
+    say(log.warning, string_printf("material %s (%s): the %s mode ignores %s (only random-walk renders them)",
+                                   desc_names[i].c_str(), m->source().c_str(), subsurface_mode_name(m_mode), ignored.c_str()));
+    ignored_meta.emplace_back("lamina:ignored:" + desc_names[i], ignored);
+  }
   // --similarity-after N: an approximation; its bias on each material's diffuse albedo, measured
   // against the exact walk (the lambert mode's albedo, from the cache if there), is printed and
   // recorded before the render.
@@ -214,6 +227,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:scatter_events", std::to_string(rays.scatter_events)},
   };
   meta.insert(meta.end(), similarity_meta.begin(), similarity_meta.end());
+  meta.insert(meta.end(), ignored_meta.begin(), ignored_meta.end());
   if (auto_mode) {
     std::ostringstream tol;
     tol << request.tolerance;

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "materials/fresnel.h"
+#include "materials/microfacet.h"
 #include "materials/random_walk.h"
 #include "materials/walk_estimator.h"
 
@@ -12,8 +13,37 @@ namespace lamina {
 bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
                                 LightSampler* per_event, SurfaceScatter* next) const {
   for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
+  // The top interface's reflection is chosen with probability r_top, the smooth Fresnel
+  // reflectance at wo, smooth or rough.
   const double r_top = fresnel_dielectric(wo.z, stack_.above_ior, stack_.layers[0].ior);
-  if (rng.uniform() < r_top) {
+  const bool rough = stack_.rough_top();
+  if (rough) {
+    // The glossy lobe of a rough top (materials/microfacet.h): evaluated for every light
+    // direction, MIS against its own sampling, which is chosen with probability r_top.
+    const RoughDielectric top{{stack_.top_roughness}, stack_.above_ior, stack_.layers[0].ior};
+    for (int k = 0; k < light_count; ++k) {
+      const glm::dvec3& wl = lights[k].wi;
+      if (!(wl.z > 0.0)) continue;
+      const double f = top.eval(wo, wl);
+      if (!(f > 0.0)) continue;
+      const double mis = lights[k].delta ? 1.0 : power_heuristic(lights[k].pdf, r_top * reflection_pdf(top.distribution, wo, wl));
+      lights[k].f_cos += Spectrum(f * wl.z * mis);
+    }
+    if (rng.uniform() < r_top) {
+      const double u0 = rng.uniform(), u1 = rng.uniform();
+      const glm::dvec3 m = top.distribution.sample_visible(wo, {u0, u1});
+      const double cos_m = glm::dot(wo, m);
+      const glm::dvec3 wi = 2.0 * cos_m * m - wo;
+      if (!(cos_m > 0.0) || !(wi.z > 0.0)) return false;  // below the facets: the model's loss
+      // f |cos| / pdf with pdf = r_top D_wo(m) / (4 wo.m): F(wo.m) G2/G1(wo) / r_top.
+      const double f = fresnel_dielectric(cos_m, stack_.above_ior, stack_.layers[0].ior);
+      next->wi = wi;
+      next->weight = Spectrum(f * top.distribution.g2(wo, wi) / top.distribution.g1(wo) / r_top);
+      next->pdf = r_top * reflection_pdf(top.distribution, wo, wi);
+      next->delta = false;
+      return next->pdf > 0.0;
+    }
+  } else if (rng.uniform() < r_top) {
     next->wi = {-wo.x, -wo.y, wo.z};
     next->weight = Spectrum(1.0);
     next->pdf = 0.0;
@@ -60,9 +90,17 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   auto light_scale = [&](const LightDirection& light, const ExitDirection& exit) {
     return exit.layers.empty() ? 0.0 : entry * std::abs(light.wi.z) * (light.wi.z < 0.0 ? t_factor : 1.0);
   };
+  // A rough top: each light direction's connection goes through one inside direction sampled
+  // from it (prepare_exit), with two uniforms of its own.
+  auto u_interface = [&]() -> glm::dvec2 {
+    if (!rough) return {0.5, 0.5};
+    const double u0 = rng.uniform();
+    return {u0, rng.uniform()};
+  };
   for (int k = 0; k < light_count; ++k) {
-    prepare_exit(stack_, lights[k].wi, &exits[k], settings.guiding);
-    if (settings.similar) prepare_exit(similar, lights[k].wi, &similar_exits[k], settings.guiding);
+    const glm::dvec2 u = u_interface();
+    prepare_exit(stack_, lights[k].wi, &exits[k], settings.guiding, u);
+    if (settings.similar) prepare_exit(similar, lights[k].wi, &similar_exits[k], settings.guiding, u);
     scale[k] = light_scale(lights[k], exits[k]);
   }
   thread_local ExitDirection own_exit;
@@ -92,7 +130,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     }
     LightDirection own;
     if (per_event && per_event->draw(rng, &own)) {
-      prepare_exit(stack_of(e), own.wi, &own_exit, settings.guiding);
+      prepare_exit(stack_of(e), own.wi, &own_exit, settings.guiding, u_interface());
       const double own_scale = light_scale(own, own_exit);
       if (own_scale != 0.0) {
         const Spectrum c = contribution(e, own_exit, own, own_scale);
@@ -111,7 +149,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   if (walk.straight_from_last_event && !options_.naive) {
     next->delta = false;
     // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
-    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction, settings.guiding);
+    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction, settings.guiding, walk.top_inside);
   }
   return true;
 }

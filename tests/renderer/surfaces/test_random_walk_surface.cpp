@@ -1,0 +1,132 @@
+// The layered walk as a stochastic surface with a rough top (renderer/surfaces/random_walk_surface.h):
+// one scatter() call's light connections and continuation, against independent estimates from
+// materials/: the glossy lobe by quadrature of RoughDielectric::eval, the walk's part by
+// materials' random_walk exits and connections.
+//  * Under a uniform sky sampled by the cosine (one light sample per call, MIS against the
+//    surface's continuation), E[connection / p + continuation x MIS] is the surface's albedo:
+//    glossy albedo + the walk's top exits.
+//  * Towards a delta light, E[f_cos] = (f_glossy + f_walk) cos, f_walk from materials'
+//    connections through sampled facets.
+//  * Roughness 0 is the smooth surface, call for call (the same random numbers, bit-identical).
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include "materials/first_order.h"  // gauss_legendre
+#include "materials/microfacet.h"
+#include "materials/random_walk.h"
+#include "renderer/surfaces/random_walk_surface.h"
+#include "tests/support/statistics.h"
+
+namespace lamina {
+namespace {
+
+using test::RunningStats;
+using test::WithinKSigma;
+
+LayerStack rough_skin(double alpha) {
+  LayerStack s;
+  s.above_ior = 1.0;
+  s.top_roughness = alpha;
+  s.layers.push_back(make_layer("epidermis", 1.4, 0.3, Spectrum(0.2, 0.5, 0.9), Spectrum(12.0), Spectrum(0.7)));
+  s.below.kind = Below::Kind::Lambert;
+  s.below.albedo = Spectrum(0.7, 0.5, 0.4);
+  EXPECT_EQ(validate_stack(s), "");
+  return s;
+}
+
+glm::dvec3 from_angle(double theta_degrees) {
+  const double t = theta_degrees * kPi / 180.0;
+  return {std::sin(t), 0.0, std::cos(t)};
+}
+
+// integral over the upper hemisphere of f(wo, wi) cos(wi), by Gauss-Legendre on a (cos, phi) grid
+// fine enough for the lobe (alpha >= 0.2).
+double glossy_albedo(const RoughDielectric& top, const glm::dvec3& wo) {
+  const int nc = 400, np = 200;
+  double xc[8], wc[8], xp[8], wp[8], sum = 0.0;
+  for (int i = 0; i < nc; ++i)
+    for (int j = 0; j < np; ++j) {
+      gauss_legendre(8, double(i) / nc, double(i + 1) / nc, xc, wc);
+      gauss_legendre(8, 2 * kPi * j / np, 2 * kPi * (j + 1) / np, xp, wp);
+      for (int a = 0; a < 8; ++a)
+        for (int b = 0; b < 8; ++b) {
+          const double c = xc[a], s = std::sqrt(1 - c * c);
+          sum += wc[a] * wp[b] * top.eval(wo, {s * std::cos(xp[b]), s * std::sin(xp[b]), c}) * c;
+        }
+    }
+  return sum;
+}
+
+double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
+
+class SkyFurnace : public testing::TestWithParam<std::pair<double, double>> {};
+
+// A broad lobe where the light samples carry most of it, and a narrow one at grazing view
+// (Fresnel 0.3) where the surface's own sampling does.
+INSTANTIATE_TEST_SUITE_P(RandomWalkSurfaceRough, SkyFurnace,
+                         testing::Values(std::make_pair(0.3, 50.0), std::make_pair(0.08, 75.0)));
+
+TEST_P(SkyFurnace, IsGlossyPlusWalkAlbedo) {
+  const double alpha = GetParam().first;
+  const LayerStack stack = rough_skin(alpha);
+  const glm::dvec3 wo = from_angle(GetParam().second);
+  RandomWalkOptions options;
+  const RandomWalkSurface surface(stack, kRandomHero, options);
+  RunningStats est[3], walk[3];
+  for (int k = 0; k < 200000; ++k) {
+    Rng rng(31, k);
+    LightDirection light;
+    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    light.pdf = light.wi.z * kInvPi;
+    SurfaceScatter next;
+    Spectrum x(0.0);
+    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
+      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
+    x += light.f_cos / light.pdf;
+    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
+  }
+  for (int k = 0; k < 200000; ++k) {
+    Rng rng(32, k);
+    const WalkResult r = random_walk(stack, wo, rng);
+    for (int c = 0; c < 3; ++c) walk[c].add(r.side == WalkResult::Side::Top ? r.weight[c] : 0.0);
+  }
+  const double glossy = glossy_albedo(RoughDielectric{{alpha}, 1.0, 1.4}, wo);
+  EXPECT_GT(glossy, 0.02);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_TRUE(WithinKSigma(est[c].mean(), glossy + walk[c].mean(), std::hypot(est[c].standard_error(), walk[c].standard_error())))
+        << "channel " << c;
+}
+
+TEST(RandomWalkSurfaceRough, DeltaLightConnectionIsGlossyPlusWalkBrdf) {
+  const double alpha = 0.4;
+  const LayerStack stack = rough_skin(alpha);
+  const glm::dvec3 wo = from_angle(20.0), wl = glm::normalize(glm::dvec3(-0.5, 0.3, 0.8));
+  const RandomWalkSurface surface(stack, kRandomHero, RandomWalkOptions{});
+  RunningStats est[3], walk[3];
+  for (int k = 0; k < 100000; ++k) {
+    Rng rng(33, k);
+    LightDirection light;
+    light.wi = wl;
+    light.delta = true;
+    SurfaceScatter next;
+    surface.scatter(wo, rng, &light, 1, nullptr, &next);
+    for (int c = 0; c < 3; ++c) est[c].add(light.f_cos[c]);
+  }
+  ExitDirection exit;
+  for (int k = 0; k < 100000; ++k) {
+    Rng rng(34, k);
+    prepare_exit(stack, wl, &exit, 0.0, {rng.uniform(), rng.uniform()});
+    Spectrum sum(0.0);
+    random_walk(stack, wo, rng, [&](const ScatterEvent& e) { sum += e.throughput * connect_direct(stack, e, exit).weight; });
+    for (int c = 0; c < 3; ++c) walk[c].add(sum[c] * wl.z);
+  }
+  const double glossy = RoughDielectric{{alpha}, 1.0, 1.4}.eval(wo, wl) * wl.z;
+  for (int c = 0; c < 3; ++c)
+    EXPECT_TRUE(WithinKSigma(est[c].mean(), glossy + walk[c].mean(), std::hypot(est[c].standard_error(), walk[c].standard_error())))
+        << "channel " << c;
+}
+
+}  // namespace
+}  // namespace lamina
