@@ -29,8 +29,13 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     const auto& m = bindings.by_material[i];
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
     // A rough top is not tabulated (its glossy lobe would need its own table): the smooth stack,
-    // with the warning of render_job (renderer/render/render_job.cpp, ignored_by_mode).
-    tables_[{m.get(), false}] = obtain(with_smooth_top(m->base_stack()));
+    // with the warning of render_job (ignored_by_mode). Tables point to their stack: kept here.
+    const LayerStack* stack = &m->base_stack();
+    if (stack->rough_top()) {
+      smooth_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
+      stack = smooth_stacks_.back().get();
+    }
+    tables_[{m.get(), false}] = obtain(*stack);
     if (m->transmits()) {
       tables_[{m.get(), true}] = obtain(m->flipped_stack());
     }

@@ -31,6 +31,8 @@ class LayeredTables {
 
  private:
   std::map<std::pair<const LayeredMaterial*, bool>, std::unique_ptr<LayeredTable>> tables_;
+  // The smooth-top copies of rough stacks that tables refer to (LayeredTable::stack).
+  std::vector<std::unique_ptr<LayerStack>> smooth_stacks_;
   double seconds_ = 0.0;
   int built_ = 0, loaded_ = 0;
 };

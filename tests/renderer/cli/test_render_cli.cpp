@@ -225,6 +225,32 @@ TEST(RenderCliLayered, MaterialsMapAndModes) {
                  dir / "bad_map.json", "nothere.json", dir / "x.exr");
 }
 
+// A rough top (roughness 0.3): the first-order mode renders it through a mirror and says so, on
+// stderr and in the header (lamina:ignored:MATERIAL); random-walk renders it and says nothing.
+TEST(RenderCliLayered, ModesSayWhatTheyIgnore) {
+  TempDir dir("cli-ignored");
+  write_layered_quad(dir, "skin.gltf", "skin", "m/skin.json",
+                     R"({"lamina_material": 1, "roughness": 0.3, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": [0.5, 0.1, 0.8], "sigma_s": 20, "g": 0.3}], "below": {"lambert": 0.5}})");
+  for (const char* mode : {"random-walk", "first-order"}) {
+    const std::string out = dir / (std::string(mode) + ".exr");
+    const Result r = run(dir, dir / "skin.gltf -o " + out + " --materials " + dir / "map.json" +
+                                  " --width 6 --height 4 --spp 2 --env 1 --subsurface " + mode);
+    ASSERT_EQ(r.exit_code, 0) << mode << ": " << r.err;
+    std::string ignored;
+    for (const auto& [k, v] : read_metadata(out))
+      if (k == "lamina:ignored:skin") ignored = v;
+    const bool walk = std::string(mode) == "random-walk";
+    if (walk) {
+      EXPECT_EQ(r.err.find("ignores"), std::string::npos) << r.err;
+      EXPECT_EQ(ignored, "");
+    } else {
+      EXPECT_NE(r.err.find("m/skin.json): the first-order mode ignores the roughness 0.3 of the top interface"),
+                std::string::npos) << r.err;
+      EXPECT_NE(ignored.find("the roughness 0.3 of the top interface"), std::string::npos) << ignored;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lamina
 
