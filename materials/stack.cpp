@@ -207,11 +207,9 @@ std::string validate_stack(const LayerStack& stack) {
   }
   // A rough top on a transmitting stack would be a rough BOTTOM when the stack is seen from
   // behind (flipped), which the walk does not model yet.
-  if (stack.rough_top() && stack.transmits())
+  if (stack.top_roughness > 0.0 && stack.transmits())
     return "roughness: a rough top interface is only supported on stacks that do not transmit "
            "(a semi-infinite last layer or a lambert substrate)";
-  if (stack.rough_top() && stack.above_ior == stack.layers[0].ior)
-    return "roughness: the top interface is index matched (above_ior = layers[0].ior): it cannot be rough";
   return {};
 }
 

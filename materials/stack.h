@@ -72,7 +72,9 @@ struct LayerStack {
   // True if light can leave through the bottom (a transmitting medium below, and no
   // semi-infinite layer).
   bool transmits() const;
-  bool rough_top() const { return top_roughness > 0.0; }
+  // The top interface is rough: roughness > 0 and an index step there (an index-matched top is
+  // no interface at all, rough or not).
+  bool rough_top() const { return top_roughness > 0.0 && !layers.empty() && above_ior != layers[0].ior; }
   // Index of refraction on the far side of interface k: interface 0 is the top surface
   // (above_ior | layers[0]); interface k (1 <= k < N) lies between layers[k-1] and layers[k];
   // interface N is the bottom (layers[N-1] | below).

@@ -38,6 +38,7 @@ double clamp_value(Kind kind, double v) {
   if (std::isnan(v)) v = 0.0;
   switch (kind) {
     case Kind::kFraction:
+    case Kind::kRoughness:
     case Kind::kBelowLambert: return std::clamp(v, 0.0, 1.0);
     case Kind::kG: return std::clamp(v, -kMaxAbsG, kMaxAbsG);
     case Kind::kIor:
@@ -68,6 +69,7 @@ double StackParameter::min_value() const {
 double StackParameter::max_value() const {
   switch (kind) {
     case Kind::kFraction:
+    case Kind::kRoughness:
     case Kind::kBelowLambert: return 1.0;
     case Kind::kG: return kMaxAbsG;
     default: return std::numeric_limits<double>::infinity();
@@ -80,6 +82,7 @@ Spectrum StackParameter::template_value(const StackTemplate& t) const {
     case Kind::kIor: return Spectrum(t.stack.layers[layer].ior);
     case Kind::kBelowLambert: return t.stack.below.albedo;
     case Kind::kBelowIor: return Spectrum(t.stack.below.ior);
+    case Kind::kRoughness: return Spectrum(t.stack.top_roughness);
     default: break;
   }
   const ComponentDesc& c = t.layers[layer].components[component < 0 ? 0 : component];
@@ -104,9 +107,16 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
     p.kind = lambert ? Kind::kBelowLambert : Kind::kBelowIor;
     return p;
   }
+  if (path == "roughness") {
+    // The top interface's GGX alpha; a rough top needs a stack that does not transmit.
+    if (t.stack.transmits())
+      fail(path, "a rough top interface is only supported on stacks that do not transmit (a semi-infinite last layer or a lambert substrate)");
+    p.kind = Kind::kRoughness;
+    return p;
+  }
   const std::string prefix = "layers";
   if (path.compare(0, prefix.size(), prefix) != 0)
-    fail(path, "expected a path starting with layers[i] or below (e.g. layers[1].components[0].fraction)");
+    fail(path, "expected roughness, or a path starting with layers[i] or below (e.g. layers[1].components[0].fraction)");
   std::size_t pos = prefix.size();
   p.layer = read_index(path, &pos);
   const int n = static_cast<int>(t.stack.layers.size());
@@ -181,6 +191,7 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
       case Kind::kIor: out->layers[p.layer].ior = v[0]; break;
       case Kind::kBelowLambert: out->below.albedo = v; break;
       case Kind::kBelowIor: out->below.ior = v[0]; break;
+      case Kind::kRoughness: out->top_roughness = v[0]; break;
       default: break;  // composition parameters: re-mixed below
     }
   }

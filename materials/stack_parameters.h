@@ -62,7 +62,7 @@ struct StackParameterError : std::runtime_error {
 };
 
 struct StackParameter {
-  enum class Kind { kThickness, kIor, kSigmaA, kSigmaS, kG, kFraction, kBelowLambert, kBelowIor };
+  enum class Kind { kThickness, kIor, kSigmaA, kSigmaS, kG, kFraction, kBelowLambert, kBelowIor, kRoughness };
   std::string path;  // as given, for messages
   Kind kind = Kind::kThickness;
   int layer = -1;      // -1 for below.*

@@ -143,6 +143,12 @@ def main():
             # not matter in the position-free model (no absorption, no scattering, no
             # interference), its index does: it sets the Fresnel reflection of the top interface.
             {'parameter': 'layers[0].ior', 'texture': 'oil.png', 'channel': 'r', 'range': [1.40, 1.47]},
+            # The skin surface's roughness (GGX alpha of the top interface): 0.4 where dry, 0.2
+            # where oily (the film fills the surface's micro-relief and makes it smoother and
+            # glossier). Measured faces: Torrance-Sparrow (Beckmann) roughness m = 0.3-0.45
+            # (Weyrich et al., "Analysis of Human Faces using a Measurement-Based Skin
+            # Reflectance Model", SIGGRAPH 2006, Table 2), and GGX alpha ~ Beckmann m.
+            {'parameter': 'roughness', 'texture': 'oil.png', 'channel': 'r', 'range': [0.4, 0.2]},
         ],
         # Freckles: melanin fraction +0 .. +6 % in spots of ~1.5 mm (radius 0.004 in UV, the face
         # spans ~0.3 UV for ~15 cm) on the cheeks and nose.

@@ -42,6 +42,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 // Relative tolerance 4 ulps-ish: the two paths sum the same products in the same order, so they
 // agree to rounding of the fractions (which are computed, then printed with 17 digits).
 void expect_same_stack(const LayerStack& a, const LayerStack& b) {
+  EXPECT_EQ(a.top_roughness, b.top_roughness);
   ASSERT_EQ(a.layers.size(), b.layers.size());
   EXPECT_EQ(a.above_ior, b.above_ior);
   EXPECT_EQ(a.below.kind, b.below.kind);
@@ -129,6 +130,21 @@ TEST(StackParameters, OilThicknessEqualsTheFileWithThatThickness) {
         parse_stack_json(replaced(text, "\"thickness\": 0.005", "\"thickness\": " + num(d)), "edited");
     expect_same_stack(applied(t, {"layers[0].thickness"}, {Spectrum(d)}), expected);
   }
+}
+
+TEST(StackParameters, RoughnessEqualsTheFileWithThatRoughness) {
+  const std::string text = read_text(preset("skin_oily.json"));
+  const StackTemplate t = parse_stack_template_json(text, "skin_oily.json");
+  for (double a : {0.0, 0.2, 1.0}) {
+    const LayerStack expected = parse_stack_json(replaced(text, "\"roughness\": 0.4", "\"roughness\": " + num(a)), "edited");
+    const LayerStack s = applied(t, {"roughness"}, {Spectrum(a)});
+    expect_same_stack(s, expected);
+    EXPECT_EQ(s.top_roughness, a);
+  }
+  EXPECT_EQ(applied(t, {"roughness"}, {Spectrum(3.0)}).top_roughness, 1.0);  // clamped
+  // A transmitting stack cannot have a rough top.
+  const StackTemplate leaf = load_stack_template(preset("leaf.json"));
+  EXPECT_THROW(parse_stack_parameter(leaf, "roughness"), StackParameterError);
 }
 
 TEST(StackParameters, SeveralParametersTogetherEqualTheEditedFile) {
@@ -234,7 +250,7 @@ TEST(StackParameters, InvalidPathsAreRejectedWithTheReason) {
   expect_bad_path(t, "layers[1", "missing ']'");
   expect_bad_path(t, "layers.1.thickness", "expected '['");
   expect_bad_path(t, "layers[1]", "expected '.'");
-  expect_bad_path(t, "dermis.blood", "expected a path starting with layers[i] or below");
+  expect_bad_path(t, "dermis.blood", "expected roughness, or a path starting with layers[i] or below");
   expect_bad_path(t, "below.ior", "a Lambert substrate, not a dielectric");
   expect_bad_path(t, "", "expected a path starting");
   const StackTemplate one = parse_stack_template_json(
