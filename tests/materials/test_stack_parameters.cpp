@@ -252,7 +252,7 @@ TEST(StackParameters, InvalidPathsAreRejectedWithTheReason) {
   expect_bad_path(t, "layers[1]", "expected '.'");
   expect_bad_path(t, "dermis.blood", "expected roughness, or a path starting with layers[i] or below");
   expect_bad_path(t, "below.ior", "a Lambert substrate, not a dielectric");
-  expect_bad_path(t, "", "expected a path starting");
+  expect_bad_path(t, "", "a path starting with layers");
   const StackTemplate one = parse_stack_template_json(
       R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": "inf", "components": [
          {"fraction": 1.0, "sigma_a": 1.0, "sigma_s": 1.0, "g": 0.0}]}], "below": {"ior": 1.0}})",
