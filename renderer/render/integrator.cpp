@@ -13,6 +13,7 @@
 
 #include "materials/random_walk.h"
 #include "renderer/surfaces/first_order_surface.h"
+#include "renderer/surfaces/metallic_roughness_surface.h"
 #include "renderer/surfaces/random_walk_surface.h"
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/layered_tables.h"
@@ -186,6 +187,11 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
 
     // Shade both sides of every surface: turn the normals towards the viewer.
     glm::dvec3 ng = hit.ng, ns = hit.ns;
+    {
+      const Material& m = desc.material(desc.meshes[hit.mesh].material);
+      if (m.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
+        ns = normal_mapped(hit, desc.textures[m.normal_texture], m.normal_scale);
+    }
     const bool back_side = glm::dot(ng, wo_world) < 0.0;
     if (back_side) {
       ng = -ng;
@@ -205,6 +211,19 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
     const LambertSurface lambert(albedo);
     const Surface* surface_ptr = &lambert;
+    // A glTF material that is not layered: its metallic-roughness BRDF (Appendix B), with the
+    // metallicRoughnessTexture's B (metalness) and G (roughness) multiplied in.
+    std::optional<MetallicRoughnessSurface> metallic_roughness;
+    if (!lm && mat.metallic_roughness) {
+      double metallic = mat.metallic, roughness = mat.roughness;
+      if (mat.metallic_roughness_texture >= 0) {
+        const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(hit.uv);
+        roughness *= t[1];
+        metallic *= t[2];
+      }
+      metallic_roughness.emplace(albedo, metallic, roughness);
+      surface_ptr = &*metallic_roughness;
+    }
     std::optional<FirstOrderSurface> first_order;
     std::optional<TableSurface> table;
     const LayerStack* stack = nullptr;

@@ -114,7 +114,27 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, do
   if (!m.texcoords.empty())
     hit->uv = b0 * glm::dvec2(m.texcoords[tri[0]]) + b1 * glm::dvec2(m.texcoords[tri[1]]) +
               b2 * glm::dvec2(m.texcoords[tri[2]]);
+  hit->tangent = glm::dvec4(0.0);
+  if (!m.tangents.empty())
+    hit->tangent = b0 * glm::dvec4(m.tangents[tri[0]]) + b1 * glm::dvec4(m.tangents[tri[1]]) +
+                   b2 * glm::dvec4(m.tangents[tri[2]]);
   return true;
+}
+
+glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale) {
+  const glm::dvec3 n = hit.ns;
+  glm::dvec3 t(hit.tangent);
+  t -= n * glm::dot(n, t);
+  const double len = glm::length(t);
+  if (!(len > 1e-12)) return n;
+  t /= len;
+  const glm::dvec3 b = glm::cross(n, t) * (hit.tangent.w < 0.0 ? -1.0 : 1.0);
+  const Spectrum texel = map.lookup(hit.uv);
+  const glm::dvec3 local((2.0 * texel[0] - 1.0) * scale, (2.0 * texel[1] - 1.0) * scale, 2.0 * texel[2] - 1.0);
+  const glm::dvec3 mapped = local.x * t + local.y * b + local.z * n;
+  const double m = glm::length(mapped);
+  if (!(m > 1e-12) || !std::isfinite(m) || glm::dot(mapped, n) <= 0.0) return n;
+  return mapped / m;
 }
 
 bool Scene::occluded(const Ray& ray, double tmax, RayCounters& counters) const {

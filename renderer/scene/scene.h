@@ -48,9 +48,18 @@ struct SurfaceHit {
   glm::dvec3 ng;   // geometric normal, unit, as wound (not flipped towards the ray)
   glm::dvec3 ns;   // shading normal, unit, on the same side as ng
   glm::dvec2 uv{0.0};
+  // The interpolated tangent frame of a normal-mapped mesh (Mesh::tangents): xyz, and w the
+  // bitangent's sign; (0, 0, 0, 0) where there is none.
+  glm::dvec4 tangent{0.0};
   int mesh = -1;
   int triangle = -1;
 };
+
+// The shading normal perturbed by a tangent-space normal map (glTF 2.0 section 3.9.3: texel
+// (r, g, b) in [0, 1] is the normal (2r - 1) s, (2g - 1) s, 2b - 1 in the frame T, B = w N x T,
+// N, s the material's scale), unit, on the side of hit.ns. hit.ns if the hit has no tangent
+// frame or the map's normal is unusable.
+glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale);
 
 class Scene {
  public:

@@ -55,7 +55,9 @@ class Loader {
   void visit(int node, const glm::dmat4& parent, int depth);
   void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world);
   std::vector<double> read_accessor(int index, int want_components, const char* what);
-  int texture(int gltf_texture);
+  // linear: data (normal and metallic-roughness maps), not sRGB colour.
+  void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh);
+  int texture(int gltf_texture, bool linear = false);
   void warn(const std::string& w) {
     if (warned_.insert(w).second) out_->warnings.push_back(w);
   }
@@ -66,6 +68,7 @@ class Loader {
   std::uint64_t max_bytes_;  // max_scene_bytes()
   std::set<std::string> warned_;
   std::map<int, int> textures_;  // glTF texture index -> SceneDesc::textures index
+  std::map<int, int> linear_textures_;  // the same, decoded without the sRGB curve
 };
 
 glm::dmat4 local_transform(const tinygltf::Node& n) {
@@ -181,10 +184,11 @@ std::vector<double> Loader::read_accessor(int index, int want, const char* what)
   return v;
 }
 
-int Loader::texture(int t) {
+int Loader::texture(int t, bool linear) {
   if (t < 0) return -1;
-  auto it = textures_.find(t);
-  if (it != textures_.end()) return it->second;
+  std::map<int, int>& cache = linear ? linear_textures_ : textures_;
+  auto it = cache.find(t);
+  if (it != cache.end()) return it->second;
   if (t >= static_cast<int>(m_.textures.size())) fail(path_, "texture index " + std::to_string(t) + " is out of range");
   const tinygltf::Texture& gt = m_.textures[t];
   if (gt.source < 0 || gt.source >= static_cast<int>(m_.images.size()))
@@ -204,7 +208,7 @@ int Loader::texture(int t) {
       const int src = im.component >= 3 ? c : 0;  // grey (and grey+alpha) expands to RGB
       const std::size_t o = (p * im.component + src) * bytes;
       const float x = bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
-      tex.rgb[p * 3 + c] = srgb_to_linear(x);
+      tex.rgb[p * 3 + c] = linear ? x : srgb_to_linear(x);
     }
   }
   if (gt.sampler >= 0 && gt.sampler < static_cast<int>(m_.samplers.size())) {
@@ -212,7 +216,7 @@ int Loader::texture(int t) {
     tex.clamp_t = m_.samplers[gt.sampler].wrapT == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
   }
   out_->textures.push_back(std::move(tex));
-  return textures_[t] = static_cast<int>(out_->textures.size()) - 1;
+  return cache[t] = static_cast<int>(out_->textures.size()) - 1;
 }
 
 void flatten_extras(const tinygltf::Value& v, const std::string& prefix, std::map<std::string, std::string>* out) {
@@ -289,10 +293,15 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
 
   const std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
   const std::size_t nv = p.size() / 3;
-  std::vector<double> n, uv;
+  std::vector<double> n, uv, tangent;
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
-  if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv))
+  const bool normal_mapped = prim.material >= 0 && prim.material < static_cast<int>(out_->materials.size()) &&
+                             out_->materials[prim.material].normal_texture >= 0;
+  if (auto it = prim.attributes.find("TANGENT"); normal_mapped && it != prim.attributes.end())
+    tangent = read_accessor(it->second, 4, "TANGENT");
+  if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv) ||
+      (!tangent.empty() && tangent.size() / 4 != nv))
     fail(path_, "mesh '" + gmesh.name + "' has attributes of different lengths");
 
   std::vector<std::uint32_t> idx;
@@ -378,8 +387,59 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     }
     mesh.indices.insert(mesh.indices.end(), {a, b, c});
   }
+  if (normal_mapped) {
+    if (mesh.normals.empty() || mesh.texcoords.empty())
+      warn("normal maps need vertex normals and texture coordinates: ignored where they are missing");
+    else
+      make_tangents(tangent, m3, mirrored, &mesh);
+  }
   out_->triangles += mesh.indices.size() / 3;
   if (!mesh.indices.empty()) out_->meshes.push_back(std::move(mesh));
+}
+
+// Tangent frames for normal maps. Given TANGENT: xyz transformed by the node's matrix
+// (tangents are surface directions, unlike normals), w flipped by a mirroring transform. Else
+// generated: per triangle T = dP/du and B = -dP/dv (glTF's v runs down the image, and a normal
+// map's +Y is up the image: glTF 2.0 section 3.9.3), accumulated per vertex, then T made
+// orthogonal to the vertex normal (Gram-Schmidt) and w = sign(cross(N, T) . B). This is
+// MikkTSpace's result for the usual smooth meshes, not its exact splitting of vertices at UV
+// seams and sharp edges (noted in docs/contracts.md).
+void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh) {
+  const std::size_t nv = mesh->positions.size();
+  mesh->tangents.assign(nv, glm::vec4(0.0f));
+  std::vector<glm::dvec3> t_acc(nv, glm::dvec3(0.0)), b_acc(nv, glm::dvec3(0.0));
+  if (!given.empty()) {
+    for (std::size_t i = 0; i < nv; ++i) {
+      t_acc[i] = m3 * glm::dvec3(given[4 * i], given[4 * i + 1], given[4 * i + 2]);
+      const double w = given[4 * i + 3] < 0.0 ? -1.0 : 1.0;
+      b_acc[i] = glm::cross(glm::dvec3(mesh->normals[i]), t_acc[i]) * (mirrored ? -w : w);
+    }
+  } else {
+    for (std::size_t k = 0; k < mesh->indices.size(); k += 3) {
+      const std::uint32_t a = mesh->indices[k], b = mesh->indices[k + 1], c = mesh->indices[k + 2];
+      const glm::dvec3 e1 = glm::dvec3(mesh->positions[b]) - glm::dvec3(mesh->positions[a]);
+      const glm::dvec3 e2 = glm::dvec3(mesh->positions[c]) - glm::dvec3(mesh->positions[a]);
+      const glm::dvec2 d1 = glm::dvec2(mesh->texcoords[b]) - glm::dvec2(mesh->texcoords[a]);
+      const glm::dvec2 d2 = glm::dvec2(mesh->texcoords[c]) - glm::dvec2(mesh->texcoords[a]);
+      const double det = d1.x * d2.y - d2.x * d1.y;
+      if (!(std::abs(det) > 1e-20) || !std::isfinite(det)) continue;  // no uv area: no frame from it
+      const glm::dvec3 dp_du = (e1 * d2.y - e2 * d1.y) / det;
+      const glm::dvec3 dp_dv = (e2 * d1.x - e1 * d2.x) / det;
+      for (std::uint32_t v : {a, b, c}) {
+        t_acc[v] += dp_du;
+        b_acc[v] -= dp_dv;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < nv; ++i) {
+    const glm::dvec3 nrm(mesh->normals[i]);
+    glm::dvec3 t = t_acc[i] - nrm * glm::dot(nrm, t_acc[i]);
+    const double len = glm::length(t);
+    if (!(len > 1e-20) || !std::isfinite(len)) continue;  // (0, 0, 0, 0): the map is not applied here
+    t /= len;
+    const double w = glm::dot(glm::cross(nrm, t), b_acc[i]) < 0.0 ? -1.0 : 1.0;
+    mesh->tangents[i] = glm::vec4(glm::vec3(t), static_cast<float>(w));
+  }
 }
 
 void Loader::visit(int index, const glm::dmat4& parent, int depth) {
@@ -522,8 +582,16 @@ void Loader::run() {
       mat.emission = Spectrum(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]) * strength;
     mat.emissive_texture = texture(gm.emissiveTexture.index);
     mat.double_sided = gm.doubleSided;
-    if (gm.pbrMetallicRoughness.metallicFactor > 0.0 && !gm.pbrMetallicRoughness.baseColorFactor.empty())
-      warn("metallic-roughness is not modelled: every material is shaded as Lambert with its base colour");
+    mat.metallic_roughness = true;
+    mat.metallic = gm.pbrMetallicRoughness.metallicFactor;
+    mat.roughness = gm.pbrMetallicRoughness.roughnessFactor;
+    if (!std::isfinite(mat.metallic) || mat.metallic < 0.0 || mat.metallic > 1.0 || !std::isfinite(mat.roughness) ||
+        mat.roughness < 0.0 || mat.roughness > 1.0)
+      fail(path_, "material '" + gm.name + "': metallicFactor and roughnessFactor must be in [0, 1] (glTF 2.0 section 5.22)");
+    mat.metallic_roughness_texture = texture(gm.pbrMetallicRoughness.metallicRoughnessTexture.index, true);
+    mat.normal_texture = texture(gm.normalTexture.index, true);
+    mat.normal_scale = gm.normalTexture.scale;
+    if (!std::isfinite(mat.normal_scale)) fail(path_, "material '" + gm.name + "': normalTexture.scale must be finite");
     if (!mat.base_color.is_finite() || mat.base_color.min() < 0.0 || !mat.emission.is_finite() || mat.emission.min() < 0.0)
       fail(path_, "material '" + gm.name + "' has a negative or non-finite colour");
     flatten_extras(gm.extras, "", &mat.extras);

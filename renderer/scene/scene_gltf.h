@@ -18,6 +18,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include "materials/spectrum.h"
 
@@ -46,6 +47,15 @@ struct Material {
   Spectrum emission;  // emissiveFactor x emissive_strength
   int emissive_texture = -1;
   bool double_sided = false;  // recorded; the path tracer shades both sides of every surface
+  // glTF 2.0 metallic-roughness (Appendix B; renderer/surfaces/metallic_roughness_surface.h):
+  // true for every material of a glTF file; false for the default material (no material: a
+  // Lambert surface of base_color) and for materials built in code.
+  bool metallic_roughness = false;
+  double metallic = 1.0;   // metallicFactor (glTF default 1)
+  double roughness = 1.0;  // roughnessFactor (glTF default 1); GGX alpha = roughness^2
+  int metallic_roughness_texture = -1;  // linear: G roughness, B metalness (multiplied in)
+  int normal_texture = -1;  // linear tangent-space normal map; needs Mesh::tangents
+  double normal_scale = 1.0;
   // Material `extras`, flattened to dotted keys: {"lamina": {"stack": "skin.json"}} gives
   // extras["lamina.stack"] = "skin.json". Non-string leaves are stored as their JSON text.
   std::map<std::string, std::string> extras;
@@ -61,6 +71,10 @@ struct Mesh {
   std::vector<glm::vec3> normals;    // one per position, unit length; empty: flat shading
                                      // (glTF: "calculate flat normals" when NORMAL is absent)
   std::vector<glm::vec2> texcoords;  // empty, or one per position
+  // Tangents for the material's normal map (xyz unit, w = +-1 the bitangent's handedness:
+  // B = w cross(N, T), glTF 2.0 section 3.7.2.1): TANGENT if given, else generated from the
+  // texture coordinates; empty if the material has no normal map (or there are no normals or uvs).
+  std::vector<glm::vec4> tangents;
   std::vector<std::uint32_t> indices;  // 3 per triangle, degenerate triangles removed
   int material = -1;                   // -1: the default material
 };

@@ -289,10 +289,12 @@ void check_scene(const std::string& rel, int expected_maps, const std::vector<Va
 
 TEST(DemoScenes, HeadSkinBindsBloodOilAndFreckles) {
   // Lips (red: more blood) against the scalp; the T-zone (forehead) against a cheek for oil; a
-  // freckled cheek varies the melanin fraction somewhere along a short row of points.
-  check_scene("scenes/head_skin/head_skin.gltf", 3,
+  // freckled cheek varies the melanin fraction somewhere along a short row of points. The oil
+  // map drives the sebum's index and the surface roughness (blood, oil twice, freckle mask: 4).
+  check_scene("scenes/head_skin/head_skin.gltf", 4,
               {{"layers[2].components[0].fraction", {0.5, 0.47}, {0.5, 0.03}},
-               {"layers[0].ior", {0.5, 0.15}, {0.3, 0.45}}});
+               {"layers[0].ior", {0.5, 0.15}, {0.3, 0.45}},
+               {"roughness", {0.5, 0.15}, {0.3, 0.45}}});
 }
 
 TEST(DemoScenes, LeavesBindTheirPigmentMap) {

@@ -12,6 +12,7 @@
 #include "materials/json_limits.h"
 #include "materials/sampling.h"
 #include "renderer/image/image_io.h"
+#include "renderer/scene/scene.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/gltf_document.h"
 #include "renderer/scene/gltf_validate.h"
@@ -270,6 +271,50 @@ TEST(SceneGltf, TextureIsSrgbDecoded) {
   EXPECT_EQ(left[1], 0.0);
   std::filesystem::remove(dir / "tex.png");
   expect_error(dir / "t.gltf", "tex.png");
+}
+
+// Normal maps: the loader generates a tangent frame from the texture coordinates (T along +u,
+// B up the image, i.e. along -v in glTF) and decodes the map linearly; a texel (0.75, 0.5, 1)
+// tilts the normal towards +u, (0.5, 0.75, 1) towards the image's up (glTF 2.0 section 3.9.3:
+// +X right, +Y up). The quad lies in z = 0 with u along +x and v along -y (image up = +y).
+TEST(SceneGltf, NormalMapTiltsTowardsTheTangentFrame) {
+  for (int axis = 0; axis < 2; ++axis) {
+    TempDir dir("gltf-normal");
+    Image im(1, 1);
+    // write_png stores sRGB: pass the linear value whose encoding is the wanted 8-bit code.
+    const auto stored = [](double code) { return static_cast<float>(std::pow((code / 255.0 + 0.055) / 1.055, 2.4)); };
+    im.pixel(0, 0)[0] = stored(axis == 0 ? 191.0 : 128.0);
+    im.pixel(0, 0)[1] = stored(axis == 1 ? 191.0 : 128.0);
+    im.pixel(0, 0)[2] = 1.0f;
+    write_png(dir / "n.png", im);
+    GltfBuilder b;
+    json& j = b.json();
+    j["images"] = {{{"uri", "n.png"}}};
+    j["textures"] = {{{"source", 0}}};
+    j["materials"].push_back({{"normalTexture", {{"index", 0}}}});
+    const int mesh = b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3},
+                                {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1}, 0);
+    j["meshes"][mesh]["primitives"][0]["attributes"]["TEXCOORD_0"] = b.add_floats({0, 1, 1, 1, 1, 0, 0, 0}, 2);
+    b.add_node({{"mesh", mesh}});
+    b.write_gltf(dir / "q.gltf");
+    const SceneDesc s = load_gltf(dir / "q.gltf");
+    ASSERT_EQ(s.meshes.size(), 1u);
+    ASSERT_EQ(s.meshes[0].tangents.size(), 4u);
+    for (const glm::vec4& t : s.meshes[0].tangents) {
+      EXPECT_NEAR(t.x, 1.0, 1e-6);
+      EXPECT_NEAR(t.w, 1.0, 0.0);  // B = cross(+z, +x) = +y: up the image
+    }
+    SurfaceHit hit;
+    hit.ns = hit.ng = {0.0, 0.0, 1.0};
+    hit.uv = {0.5, 0.5};
+    hit.tangent = glm::dvec4(s.meshes[0].tangents[0]);
+    const glm::dvec3 n = normal_mapped(hit, s.textures[s.materials[0].normal_texture], 1.0);
+    const double tilt = (191.0 / 255.0) * 2.0 - 1.0;  // linear decoding: 0.498
+    const glm::dvec3 expected = glm::normalize(axis == 0 ? glm::dvec3(tilt, 0.0, 1.0) : glm::dvec3(0.0, tilt, 1.0));
+    EXPECT_NEAR(n.x, expected.x, 5e-3) << axis;
+    EXPECT_NEAR(n.y, expected.y, 5e-3) << axis;
+    EXPECT_NEAR(n.z, expected.z, 5e-3) << axis;
+  }
 }
 
 TEST(SceneGltf, BadInputIsAOneLineError) {

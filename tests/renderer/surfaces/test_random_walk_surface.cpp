@@ -13,10 +13,10 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/first_order.h"  // gauss_legendre
 #include "materials/microfacet.h"
 #include "materials/random_walk.h"
 #include "renderer/surfaces/random_walk_surface.h"
+#include "tests/support/sphere_quadrature.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
@@ -41,22 +41,9 @@ glm::dvec3 from_angle(double theta_degrees) {
   return {std::sin(t), 0.0, std::cos(t)};
 }
 
-// integral over the upper hemisphere of f(wo, wi) cos(wi), by Gauss-Legendre on a (cos, phi) grid
-// fine enough for the lobe (alpha >= 0.2).
+// integral over the upper hemisphere of f(wo, wi) cos(wi), by adaptive quadrature.
 double glossy_albedo(const RoughDielectric& top, const glm::dvec3& wo) {
-  const int nc = 400, np = 200;
-  double xc[8], wc[8], xp[8], wp[8], sum = 0.0;
-  for (int i = 0; i < nc; ++i)
-    for (int j = 0; j < np; ++j) {
-      gauss_legendre(8, double(i) / nc, double(i + 1) / nc, xc, wc);
-      gauss_legendre(8, 2 * kPi * j / np, 2 * kPi * (j + 1) / np, xp, wp);
-      for (int a = 0; a < 8; ++a)
-        for (int b = 0; b < 8; ++b) {
-          const double c = xc[a], s = std::sqrt(1 - c * c);
-          sum += wc[a] * wp[b] * top.eval(wo, {s * std::cos(xp[b]), s * std::sin(xp[b]), c}) * c;
-        }
-    }
-  return sum;
+  return test::integrate_sphere([&](const glm::dvec3& wi) { return top.eval(wo, wi) * wi.z; }, true);
 }
 
 double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
