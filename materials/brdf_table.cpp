@@ -7,7 +7,10 @@
 #include <tbb/parallel_for.h>
 
 #include "materials/first_order.h"
+#include <glm/geometric.hpp>
+
 #include "materials/fresnel.h"
+#include "materials/microfacet.h"
 #include "materials/zeroth_order.h"
 
 namespace lamina {
@@ -104,6 +107,8 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   // Fresnel reflection at the top (exact, zero variance) and the analytic delta parts.
   const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
   const ZerothOrder zeroth = zeroth_order(stack, wi.z);
+  const bool rough = stack.rough_top();
+  const RoughDielectric top{{rough ? stack.top_roughness : 0.5}, stack.above_ior, stack.layers[0].ior};
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
   // single2].
@@ -117,6 +122,20 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
     x[kRs] = zeroth.R_specular;
     x[kTb] = zeroth.T_ballistic;
     x[kRsWalk] = Spectrum(r_top);
+    if (rough) {
+      // A rough top reflects into a glossy lobe, not a delta: its energy by one sample of the
+      // facets per photon (visible normals; weight F G2/G1, 0 below the facets). It is a total
+      // only: the table's bins hold the light that entered the stack.
+      const glm::dvec3 m = top.distribution.sample_visible(wi, {rng.uniform(), rng.uniform()});
+      const double cos_m = glm::dot(wi, m);
+      const glm::dvec3 r = 2.0 * cos_m * m - wi;
+      const double glossy = cos_m > 0.0 && r.z > 0.0
+                                ? fresnel_dielectric(cos_m, stack.above_ior, stack.layers[0].ior) *
+                                      top.distribution.g2(wi, r) / top.distribution.g1(wi)
+                                : 0.0;
+      x[kRs] = Spectrum(glossy);
+      x[kRsWalk] = Spectrum(glossy);
+    }
     // Unscattered exits leave in the mirror / ballistic direction: delta parts, not diffuse.
     const bool delta = walk.scatter_count == 0;
     if (walk.side == WalkResult::Side::Top) x[delta ? kRsWalk : kRd] += walk.weight;
@@ -162,7 +181,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       mean_and_error(acc[totals_at + (s * kChannels + c) * 2], acc[totals_at + (s * kChannels + c) * 2 + 1],
                      n, &totals[s]->value[c], &totals[s]->stderr_[c]);
   // The analytic parts are the same for every photon: report them exactly (no summation error).
-  table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
+  if (!rough) table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
   table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
   for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
   table.totals.unresolved_walks = static_cast<std::uint64_t>(acc[ends_at + kEndKinds]);

@@ -154,6 +154,11 @@ int run_brdf(int argc, char** argv) {
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method first-order\n");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
+    if (method == "first-order" && stack.rough_top()) {
+      std::fprintf(stderr, "lamina brdf: %s: roughness: the first-order solution is for a smooth top interface; use --method monte-carlo\n",
+                   stack_path.c_str());
+      return 1;
+    }
     // Fail before a long computation if an output cannot be written.
     cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
     BrdfOptions options;

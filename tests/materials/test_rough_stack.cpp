@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include "materials/brdf_table.h"
 #include "materials/fresnel.h"
 #include "materials/microfacet.h"
 #include "materials/random_walk.h"
@@ -219,6 +220,30 @@ TEST(RoughStack, SmoothLimit) {
     rn.add(random_walk(nearly, wi, r2).weight[0]);
   }
   EXPECT_TRUE(WithinKSigma(rn.mean(), rs.mean(), std::hypot(rs.standard_error(), rn.standard_error())));
+}
+
+TEST(RoughStack, BrdfTotalsOfARoughStack) {
+  // lamina brdf's Monte Carlo totals: the glossy reflection's energy (sampled per photon)
+  // against quadrature-free independent sampling of the facets (RoughDielectric::sample's
+  // reflections), and the energy balance R + A = 1 by construction with the direct absorption
+  // estimate and the microfacet loss: absorbed (= 1 - R) = absorbed_direct + loss.
+  const LayerStack stack = rough_stack(0.3);
+  BrdfOptions options;
+  options.theta_i_deg = 50.0;
+  options.samples = 100000;
+  const BrdfTable t = brdf_table_monte_carlo(stack, options);
+  const RoughDielectric top{{0.3}, 1.0, 1.4};
+  const glm::dvec3 wi = from_angle(50.0);
+  RunningStats glossy;
+  Rng rng(29, 0);
+  for (int k = 0; k < 400000; ++k) {
+    const RoughDielectric::Sample s = top.sample(wi, {rng.uniform(), rng.uniform()}, rng.uniform());
+    glossy.add(s.reflected ? s.weight : 0.0);
+  }
+  EXPECT_TRUE(WithinKSigma(t.totals.R_specular.value[0], glossy.mean(),
+                           std::hypot(t.totals.R_specular.stderr_[0], glossy.standard_error())));
+  EXPECT_GT(t.totals.R_specular.stderr_[0], 0.0);  // an estimate, not the smooth Fresnel value
+  EXPECT_GT(t.totals.R_diffuse.value[0], 0.05);
 }
 
 TEST(RoughStack, MaterialFileKey) {
