@@ -13,7 +13,10 @@ echo "demo: built $("$LAMINA" --version)"
 "$LAMINA" render scenes/cornell_box/CornellBox.glb -o out/cornell_box.exr --png out/cornell_box.png \
   --width 512 --height 512 --spp "$SPP"
 "$LAMINA" render scenes/lee_perry_smith_head/head_lit.gltf -o out/head.exr --png out/head.png \
-  --width 400 --height 500 --spp "$SPP" --env 0.1
+  --width 480 --height 600 --spp "$SPP" --env 0.1
+# glTF metallic-roughness: gold and red plastic spheres from roughness 0.05 to 1.
+"$LAMINA" render scenes/metal_dielectric/metal_dielectric.gltf -o out/metal_dielectric.exr --png out/metal_dielectric.png \
+  --width 480 --height 300 --spp "${LAMINA_DEMO_SPP:-64}" --env 0.15
 # Lambert against layered (the paper's figure): a skin sphere, light at 0 and 45 degrees; about
 # half a minute on 2 cores (LAMINA_DEMO_SPHERES_SPP overrides the samples per pixel). The
 # difference is shown smoothed (Gaussian, sigma 2 px, stated in its legend): at 256 spp a pixel's
@@ -40,10 +43,12 @@ HEAD_SECONDS=${LAMINA_DEMO_HEAD_SECONDS:-150}
 "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin_similarity.exr --png out/head_skin_similarity.png \
   --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$(( HEAD_SECONDS * 2 / 3 ))" \
   --env 0.05 --similarity-after 0
+# The portrait: the textured glTF head (metallic-roughness, normal map) beside the layered head.
+oiiotool out/head.png out/head_skin.png --mosaic 2x1 -o out/portrait.png
 # Leaves lit from the front and from behind, then side by side.
 for side in front back; do
   "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
     --width 320 --height 240 --spp "$LEAF_SPP"
 done
 oiiotool out/leaves_front.png out/leaves_back.png --mosaic 2x1 -o out/leaves.png
-echo "demo: wrote out/cornell_box, out/head, out/spheres_{0,45}_*, out/head_skin, out/head_skin_similarity, out/leaves_front, out/leaves_back (.exr, .png) and out/leaves.png"
+echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/head_skin_similarity, out/leaves_front, out/leaves_back (.exr, .png), out/portrait.png and out/leaves.png"

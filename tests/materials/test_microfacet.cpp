@@ -118,6 +118,26 @@ TEST(Microfacet, RoughDielectricSamplerChiSquare) {
   }
 }
 
+TEST(Microfacet, RoughConductorSamplerChiSquare) {
+  const int n = 200000;
+  int case_index = 0;
+  for (double alpha : {0.1, 0.5, 1.0})
+    for (double theta : {10.0, 70.0}) {
+      RoughConductor metal;
+      metal.distribution.alpha = alpha;
+      const glm::dvec3 wo = from_angle(theta);
+      Histogram h(40, 24);
+      Rng rng(18, case_index++);
+      for (int k = 0; k < n; ++k) {
+        glm::dvec3 wi;
+        if (metal.sample(wo, {rng.uniform(), rng.uniform()}, &wi)) h.add(wi);
+        else h.add_failure();
+      }
+      const auto r = chi_square_test(h.counts, h.expected([&](const glm::dvec3& wi) { return metal.pdf(wo, wi); }, n));
+      EXPECT_GT(r.p_value, 1e-4) << "alpha " << alpha << " theta " << theta << ": " << r.describe();
+    }
+}
+
 TEST(Microfacet, RoughDielectricWeightsAgreeWithEvalAndPdf) {
   Rng rng(14, 0);
   for (const DielectricCase& c : kDielectricCases) {
