@@ -139,6 +139,9 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
     // Unscattered exits leave in the mirror / ballistic direction: delta parts, not diffuse.
     const bool delta = walk.scatter_count == 0;
     if (walk.side == WalkResult::Side::Top) x[delta ? kRsWalk : kRd] += walk.weight;
+    // Rough: R_specular is this photon's estimate too, so it takes the unscattered exits (light
+    // reflected by an inner interface) that the smooth case has in zeroth_order's closed form.
+    if (rough && delta && walk.side == WalkResult::Side::Top) x[kRs] += walk.weight;
     if (walk.side == WalkResult::Side::Bottom) x[delta ? kTbWalk : kTd] += walk.weight;
     // Conservation by construction: this photon's absorbed part is what did not leave.
     x[kAbs] = Spectrum(1.0) - x[kRs] - x[kRd] - x[kTb] - x[kTd];
