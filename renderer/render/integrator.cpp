@@ -209,6 +209,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     Spectrum albedo = mat.base_color;
     if (lm && mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo();
     else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
+    if (!(lm && mode == SubsurfaceMode::Lambert)) albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
     const LambertSurface lambert(albedo);
     const Surface* surface_ptr = &lambert;
     // A glTF material that is not layered: its metallic-roughness BRDF (Appendix B), with the

@@ -114,6 +114,9 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, do
   if (!m.texcoords.empty())
     hit->uv = b0 * glm::dvec2(m.texcoords[tri[0]]) + b1 * glm::dvec2(m.texcoords[tri[1]]) +
               b2 * glm::dvec2(m.texcoords[tri[2]]);
+  hit->colour = glm::dvec3(1.0);
+  if (!m.colours.empty())
+    hit->colour = b0 * glm::dvec3(m.colours[tri[0]]) + b1 * glm::dvec3(m.colours[tri[1]]) + b2 * glm::dvec3(m.colours[tri[2]]);
   hit->tangent = glm::dvec4(0.0);
   if (!m.tangents.empty())
     hit->tangent = b0 * glm::dvec4(m.tangents[tri[0]]) + b1 * glm::dvec4(m.tangents[tri[1]]) +

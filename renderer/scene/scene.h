@@ -51,6 +51,7 @@ struct SurfaceHit {
   // The interpolated tangent frame of a normal-mapped mesh (Mesh::tangents): xyz, and w the
   // bitangent's sign; (0, 0, 0, 0) where there is none.
   glm::dvec4 tangent{0.0};
+  glm::dvec3 colour{1.0};  // the interpolated COLOR_0 (Mesh::colours), 1 where there is none
   int mesh = -1;
   int triangle = -1;
 };

@@ -289,13 +289,22 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
   }
   if (!prim.targets.empty()) warn("morph targets are ignored (the base mesh is rendered)");
   if (prim.attributes.count("JOINTS_0")) warn("skins are ignored (the rest pose is rendered)");
-  if (prim.attributes.count("COLOR_0")) warn("vertex colours (COLOR_0) are ignored");
 
   const std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
   const std::size_t nv = p.size() / 3;
   std::vector<double> n, uv, tangent;
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
+  // COLOR_0 (glTF 2.0 section 3.7.2.1): RGB or RGBA, float or normalized unsigned bytes/shorts,
+  // linear; it multiplies the base colour. Alpha is not used (no alpha modes yet).
+  std::vector<double> colour;
+  int colour_comps = 0;
+  if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
+    colour = read_accessor(it->second, 0, "COLOR_0");
+    colour_comps = nv > 0 ? static_cast<int>(colour.size() / nv) : 0;
+    if (colour.size() != static_cast<std::size_t>(colour_comps) * nv || (colour_comps != 3 && colour_comps != 4))
+      fail(path_, "mesh '" + gmesh.name + "': COLOR_0 must be a VEC3 or VEC4 per vertex");
+  }
   const bool normal_mapped = prim.material >= 0 && prim.material < static_cast<int>(out_->materials.size()) &&
                              out_->materials[prim.material].normal_texture >= 0;
   if (auto it = prim.attributes.find("TANGENT"); normal_mapped && it != prim.attributes.end())
@@ -367,6 +376,15 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
         break;
       }
       mesh.normals[i] = glm::vec3(w / len);
+    }
+  }
+  if (!colour.empty()) {
+    mesh.colours.resize(nv);
+    for (std::size_t i = 0; i < nv; ++i) {
+      const glm::dvec3 c(colour[colour_comps * i], colour[colour_comps * i + 1], colour[colour_comps * i + 2]);
+      if (!std::isfinite(c.x + c.y + c.z) || std::min({c.x, c.y, c.z}) < 0.0)
+        fail(path_, "mesh '" + gmesh.name + "': COLOR_0 of vertex " + std::to_string(i) + " is negative or not finite");
+      mesh.colours[i] = glm::vec3(c);
     }
   }
   if (!uv.empty()) {

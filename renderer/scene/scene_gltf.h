@@ -71,6 +71,7 @@ struct Mesh {
   std::vector<glm::vec3> normals;    // one per position, unit length; empty: flat shading
                                      // (glTF: "calculate flat normals" when NORMAL is absent)
   std::vector<glm::vec2> texcoords;  // empty, or one per position
+  std::vector<glm::vec3> colours;    // COLOR_0 (linear RGB; multiplies the base colour), or empty
   // Tangents for the material's normal map (xyz unit, w = +-1 the bitangent's handedness:
   // B = w cross(N, T), glTF 2.0 section 3.7.2.1): TANGENT if given, else generated from the
   // texture coordinates; empty if the material has no normal map (or there are no normals or uvs).

@@ -317,6 +317,36 @@ TEST(SceneGltf, NormalMapTiltsTowardsTheTangentFrame) {
   }
 }
 
+// COLOR_0 is read per vertex (linear) and interpolated at hits; it multiplies the base colour in
+// the renderer. A negative colour is an error naming the mesh.
+TEST(SceneGltf, VertexColoursAreRead) {
+  TempDir dir("gltf-colour");
+  GltfBuilder b;
+  const int mesh = b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3});
+  b.json()["meshes"][mesh]["primitives"][0]["attributes"]["COLOR_0"] = b.add_floats({1, 0, 0, 0, 1, 0, 0, 0, 1, 0.5f, 0.5f, 0.5f}, 3);
+  b.add_node({{"mesh", mesh}});
+  b.write_gltf(dir / "c.gltf");
+  const SceneDesc s = load_gltf(dir / "c.gltf");
+  ASSERT_EQ(s.meshes.size(), 1u);
+  ASSERT_EQ(s.meshes[0].colours.size(), 4u);
+  EXPECT_EQ(s.meshes[0].colours[1], glm::vec3(0, 1, 0));
+  EXPECT_EQ(s.meshes[0].colours[3], glm::vec3(0.5f));
+  for (const std::string& w : s.warnings) EXPECT_EQ(w.find("COLOR_0"), std::string::npos) << w;
+  Scene scene{SceneDesc(s)};
+  SurfaceHit hit;
+  RayCounters counters;
+  // A ray down the quad's normal at (0.5, -0.5): inside triangle 0 (vertices 0, 1, 2).
+  ASSERT_TRUE(scene.intersect(Ray{{0.5, -0.5, 1.0}, {0.0, 0.0, -1.0}}, &hit, counters));
+  EXPECT_NEAR(hit.colour.x + hit.colour.y + hit.colour.z, 1.0, 1e-6);  // a blend of pure R, G, B
+  EXPECT_GT(hit.colour.y, hit.colour.z);
+  GltfBuilder bad;
+  const int m2 = bad.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0});
+  bad.json()["meshes"][m2]["primitives"][0]["attributes"]["COLOR_0"] = bad.add_floats({1, 0, 0, -1, 0, 0, 0, 0, 1}, 3);
+  bad.add_node({{"mesh", m2}});
+  bad.write_gltf(dir / "bad.gltf");
+  expect_error(dir / "bad.gltf", "COLOR_0 of vertex 1");
+}
+
 TEST(SceneGltf, BadInputIsAOneLineError) {
   TempDir dir("gltf-bad");
   {  // NaN and infinite positions.
