@@ -96,7 +96,9 @@ TEST(MetallicRoughness, WhiteDielectricAlbedoTwoWays) {
         mc.add(s.sample(wo, {rng.uniform(), rng.uniform()}, &b) ? b.f[0] * b.wi.z / b.pdf : 0.0);
       }
       EXPECT_TRUE(test::WithinKSigma(mc.mean(), albedo, mc.standard_error())) << roughness << " " << theta;
-      if (theta == 0.0) EXPECT_LT(albedo, 1.0) << roughness;
+      if (theta == 0.0) {
+        EXPECT_LT(albedo, 1.0) << roughness;
+      }
     }
 }
 
