@@ -195,8 +195,11 @@ TEST(Microfacet, WhiteFurnaceEnergyOfTheRoughDielectric) {
     EXPECT_TRUE(test::WithinKSigma(mc.mean(), quadrature, mc.standard_error(), 4.0, 2e-3)) << alpha;
     const double loss = 1.0 - mc.mean();
     EXPECT_LT(mc.mean(), 1.0 + 4 * mc.standard_error());
-    if (alpha == 0.01) EXPECT_LT(loss, 1e-3);
-    else EXPECT_GT(loss, previous_loss);
+    if (alpha == 0.01) {
+      EXPECT_LT(loss, 1e-3);
+    } else {
+      EXPECT_GT(loss, previous_loss);
+    }
     previous_loss = loss;
   }
 }
