@@ -1,8 +1,10 @@
 #include "renderer/layered/layered_material.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include "materials/albedo.h"
+#include "materials/stack_parameters.h"
 #include "renderer/layered/stack_bindings.h"
 
 namespace lamina {
@@ -42,6 +44,62 @@ LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, std::shar
   if (bindings && !bindings->empty()) bindings_ = std::move(bindings);
 }
 
+Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
+  const Spectrum& base = lambert_albedo();
+  if (!bindings_) return base;
+  const std::vector<StackParameter>& ps = bindings_->parameters();
+  std::call_once(factors_once_, [&] {
+    const StackTemplate& t = bindings_->stack_template();
+    std::vector<Spectrum> values(ps.size());
+    for (std::size_t k = 0; k < ps.size(); ++k) values[k] = ps[k].template_value(t);
+    LayerStack stack;
+    apply_parameters(t, ps, values.data(), &stack);
+    const Spectrum a0 = diffuse_bihemispherical_albedo(stack, kLambertNodeWalks, kAlbedoSeed);
+    factors_.resize(ps.size());
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+      AlbedoFactor& f = factors_[k];
+      Spectrum lo, hi;
+      bindings_->value_range(k, &lo, &hi);
+      for (int c = 1; c < kChannels; ++c)
+        if (hi[c] - lo[c] > hi[f.channel] - lo[f.channel]) f.channel = c;
+      const int nodes = hi[f.channel] > lo[f.channel] ? kLambertNodes : 1;
+      std::vector<Spectrum> v = values;
+      for (int j = 0; j < nodes; ++j) {
+        const double s = nodes > 1 ? static_cast<double>(j) / (nodes - 1) : 0.0;
+        v[k] = lo + (hi - lo) * s;
+        apply_parameters(t, ps, v.data(), &stack);
+        const Spectrum a = diffuse_bihemispherical_albedo(stack, kLambertNodeWalks, kAlbedoSeed);
+        Spectrum r;
+        for (int c = 0; c < kChannels; ++c) r[c] = a0[c] > 0.0 ? a[c] / a0[c] : 1.0;
+        f.nodes.push_back(v[k][f.channel]);
+        f.ratio.push_back(r);
+      }
+    }
+  });
+  constexpr std::size_t kMax = 16;
+  Spectrum small[kMax];
+  std::vector<Spectrum> large;
+  Spectrum* v = small;
+  if (ps.size() > kMax) {
+    large.resize(ps.size());
+    v = large.data();
+  }
+  bindings_->values(uv, v);
+  Spectrum albedo = base;
+  for (std::size_t k = 0; k < factors_.size(); ++k) {
+    const AlbedoFactor& f = factors_[k];
+    if (f.nodes.size() < 2) continue;
+    // Linear interpolation in the node values, clamped at the ends.
+    const double x = v[k][f.channel];
+    const double pos = std::clamp((x - f.nodes.front()) / (f.nodes.back() - f.nodes.front()), 0.0, 1.0) * (f.nodes.size() - 1);
+    const std::size_t j = std::min(static_cast<std::size_t>(pos), f.nodes.size() - 2);
+    const double w = pos - j;
+    albedo *= f.ratio[j] * (1.0 - w) + f.ratio[j + 1] * w;
+  }
+  for (int c = 0; c < kChannels; ++c) albedo[c] = std::clamp(albedo[c], 0.0, 1.0);
+  return albedo;
+}
+
 const LayerStack& LayeredMaterial::stack_at(const ShadingPoint& sp, StackScratch& scratch) const {
   if (bindings_) {
     // Texture-driven parameters: the stack at this uv, built in the caller's scratch (no
@@ -65,7 +123,7 @@ int LayeredBindings::count() const {
 std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode) {
   std::string out;
   auto add = [&](const std::string& what) { out += (out.empty() ? "" : "; ") + what; };
-  const bool maps_dropped = mode == SubsurfaceMode::Table || mode == SubsurfaceMode::Lambert;
+  const bool maps_dropped = mode == SubsurfaceMode::Table;
   if (maps_dropped && material.bindings() && !material.bindings()->empty()) {
     std::string names;
     for (const StackParameter& p : material.bindings()->parameters()) names += (names.empty() ? "" : ", ") + p.path;

@@ -84,6 +84,17 @@ class LayeredMaterial {
   // True once the albedo has been computed by this material's own walks (not preset).
   bool lambert_albedo_computed() const { return albedo_state_.load() == 1; }
 
+  // The lambert mode's albedo at a hit, honouring texture-driven parameters: without bindings,
+  // lambert_albedo(). With them, a separable model around the template stack t (the file's
+  // values): A(p) = A(t) prod_k A(t with p_k) / A(t), each factor interpolated linearly between
+  // kLambertNodes values of p_k over its range (StackBindings::value_range), computed by the walk
+  // on first use (kLambertNodeWalks walks each, one seed: the ratios share their random numbers).
+  // Exact for one parameter at the nodes; the cross terms of several are left out (README measures
+  // the error on head_skin and leaves_back).
+  Spectrum lambert_albedo_at(glm::dvec2 uv) const;
+  static constexpr int kLambertNodes = 5;
+  static constexpr int kLambertNodeWalks = 1 << 13;
+
  private:
   LayerStack stack_;
   LayerStack flipped_;  // flipped(stack_) if it transmits, else unused
@@ -93,12 +104,22 @@ class LayeredMaterial {
   mutable std::once_flag albedo_once_;
   mutable std::atomic<int> albedo_state_{0};  // 0 unknown, 1 computed, 2 preset
   mutable Spectrum lambert_albedo_, lambert_albedo_stderr_;
+  // lambert_albedo_at's model: per parameter, its node values (channel of the widest range) and
+  // the albedo ratios A(t with node) / A(t).
+  struct AlbedoFactor {
+    int channel = 0;
+    std::vector<double> nodes;
+    std::vector<Spectrum> ratio;
+  };
+  mutable std::once_flag factors_once_;
+  mutable std::vector<AlbedoFactor> factors_;
 };
 
 // What a --subsurface mode leaves out of this material, for the warning and the EXR header
 // (`lamina:ignored:MATERIAL`): "" if it renders everything. The first-order mode evaluates the
 // stack per hit (texture-driven parameters honoured) through a smooth top; the table mode
-// tabulates the base stack with a smooth top; the lambert mode's albedo is the base stack's.
+// tabulates the base stack with a smooth top; the lambert mode follows the parameters through
+// lambert_albedo_at (approximately, and never a glossy lobe: no warning).
 // Only random-walk renders a rough top's glossy lobe and everything the maps drive.
 std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode);
 

@@ -308,6 +308,18 @@ void StackBindings::values(glm::dvec2 uv, Spectrum* out) const {
   }
 }
 
+void StackBindings::value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const {
+  if (k < bindings_.size()) {
+    for (int c = 0; c < kChannels; ++c) {
+      (*lo)[c] = std::min(bindings_[k].lo[c], bindings_[k].hi[c]);
+      (*hi)[c] = std::max(bindings_[k].lo[c], bindings_[k].hi[c]);
+    }
+  } else {
+    *lo = *hi = parameters_[k].template_value(*template_);
+  }
+  if (has_freckles_ && static_cast<int>(k) == freckle_parameter_) *hi += Spectrum(std::max(0.0, freckles_.amplitude));
+}
+
 void StackBindings::evaluate(glm::dvec2 uv, LayerStack* out) const {
   // A handful of parameters: a fixed array avoids a per-hit allocation.
   constexpr std::size_t kMax = 16;

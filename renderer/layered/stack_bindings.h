@@ -99,6 +99,10 @@ class StackBindings {
   // The parameter values at uv, one per parameter() (for tests and tools).
   void values(glm::dvec2 uv, Spectrum* out) const;
   const std::vector<StackParameter>& parameters() const { return parameters_; }
+  // The values parameter k takes over the surface: a binding's range (its two ends, in order),
+  // widened by the freckles' amplitude for the freckle parameter; the template's value for a
+  // parameter only the freckles drive, plus [0, amplitude].
+  void value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const;
   const StackTemplate& stack_template() const { return *template_; }
   // The bound maps, for checks (their paths, resolved; empty for glTF textures).
   const std::vector<std::string>& map_files() const { return map_files_; }

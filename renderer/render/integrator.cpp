@@ -207,7 +207,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const LayeredMaterial* lm = layered && layered->bindings ? layered->bindings->get(material_index) : nullptr;
     const SubsurfaceMode mode = lm ? layered->mode_for(material_index) : SubsurfaceMode::RandomWalk;
     Spectrum albedo = mat.base_color;
-    if (lm && mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo();
+    if (lm && mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo_at(hit.uv);
     else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
     if (!(lm && mode == SubsurfaceMode::Lambert)) albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
     const LambertSurface lambert(albedo);

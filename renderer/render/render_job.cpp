@@ -116,6 +116,8 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     for (const auto& m : bindings.by_material)
       if (m) {
         const Spectrum a = m->lambert_albedo(), se = m->lambert_albedo_stderr();
+        // Texture-driven parameters: the albedo model over them, computed now (not in the render).
+        if (m->bindings()) m->lambert_albedo_at(glm::dvec2(0.0));
         say(log.info, string_printf("lambert mode: %s: diffuse bihemispherical albedo %.4f %.4f %.4f (+- %.4f %.4f %.4f)",
                              m->source().c_str(), a[0], a[1], a[2], se[0], se[1], se[2]));
       }

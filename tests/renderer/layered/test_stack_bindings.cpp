@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "materials/albedo.h"
 #include "materials/stack_file.h"
 #include "renderer/image/image_io.h"
 #include "renderer/layered/layered_material.h"
@@ -164,6 +165,37 @@ TEST(StackBindings, ChannelThroughRangeIntoTheStack) {
   EXPECT_EQ(got.layers[2].sigma_a, expected.layers[2].sigma_a);
   EXPECT_EQ(got.layers[0].thickness, expected.layers[0].thickness);
   EXPECT_EQ(validate_stack(got), "");
+}
+
+// The lambert mode follows texture-driven parameters (LayeredMaterial::lambert_albedo_at): with
+// one bound parameter its albedo at a point equals the walk's albedo of the stack there (exact
+// at the model's nodes, linear between them), within the estimates' standard errors: at the
+// ramp's texels (blood 0, 0.020, 0.040, 0.08; nodes every 0.02).
+TEST(StackBindings, LambertAlbedoFollowsTheBoundParameter) {
+  const fs::path dir = temp_dir("lambert-at");
+  write_ramp_png(dir);
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin.json")));
+  const SceneDesc scene = empty_scene();
+  const json spec = json::parse(R"({"bind": [
+      {"parameter": "layers[1].components[0].fraction", "texture": "ramp.png", "channel": "r", "range": [0.0, 0.08]}]})");
+  auto b = std::make_shared<const StackBindings>(spec, t, scene, (dir / "map.json").string(), "skin", (dir / "map.json").string());
+  const LayeredMaterial m(t->stack, "skin.json", b);
+  Spectrum previous_green(2.0);
+  for (double u : {0.125, 0.375, 0.625, 0.875}) {
+    StackScratch scratch;
+    ShadingPoint sp;
+    sp.uv = {u, 0.5};
+    Spectrum se;
+    const Spectrum walk = diffuse_bihemispherical_albedo(m.stack_at(sp, scratch), LayeredMaterial::kDefaultAlbedoWalks, 77, &se);
+    const Spectrum model = m.lambert_albedo_at(sp.uv);
+    for (int c = 0; c < kChannels; ++c) {
+      // The model's own noise: its base albedo's error, and its node ratios' (about as large).
+      const double tolerance = 4.0 * std::sqrt(se[c] * se[c] + 3.0 * m.lambert_albedo_stderr()[c] * m.lambert_albedo_stderr()[c]);
+      EXPECT_NEAR(model[c], walk[c], tolerance) << "u " << u << " channel " << c;
+    }
+    EXPECT_LT(model[1], previous_green[1]);  // more blood: less green
+    previous_green = model;
+  }
 }
 
 TEST(StackBindings, GltfTexturesAreReencodedToTheirStoredValues) {
