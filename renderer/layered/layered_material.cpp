@@ -76,14 +76,8 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
       }
     }
   });
-  constexpr std::size_t kMax = 16;
-  Spectrum small[kMax];
-  std::vector<Spectrum> large;
-  Spectrum* v = small;
-  if (ps.size() > kMax) {
-    large.resize(ps.size());
-    v = large.data();
-  }
+  ParameterValues values(ps.size());
+  Spectrum* v = values.data();
   bindings_->values(uv, v);
   Spectrum albedo = base;
   for (std::size_t k = 0; k < factors_.size(); ++k) {

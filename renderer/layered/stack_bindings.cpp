@@ -321,17 +321,9 @@ void StackBindings::value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const
 }
 
 void StackBindings::evaluate(glm::dvec2 uv, LayerStack* out) const {
-  // A handful of parameters: a fixed array avoids a per-hit allocation.
-  constexpr std::size_t kMax = 16;
-  Spectrum small[kMax];
-  std::vector<Spectrum> large;
-  Spectrum* v = small;
-  if (parameters_.size() > kMax) {
-    large.resize(parameters_.size());
-    v = large.data();
-  }
-  values(uv, v);
-  apply_parameters(*template_, parameters_, v, out);
+  ParameterValues v(parameters_.size());
+  values(uv, v.data());
+  apply_parameters(*template_, parameters_, v.data(), out);
 }
 
 }  // namespace lamina

@@ -85,6 +85,21 @@ struct Freckles {
 double freckle_profile_integral(double radius);
 
 // A material's bindings, ready to evaluate per hit.
+// Room for a material's parameter values at one hit: a fixed array for the usual handful (no
+// allocation per hit), a vector beyond that.
+class ParameterValues {
+ public:
+  explicit ParameterValues(std::size_t n) {
+    if (n > kInline) large_.resize(n);
+  }
+  Spectrum* data() { return large_.empty() ? small_ : large_.data(); }
+
+ private:
+  static constexpr std::size_t kInline = 16;
+  Spectrum small_[kInline];
+  std::vector<Spectrum> large_;
+};
+
 class StackBindings {
  public:
   // Parses the "bind" and "freckles" members of `spec` (other members are ignored here; the
