@@ -43,8 +43,11 @@ HEAD_SECONDS=${LAMINA_DEMO_HEAD_SECONDS:-150}
 "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin_similarity.exr --png out/head_skin_similarity.png \
   --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$(( HEAD_SECONDS * 2 / 3 ))" \
   --env 0.05 --similarity-after 0
-# The portrait: the textured glTF head (metallic-roughness, normal map) beside the layered head.
-oiiotool out/head.png out/head_skin.png --mosaic 2x1 -o out/portrait.png
+# The portrait: the textured glTF head (metallic-roughness, normal map) in the same camera and
+# lights, beside the layered head.
+"$LAMINA" render scenes/head_skin/head_textured.gltf -o out/head_textured.exr --png out/head_textured.png \
+  --width 480 --height 600 --spp "$SPP" --env 0.05
+oiiotool out/head_textured.png out/head_skin.png --mosaic 2x1 -o out/portrait.png
 # Leaves lit from the front and from behind, then side by side.
 for side in front back; do
   "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \

@@ -10,6 +10,8 @@
   oil.png          the sebum film: a procedural T-zone (forehead band, nose, chin) drawn in the
                    face's UV layout, smooth-edged
   freckle_mask.png where freckles may appear: cheeks and the bridge of the nose (Gaussian blobs)
+  head_textured.gltf the same head, camera and lights with the asset's own glTF material (no
+                   layered skin): the portrait's reference
 
 Maps are DATA (stored values, read without sRGB decoding). The UV positions of forehead, nose,
 cheeks and chin were read off Map-COL.jpg (the face sits in the middle of the atlas, eyes at
@@ -162,6 +164,14 @@ def main():
                      key_color=(1.0, 0.97, 0.93), key_intensity=500.0, rim_from=(-6.0, 3.0, -6.0),
                      rim_intensity=4.0)
     with open(os.path.join(OUT, 'head_skin.gltf'), 'w') as f:
+        json.dump(j, f, indent=1)
+        f.write('\n')
+    # The same head, camera and lights with the asset's own glTF material (base colour texture,
+    # normal map, metallic-roughness): the portrait's reference beside the layered skin.
+    del j['materials'][0]['extras']
+    j['asset']['extras']['lamina'] = ('The textured glTF head in the rig of head_skin.gltf (written by '
+                                      'scripts/make_head_skin_scene.py): no layered material.')
+    with open(os.path.join(OUT, 'head_textured.gltf'), 'w') as f:
         json.dump(j, f, indent=1)
         f.write('\n')
 
