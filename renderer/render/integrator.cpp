@@ -190,7 +190,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     {
       const Material& m = desc.material(desc.meshes[hit.mesh].material);
       if (m.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
-        ns = normal_mapped(hit, desc.textures[m.normal_texture], m.normal_scale);
+        ns = normal_mapped(hit, desc.textures[m.normal_texture], m.normal_scale, m.normal_uv.apply(hit.uv));
     }
     const bool back_side = glm::dot(ng, wo_world) < 0.0;
     if (back_side) {
@@ -208,7 +208,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const SubsurfaceMode mode = lm ? layered->mode_for(material_index) : SubsurfaceMode::RandomWalk;
     Spectrum albedo = mat.base_color;
     if (lm && mode == SubsurfaceMode::Lambert) albedo = lm->lambert_albedo_at(hit.uv);
-    else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(hit.uv);
+    else if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(mat.base_color_uv.apply(hit.uv));
     if (!(lm && mode == SubsurfaceMode::Lambert)) albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
     const LambertSurface lambert(albedo);
     const Surface* surface_ptr = &lambert;
@@ -218,7 +218,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     if (!lm && mat.metallic_roughness) {
       double metallic = mat.metallic, roughness = mat.roughness;
       if (mat.metallic_roughness_texture >= 0) {
-        const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(hit.uv);
+        const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(mat.metallic_roughness_uv.apply(hit.uv));
         roughness *= t[1];
         metallic *= t[2];
       }

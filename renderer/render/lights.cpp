@@ -170,7 +170,7 @@ Spectrum emitted_radiance(const Scene& scene, const SurfaceHit& hit, const glm::
   if (mat.emission.is_black()) return Spectrum(0.0);
   if (!mat.double_sided && glm::dot(hit.ng, w) <= 0.0) return Spectrum(0.0);
   Spectrum le = mat.emission;
-  if (mat.emissive_texture >= 0) le *= d.textures[mat.emissive_texture].lookup(hit.uv);
+  if (mat.emissive_texture >= 0) le *= d.textures[mat.emissive_texture].lookup(mat.emissive_uv.apply(hit.uv));
   return le;
 }
 

@@ -124,7 +124,7 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, do
   return true;
 }
 
-glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale) {
+glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale, glm::dvec2 uv) {
   const glm::dvec3 n = hit.ns;
   glm::dvec3 t(hit.tangent);
   t -= n * glm::dot(n, t);
@@ -132,7 +132,7 @@ glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale
   if (!(len > 1e-12)) return n;
   t /= len;
   const glm::dvec3 b = glm::cross(n, t) * (hit.tangent.w < 0.0 ? -1.0 : 1.0);
-  const Spectrum texel = map.lookup(hit.uv);
+  const Spectrum texel = map.lookup(uv);
   const glm::dvec3 local((2.0 * texel[0] - 1.0) * scale, (2.0 * texel[1] - 1.0) * scale, 2.0 * texel[2] - 1.0);
   const glm::dvec3 mapped = local.x * t + local.y * b + local.z * n;
   const double m = glm::length(mapped);

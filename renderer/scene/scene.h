@@ -60,7 +60,8 @@ struct SurfaceHit {
 // (r, g, b) in [0, 1] is the normal (2r - 1) s, (2g - 1) s, 2b - 1 in the frame T, B = w N x T,
 // N, s the material's scale), unit, on the side of hit.ns. hit.ns if the hit has no tangent
 // frame or the map's normal is unusable.
-glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale);
+// uv: where to read the map (hit.uv through the material's KHR_texture_transform).
+glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale, glm::dvec2 uv);
 
 class Scene {
  public:

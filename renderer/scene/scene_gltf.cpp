@@ -563,7 +563,8 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
 }
 
 void Loader::run() {
-  static const std::set<std::string> supported = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
+  static const std::set<std::string> supported = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                                  "KHR_texture_transform"};
   std::string unsupported;
   for (const std::string& e : m_.extensionsRequired)
     if (!supported.count(e)) fail(path_, "requires unsupported extension " + e);
@@ -586,8 +587,40 @@ void Loader::run() {
     fail(path_, s.str());
   }
 
+  // KHR_texture_transform on a textureInfo's extensions (only TEXCOORD_0 is read: a texCoord
+  // override is warned about).
+  auto uv_transform = [&](const tinygltf::ExtensionMap& ext, const std::string& material) {
+    auto it = ext.find("KHR_texture_transform");
+    if (it == ext.end()) return UvTransform{};
+    const tinygltf::Value& v = it->second;
+    auto number = [&](const tinygltf::Value& x, const char* what) {
+      if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble()))
+        fail(path_, "material '" + material + "': KHR_texture_transform." + what + " must be a finite number");
+      return x.GetNumberAsDouble();
+    };
+    auto pair = [&](const char* key, double fallback, double* x, double* y) {
+      *x = *y = fallback;
+      if (!v.Has(key)) return;
+      const tinygltf::Value& p = v.Get(key);
+      if (!p.IsArray() || p.ArrayLen() != 2)
+        fail(path_, "material '" + material + "': KHR_texture_transform." + key + " must be an array of 2 numbers");
+      *x = number(p.Get(0), key);
+      *y = number(p.Get(1), key);
+    };
+    double ou, ov, su, sv;
+    pair("offset", 0.0, &ou, &ov);
+    pair("scale", 1.0, &su, &sv);
+    const double rotation = v.Has("rotation") ? number(v.Get("rotation"), "rotation") : 0.0;
+    if (v.Has("texCoord") && v.Get("texCoord").IsNumber() && v.Get("texCoord").GetNumberAsInt() != 0)
+      warn("KHR_texture_transform.texCoord other than 0 is ignored (only TEXCOORD_0 is read)");
+    return UvTransform::from(ou, ov, rotation, su, sv);
+  };
   for (const tinygltf::Material& gm : m_.materials) {
     Material mat;
+    mat.base_color_uv = uv_transform(gm.pbrMetallicRoughness.baseColorTexture.extensions, gm.name);
+    mat.metallic_roughness_uv = uv_transform(gm.pbrMetallicRoughness.metallicRoughnessTexture.extensions, gm.name);
+    mat.normal_uv = uv_transform(gm.normalTexture.extensions, gm.name);
+    mat.emissive_uv = uv_transform(gm.emissiveTexture.extensions, gm.name);
     mat.name = gm.name;
     const std::vector<double>& bc = gm.pbrMetallicRoughness.baseColorFactor;
     if (bc.size() >= 3) mat.base_color = Spectrum(bc[0], bc[1], bc[2]);
@@ -635,6 +668,18 @@ void Loader::run() {
 }
 
 }  // namespace
+
+UvTransform UvTransform::from(double offset_u, double offset_v, double rotation, double scale_u, double scale_v) {
+  UvTransform t;
+  const double cr = std::cos(rotation), sr = std::sin(rotation);
+  t.a = cr * scale_u;
+  t.b = -sr * scale_v;
+  t.c = offset_u;
+  t.d = sr * scale_u;
+  t.e = cr * scale_v;
+  t.f = offset_v;
+  return t;
+}
 
 Spectrum Texture::lookup(glm::dvec2 uv) const {
   BilinearFootprint f;

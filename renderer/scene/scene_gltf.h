@@ -29,6 +29,16 @@ struct SceneError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// KHR_texture_transform of one textureInfo: uv' = T(offset) R(rotation) S(scale) uv, with the
+// ratified extension's matrices (KHR_texture_transform README, "Overview"):
+//   u' = offset.x + cos(r) scale.x u - sin(r) scale.y v,  v' = offset.y + sin(r) scale.x u + cos(r) scale.y v.
+struct UvTransform {
+  double a = 1.0, b = 0.0, c = 0.0;  // u' = a u + b v + c
+  double d = 0.0, e = 1.0, f = 0.0;  // v' = d u + e v + f
+  glm::dvec2 apply(glm::dvec2 uv) const { return {a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f}; }
+  static UvTransform from(double offset_u, double offset_v, double rotation, double scale_u, double scale_v);
+};
+
 // A decoded texture in linear RGB (8-bit colour textures are decoded from sRGB when loaded).
 struct Texture {
   int width = 0;
@@ -44,6 +54,8 @@ struct Material {
   std::string name;
   Spectrum base_color{0.8};  // linear; glTF default baseColorFactor is 1, see load_gltf
   int base_color_texture = -1;
+  // KHR_texture_transform of each texture slot (identity without it).
+  UvTransform base_color_uv, metallic_roughness_uv, normal_uv, emissive_uv;
   Spectrum emission;  // emissiveFactor x emissive_strength
   int emissive_texture = -1;
   bool double_sided = false;  // recorded; the path tracer shades both sides of every surface

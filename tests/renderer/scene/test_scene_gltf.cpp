@@ -308,7 +308,7 @@ TEST(SceneGltf, NormalMapTiltsTowardsTheTangentFrame) {
     hit.ns = hit.ng = {0.0, 0.0, 1.0};
     hit.uv = {0.5, 0.5};
     hit.tangent = glm::dvec4(s.meshes[0].tangents[0]);
-    const glm::dvec3 n = normal_mapped(hit, s.textures[s.materials[0].normal_texture], 1.0);
+    const glm::dvec3 n = normal_mapped(hit, s.textures[s.materials[0].normal_texture], 1.0, hit.uv);
     const double tilt = (191.0 / 255.0) * 2.0 - 1.0;  // linear decoding: 0.498
     const glm::dvec3 expected = glm::normalize(axis == 0 ? glm::dvec3(tilt, 0.0, 1.0) : glm::dvec3(0.0, tilt, 1.0));
     EXPECT_NEAR(n.x, expected.x, 5e-3) << axis;
@@ -345,6 +345,44 @@ TEST(SceneGltf, VertexColoursAreRead) {
   bad.add_node({{"mesh", m2}});
   bad.write_gltf(dir / "bad.gltf");
   expect_error(dir / "bad.gltf", "COLOR_0 of vertex 1");
+}
+
+// KHR_texture_transform (the ratified README's matrices): offset, then rotation (u' = cos u -
+// sin v, v' = sin u + cos v), then scale, per textureInfo; a malformed one is an error naming
+// the material, and the extension is no longer reported as unsupported.
+TEST(SceneGltf, TextureTransformIsReadPerTexture) {
+  TempDir dir("gltf-uvt");
+  Image im(2, 1);
+  write_png(dir / "tex.png", im);
+  GltfBuilder b;
+  json& j = b.json();
+  j["images"] = {{{"uri", "tex.png"}}};
+  j["textures"] = {{{"source", 0}}};
+  j["extensionsUsed"] = {"KHR_texture_transform"};
+  const json transform = {{"offset", {0.5, 0.25}}, {"rotation", kPi / 2}, {"scale", {2.0, 3.0}}};
+  j["materials"].push_back({{"name", "m"},
+                            {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}}}}},
+                            {"emissiveTexture", {{"index", 0}, {"extensions", {{"KHR_texture_transform", {{"offset", {0.1, 0.0}}}}}}}}});
+  b.add_node({{"mesh", b.add_mesh(kTriangle, {}, {}, 0)}});
+  b.write_gltf(dir / "t.gltf");
+  const SceneDesc s = load_gltf(dir / "t.gltf");
+  ASSERT_EQ(s.materials.size(), 1u);
+  // (1, 0) scaled to (2, 0), rotated a quarter turn to (0, 2), offset to (0.5, 2.25).
+  const glm::dvec2 p = s.materials[0].base_color_uv.apply({1.0, 0.0});
+  EXPECT_NEAR(p.x, 0.5, 1e-12);
+  EXPECT_NEAR(p.y, 2.25, 1e-12);
+  // (0, 1) scaled to (0, 3), rotated to (-3, 0), offset to (-2.5, 0.25).
+  const glm::dvec2 q = s.materials[0].base_color_uv.apply({0.0, 1.0});
+  EXPECT_NEAR(q.x, -2.5, 1e-12);
+  EXPECT_NEAR(q.y, 0.25, 1e-12);
+  const glm::dvec2 e = s.materials[0].emissive_uv.apply({0.2, 0.3});
+  EXPECT_NEAR(e.x, 0.3, 1e-12);
+  EXPECT_NEAR(e.y, 0.3, 1e-12);
+  EXPECT_EQ(s.materials[0].normal_uv.apply({0.2, 0.3}), glm::dvec2(0.2, 0.3));  // no transform: identity
+  for (const std::string& w : s.warnings) EXPECT_EQ(w.find("KHR_texture_transform"), std::string::npos) << w;
+  j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"]["scale"] = {1.0};
+  b.write_gltf(dir / "bad.gltf");
+  expect_error(dir / "bad.gltf", "material 'm': KHR_texture_transform.scale must be an array of 2 numbers");
 }
 
 TEST(SceneGltf, BadInputIsAOneLineError) {
