@@ -7,8 +7,6 @@
 #include <tbb/parallel_for.h>
 
 #include "materials/first_order.h"
-#include <glm/geometric.hpp>
-
 #include "materials/fresnel.h"
 #include "materials/microfacet.h"
 #include "materials/zeroth_order.h"
@@ -108,7 +106,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
   const ZerothOrder zeroth = zeroth_order(stack, wi.z);
   const bool rough = stack.rough_top();
-  const RoughDielectric top{{rough ? stack.top_roughness : 0.5}, stack.above_ior, stack.layers[0].ior};
+  const RoughDielectric top = top_interface(stack);
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
   // single2].
@@ -126,13 +124,10 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       // A rough top reflects into a glossy lobe, not a delta: its energy by one sample of the
       // facets per photon (visible normals; weight F G2/G1, 0 below the facets). It is a total
       // only: the table's bins hold the light that entered the stack.
-      const glm::dvec3 m = top.distribution.sample_visible(wi, {rng.uniform(), rng.uniform()});
-      const double cos_m = glm::dot(wi, m);
-      const glm::dvec3 r = 2.0 * cos_m * m - wi;
-      const double glossy = cos_m > 0.0 && r.z > 0.0
-                                ? fresnel_dielectric(cos_m, stack.above_ior, stack.layers[0].ior) *
-                                      top.distribution.g2(wi, r) / top.distribution.g1(wi)
-                                : 0.0;
+      const double u0 = rng.uniform(), u1 = rng.uniform();
+      glm::dvec3 r;
+      double glossy = 0.0;
+      if (!top.sample_reflection(wi, {u0, u1}, &r, &glossy)) glossy = 0.0;
       x[kRs] = Spectrum(glossy);
       x[kRsWalk] = Spectrum(glossy);
     }

@@ -187,6 +187,30 @@ RoughDielectric::Sample RoughDielectric::sample(const glm::dvec3& wo, glm::dvec2
   return s;
 }
 
+bool RoughDielectric::sample_reflection(const glm::dvec3& wo, glm::dvec2 u, glm::dvec3* wi, double* weight) const {
+  const glm::dvec3 m = distribution.sample_visible(wo, u);
+  const double cos_m = glm::dot(wo, m);
+  const glm::dvec3 r = 2.0 * cos_m * m - wo;
+  if (!(cos_m > 0.0) || !(r.z * wo.z > 0.0)) return false;  // below the facets: the model's loss
+  const double f = fresnel_dielectric(cos_m, index_of(wo), wo.z > 0.0 ? n_below : n_above);
+  *wi = r;
+  *weight = f * distribution.g2(wo, r) / distribution.g1(wo);
+  return true;
+}
+
+bool RoughDielectric::sample_refraction(const glm::dvec3& wo, glm::dvec2 u, glm::dvec3* wi, double* fresnel,
+                                        double* masking) const {
+  const double n_o = index_of(wo), n_far = wo.z > 0.0 ? n_below : n_above;
+  const glm::dvec3 m = distribution.sample_visible(wo, u);
+  const double cos_m = glm::dot(wo, m);
+  *fresnel = cos_m > 0.0 ? fresnel_dielectric(cos_m, n_o, n_far) : 1.0;
+  glm::dvec3 t;
+  if (!(cos_m > 0.0) || !refract_about(wo, m, n_o, n_far, &t) || !(t.z * wo.z < 0.0)) return false;
+  *wi = t;
+  *masking = distribution.g2(wo, t) / distribution.g1(wo);
+  return true;
+}
+
 Spectrum fresnel_conductor(double cos_theta_i, const Spectrum& eta, const Spectrum& k) {
   Spectrum out;
   const double c = std::clamp(std::abs(cos_theta_i), 0.0, 1.0);

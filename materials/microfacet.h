@@ -24,10 +24,6 @@
 
 namespace lamina {
 
-// Below this alpha a rough interface is treated as smooth by its users (the GGX lobe is then
-// narrower than double precision resolves well); 0 is exactly smooth.
-constexpr double kMinRoughness = 1e-4;
-
 struct GgxDistribution {
   double alpha = 0.5;
 
@@ -90,6 +86,17 @@ struct RoughDielectric {
   // (materials/random_walk.h; by reciprocity, the n^2 factor is applied where the walk's
   // estimate becomes radiance).
   Sample sample(const glm::dvec3& wo, glm::dvec2 u, double u_choice, bool power = false) const;
+
+  // The two lobes sampled alone, from a facet m ~ D_wo (u), for callers that split the interface
+  // themselves (the layered walk and its surface: the reflection is the surface's glossy lobe,
+  // the refraction the walk's way in).
+  // Reflection: wi = reflect(wo, m) and its weight f_r |wi.z| / pdf_r = F(wo.m) G2/G1(wo); false
+  // (wi and weight unset) if wi lies below the facets.
+  bool sample_reflection(const glm::dvec3& wo, glm::dvec2 u, glm::dvec3* wi, double* weight) const;
+  // Refraction: wi through m, the facet's Fresnel reflectance F(wo.m) (1 if wo cannot see m) and
+  // the masking ratio G2/G1(wo); the power carried is (1 - F) G2/G1. False (fresnel still set)
+  // under total internal reflection or if wi does not reach the far side.
+  bool sample_refraction(const glm::dvec3& wo, glm::dvec2 u, glm::dvec3* wi, double* fresnel, double* masking) const;
 };
 
 // Fresnel reflectance of a conductor of complex index eta + i k (relative to the outside medium)

@@ -176,13 +176,11 @@ void flight_escaped(PathWeight* pw, const Spectrum& tau, int hero) {
 // l-1 ... 0; going down, the bottom interfaces of layers l ... N-1 and the layers below l. So
 // the per-layer terms accumulate from the outside inwards.
 // ---------------------------------------------------------------------------------------------
-namespace {
-
-// The rough top interface of a stack (LayerStack::top_roughness > 0) as a microfacet BSDF:
-// +z is outside (above_ior), -z layer 0.
 RoughDielectric top_interface(const LayerStack& stack) {
   return RoughDielectric{{stack.top_roughness}, stack.above_ior, stack.layers[0].ior};
 }
+
+namespace {
 
 // Through a rough top: layer 0's inside direction, the transmission's radiance estimate and the
 // MIS density ratio for the outside direction w (w.z > 0) and the direction t in layer 0
@@ -288,11 +286,10 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
   }
   // Sample the inside direction: visible normals from w, refraction into layer 0.
   const RoughDielectric top = top_interface(stack);
-  const glm::dvec3 m = top.distribution.sample_visible(w, u_interface);
   glm::dvec3 t;
+  double fresnel, masking;
   RoughCrossing crossing;
-  if (glm::dot(w, m) > 0.0 && refract_about(w, m, stack.above_ior, stack.layers[0].ior, &t))
-    crossing = cross_rough_top(top, w, t);
+  if (top.sample_refraction(w, u_interface, &t, &fresnel, &masking)) crossing = cross_rough_top(top, w, t);
   prepare_exit_impl(stack, w, out, guiding, &crossing);
 }
 
@@ -522,16 +519,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     // the power refracted there, (1 - F(wi.m)) G2/G1(wi) (Walter eq. 21 sampled as in
     // RoughDielectric::sample, power mode; the reflected part F is the caller's glossy lobe). A
     // refraction that points back up, or none at all, is the model's single-scattering loss.
-    const glm::dvec3 m = top.distribution.sample_visible(wi, {rng.uniform(), rng.uniform()});
-    const double cos_m = glm::dot(wi, m);
+    const double u0 = rng.uniform(), u1 = rng.uniform();
     glm::dvec3 t;
-    const double f = cos_m > 0.0 ? fresnel_dielectric(cos_m, stack.above_ior, n_top) : 1.0;
-    if (!(cos_m > 0.0) || !refract_about(wi, m, stack.above_ior, n_top, &t) || !(t.z < 0.0)) {
+    double f, g;
+    if (!top.sample_refraction(wi, {u0, u1}, &t, &f, &g)) {
       result.interface_loss = Spectrum(1.0 - f);
       result.end = WalkResult::End::Absorbed;
       return result;
     }
-    const double g = top.distribution.g2(wi, t) / top.distribution.g1(wi);
     pw.scale = (1.0 - f) * g;
     result.interface_loss = Spectrum((1.0 - f) * (1.0 - g));
     d = t;

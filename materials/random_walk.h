@@ -24,6 +24,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "materials/microfacet.h"
 #include "materials/sampling.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
@@ -200,6 +201,9 @@ struct ExitDirection {
 // ignore it). Deeper layers follow from t by Snell's law through the smooth inner interfaces.
 void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0,
                   glm::dvec2 u_interface = {0.5, 0.5});
+// The stack's top interface as a rough dielectric (+z outside, -z layer 0); meaningful when
+// stack.rough_top().
+RoughDielectric top_interface(const LayerStack& stack);
 ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding = 0.0);
 // Rough top: the same for a given inside direction, `inside_up` the propagation direction in
 // layer 0 towards the top (z > 0), e.g. WalkResult::top_inside, to weight the walk's own exit.

@@ -43,7 +43,6 @@ struct ShadingPoint {
 struct StackScratch {
   LayerStack stack;
   LayerStack flipped;
-  LayerStack smooth;  // the first-order mode's copy of a rough stack with a smooth top
 };
 
 class LayeredMaterial {
@@ -117,7 +116,8 @@ class LayeredMaterial {
 
 // What a --subsurface mode leaves out of this material, for the warning and the EXR header
 // (`lamina:ignored:MATERIAL`): "" if it renders everything. The first-order mode evaluates the
-// stack per hit (texture-driven parameters honoured) through a smooth top; the table mode
+// stack per hit (texture-driven parameters honoured) through a smooth top (its analytic
+// solutions never read the roughness); the table mode
 // tabulates the base stack with a smooth top; the lambert mode follows the parameters through
 // lambert_albedo_at (approximately, and never a glossy lobe: no warning).
 // Only random-walk renders a rough top's glossy lobe and everything the maps drive.

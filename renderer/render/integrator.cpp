@@ -186,12 +186,11 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     if (depth >= max_depth) break;
 
     // Shade both sides of every surface: turn the normals towards the viewer.
+    const int material_index = desc.meshes[hit.mesh].material;
+    const Material& mat = desc.material(material_index);
     glm::dvec3 ng = hit.ng, ns = hit.ns;
-    {
-      const Material& m = desc.material(desc.meshes[hit.mesh].material);
-      if (m.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
-        ns = normal_mapped(hit, desc.textures[m.normal_texture], m.normal_scale, m.normal_uv.apply(hit.uv));
-    }
+    if (mat.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
+      ns = normal_mapped(hit, desc.textures[mat.normal_texture], mat.normal_scale, mat.normal_uv.apply(hit.uv));
     const bool back_side = glm::dot(ng, wo_world) < 0.0;
     if (back_side) {
       ng = -ng;
@@ -202,8 +201,6 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const Frame frame(ns);
     const glm::dvec3 wo = frame.to_local(wo_world);
 
-    const int material_index = desc.meshes[hit.mesh].material;
-    const Material& mat = desc.material(material_index);
     const LayeredMaterial* lm = layered && layered->bindings ? layered->bindings->get(material_index) : nullptr;
     const SubsurfaceMode mode = lm ? layered->mode_for(material_index) : SubsurfaceMode::RandomWalk;
     Spectrum albedo = mat.base_color;
@@ -238,12 +235,6 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
       sp.triangle = hit.triangle;
       sp.from_below = back_side && lm->transmits();
       stack = &lm->stack_at(sp, scratch);
-      if (mode == SubsurfaceMode::FirstOrder && stack->rough_top()) {
-        // First order through a mirror: the rough top is ignored (render_job warns).
-        scratch.smooth = *stack;
-        scratch.smooth.top_roughness = 0.0;
-        stack = &scratch.smooth;
-      }
       if (mode == SubsurfaceMode::FirstOrder) {
         first_order.emplace(*stack, wo);
         surface_ptr = &*first_order;

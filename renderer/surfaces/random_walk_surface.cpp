@@ -20,7 +20,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   if (rough) {
     // The glossy lobe of a rough top (materials/microfacet.h): evaluated for every light
     // direction, MIS against its own sampling, which is chosen with probability r_top.
-    const RoughDielectric top{{stack_.top_roughness}, stack_.above_ior, stack_.layers[0].ior};
+    const RoughDielectric top = top_interface(stack_);
     for (int k = 0; k < light_count; ++k) {
       const glm::dvec3& wl = lights[k].wi;
       if (!(wl.z > 0.0)) continue;
@@ -31,14 +31,12 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     }
     if (rng.uniform() < r_top) {
       const double u0 = rng.uniform(), u1 = rng.uniform();
-      const glm::dvec3 m = top.distribution.sample_visible(wo, {u0, u1});
-      const double cos_m = glm::dot(wo, m);
-      const glm::dvec3 wi = 2.0 * cos_m * m - wo;
-      if (!(cos_m > 0.0) || !(wi.z > 0.0)) return false;  // below the facets: the model's loss
-      // f |cos| / pdf with pdf = r_top D_wo(m) / (4 wo.m): F(wo.m) G2/G1(wo) / r_top.
-      const double f = fresnel_dielectric(cos_m, stack_.above_ior, stack_.layers[0].ior);
+      glm::dvec3 wi;
+      double weight;
+      if (!top.sample_reflection(wo, {u0, u1}, &wi, &weight)) return false;  // below the facets: the model's loss
+      // The lobe's own weight F G2/G1 over the probability r_top of choosing it.
       next->wi = wi;
-      next->weight = Spectrum(f * top.distribution.g2(wo, wi) / top.distribution.g1(wo) / r_top);
+      next->weight = Spectrum(weight / r_top);
       next->pdf = r_top * reflection_pdf(top.distribution, wo, wi);
       next->delta = false;
       return next->pdf > 0.0;
