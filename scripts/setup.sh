@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages Lamina needs, only those missing. Run as root (or with sudo).
-# Idempotent: does nothing (and needs no network) when everything is installed.
+# Idempotent: does nothing (and needs no network) when everything is installed. Also the pinned
+# pyoidn wheel (pip), whose Open Image Denoise library `lamina denoise` loads.
 set -euo pipefail
 
 packages=(
@@ -22,12 +23,23 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-echo "setup: installing ${missing[*]}"
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+
+# Intel Open Image Denoise for `lamina denoise` (a post-process, never the render path): Debian
+# bookworm has no package, so the library comes from the pinned pyoidn wheel, which ships it
+# (renderer/image/denoise.h loads it at run time; CMake records where python3 finds it).
+# Checked without importing pyoidn (its Python side needs cffi, which Lamina does not use).
+PYOIDN_VERSION=2.5.1.0
+if ! python3 -c "import importlib.metadata as m, sys; sys.exit(m.version('pyoidn') != '${PYOIDN_VERSION}')" >/dev/null 2>&1; then
+  echo "setup: installing pyoidn==${PYOIDN_VERSION} (Open Image Denoise for lamina denoise)"
+  # Debian's own python3 refuses pip installs outside a venv (PEP 668): --break-system-packages there.
+  python3 -m pip install --quiet --no-deps "pyoidn==${PYOIDN_VERSION}" ||
+    python3 -m pip install --quiet --no-deps --break-system-packages "pyoidn==${PYOIDN_VERSION}"
+fi

@@ -29,6 +29,7 @@
 #include "renderer/image/false_colour.h"
 #include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
+#include "renderer/image/tone_map.h"
 #include "renderer/render/render_job.h"
 #include "renderer/util/atomic_file.h"
 #include "renderer/util/paths.h"
@@ -282,7 +283,7 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
   images.reserve(jobs.size());
   for (const BatchJob& job : jobs) {
     images.push_back(read_image(job_exr(out, job)));
-    write_png((fs::path(out) / "jobs" / (job.id + ".png")).string(), images.back());
+    write_png((fs::path(out) / "jobs" / (job.id + ".png")).string(), tone_mapped(images.back(), m.contact_sheet.tone_map));
   }
 
   // Comparisons: the difference images and their metrics.
@@ -351,7 +352,7 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
       for (const AutoChoiceEntry& c : chosen) brief += (brief.empty() ? "" : ", ") + (chosen.size() > 1 ? c.material + " " : "") + short_mode(c.mode);
       mode += " (" + brief + ")";
     }
-    cells.push_back({images[job.index], {job.scene + " / " + job.variant + " / " + job.lighting, mode + ", " + std::to_string(job.spp) + " spp"}});
+    cells.push_back({tone_mapped(images[job.index], m.contact_sheet.tone_map), {job.scene + " / " + job.variant + " / " + job.lighting, mode + ", " + std::to_string(job.spp) + " spp"}});
   }
   for (ContactCell& c : diff_cells) cells.push_back(std::move(c));
   bool labelled = true;

@@ -401,7 +401,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   if (j.contains("contact_sheet")) {
     const Where w = root.key("contact_sheet");
     const json& c = j["contact_sheet"];
-    check_keys(c, w, {"columns", "thumbnail_width", "diff_range"});
+    check_keys(c, w, {"columns", "thumbnail_width", "diff_range", "exposure", "tone_curve"});
     if (c.contains("columns")) m.contact_sheet.columns = static_cast<int>(get_integer(c["columns"], w.key("columns"), 1, 64));
     if (c.contains("thumbnail_width"))
       m.contact_sheet.thumbnail_width = static_cast<int>(get_integer(c["thumbnail_width"], w.key("thumbnail_width"), 16, 2048));
@@ -410,6 +410,17 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
       if (!r.is_number() || !(r.get<double>() > 0.0) || !std::isfinite(r.get<double>()))
         w.key("diff_range").fail("expected a positive number, got " + r.dump());
       m.contact_sheet.diff_range = r.get<double>();
+    }
+    if (c.contains("exposure")) {
+      const json& e = c["exposure"];
+      if (!e.is_number() || !(std::abs(e.get<double>()) <= 20.0))
+        w.key("exposure").fail("expected a number of stops in [-20, 20], got " + e.dump());
+      m.contact_sheet.tone_map.exposure = e.get<double>();
+    }
+    if (c.contains("tone_curve")) {
+      const json& t = c["tone_curve"];
+      if (!t.is_string() || !parse_tone_curve(t.get<std::string>(), &m.contact_sheet.tone_map.curve))
+        w.key("tone_curve").fail("expected \"filmic\" or \"clamp\", got " + t.dump());
     }
   }
   return m;

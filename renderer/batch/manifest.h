@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "renderer/image/tone_map.h"
+
 namespace lamina {
 
 // Thrown with one line: "<manifest file>: <JSON path>: <problem>".
@@ -86,6 +88,7 @@ struct ContactSheetSpec {
   int columns = 4;
   int thumbnail_width = 160;
   double diff_range = 0.25;  // relative difference shown at full red/blue in diff thumbnails
+  ToneMap tone_map;          // of the jobs' PNGs and thumbnails (the differences are false colour)
 };
 
 struct Manifest {

@@ -69,14 +69,20 @@ std::string gib(double bytes) {
 }
 
 void check_image_memory(const RenderSettings& s, bool png) {
-  // Adaptive sampling and time limits keep per pixel a sum (3 doubles), a planned and a done
-  // count, and write the counts as a 4th EXR channel (interleaved with RGB on writing).
+  // Rendering in rounds (adaptive sampling, time limits, previews) keeps per pixel its running
+  // sums (integrator.cpp's PixelSums, 120 bytes) and a planned count, adaptive sampling a pilot
+  // mean and variance; the counts are a 4th EXR channel (interleaved with RGB on writing). AOVs
+  // are 10 floats a pixel, and twice that while interleaved for the EXR.
+  const bool rounds = s.noise_threshold > 0.0 || s.time_limit > 0.0 || s.preview_every > 0.0;
   const bool counts = s.noise_threshold > 0.0 || s.time_limit > 0.0;
-  const double per_pixel = 3 * sizeof(float) + (png ? 3 : 0) + (counts ? 3 * sizeof(double) + 2 * 4 + 4 + 16 : 0);
-  const double bytes = static_cast<double>(s.width) * s.height * per_pixel;
+  const double aov_floats = 3.0 * s.aovs.albedo + 3.0 * s.aovs.normal + 1.0 * s.aovs.depth + 3.0 * s.aovs.variance;
+  const double per_pixel = 3 * sizeof(float) + (png ? 3 : 0) + (rounds ? 120 + 4 : 0) + (counts ? 2 * 8 + 2 * 4 : 0) +
+                           2 * aov_floats * sizeof(float);
+  const int w = s.crop.empty() ? s.width : s.crop.x1 - s.crop.x0, h = s.crop.empty() ? s.height : s.crop.y1 - s.crop.y0;
+  const double bytes = static_cast<double>(w) * h * per_pixel;
   std::string bound;
   const double available = memory_limit_bytes(&bound);
-  const std::string size = std::to_string(s.width) + "x" + std::to_string(s.height) + " image" + (png ? " with --png" : "") +
+  const std::string size = std::to_string(w) + "x" + std::to_string(h) + " image" + (png ? " with --png" : "") +
                            (counts ? " with per-pixel sample counts" : "");
   if (bytes > kMaxImageBytes)
     throw UsageError("--width x --height: a " + size + " needs " + gib(bytes) + ", above the limit of " + gib(kMaxImageBytes));
@@ -174,7 +180,16 @@ int run_render(int argc, char** argv) {
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)")
       ->check(cli::environment());
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str()->check(cli::integer(0, kMaxDepth));
-  app.add_option("--png", png_path, "also write an sRGB PNG preview");
+  app.add_option("--png", png_path, "also write an sRGB PNG preview (tone mapped: --exposure, --tone-curve)");
+  ToneMap tone_map;
+  app.add_option("--exposure", tone_map.exposure, "PNG only: stops of exposure before the tone curve (the EXR stays linear)")
+      ->capture_default_str()
+      ->check(cli::real(-20.0, 20.0));
+  std::string tone_curve = tone_curve_name(tone_map.curve);
+  app.add_option("--tone-curve", tone_curve,
+                 "PNG only: filmic (ACES reference rendering + sRGB output, highlights roll off) or clamp (clipped at 1)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"filmic", "clamp"}));
   std::string pool_samples = "shared";
   app.add_option("--pool-samples", pool_samples,
                  "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
@@ -207,6 +222,20 @@ int run_render(int argc, char** argv) {
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
                  "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
+  std::string aov_list = "none";
+  app.add_option("--aovs", aov_list,
+                 "feature images written as more EXR channels: a comma-separated list of albedo, normal, depth, variance, "
+                 "or all (albedo.R/G/B, N.X/Y/Z, Z, variance.R/G/B)")
+      ->capture_default_str();
+  std::vector<int> crop;
+  app.add_option("--crop", crop,
+                 "render only pixels X0 <= x < X1, Y0 <= y < Y1 of the image (X0,Y0,X1,Y1), each exactly as in the full image")
+      ->delimiter(',')
+      ->expected(4)
+      ->check(cli::integer(0, kMaxResolution));
+  app.add_option("--preview-every", settings.preview_every,
+                 "write the image so far to the outputs every this many seconds (between rounds of 8 samples per pixel)")
+      ->check(cli::real(0.0, 1e9, true, false));
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
@@ -223,6 +252,15 @@ int run_render(int argc, char** argv) {
     // Each number is in its range (the validators above); what remains are combinations.
     if (static_cast<double>(settings.width) * settings.height * settings.spp > kMaxPathSamples)
       throw UsageError("--width x --height x --spp exceeds 1e12 paths");
+    std::string bad_aov;
+    if (!parse_aov_names(aov_list, &settings.aovs, &bad_aov))
+      throw UsageError("--aovs '" + aov_list + "': unknown AOV '" + bad_aov + "' (expected albedo, normal, depth, variance, all or none)");
+    if (!crop.empty()) {
+      settings.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
+      if (!(crop[0] < crop[2] && crop[1] < crop[3] && crop[2] <= settings.width && crop[3] <= settings.height))
+        throw UsageError(string_printf("--crop %d,%d,%d,%d: expected X0 < X1 <= --width (%d) and Y0 < Y1 <= --height (%d)", crop[0],
+                                       crop[1], crop[2], crop[3], settings.width, settings.height));
+    }
     check_image_memory(settings, !png_path.empty());
     auto_mode = subsurface == "auto";
     if (!auto_mode && !parse_subsurface_mode(subsurface, &mode))
@@ -255,6 +293,8 @@ int run_render(int argc, char** argv) {
   request.scene_path = scene_path;
   request.out_path = out_path;
   request.png_path = png_path;
+  parse_tone_curve(tone_curve, &tone_map.curve);  // one of the two names (checked above)
+  request.tone_map = tone_map;
   request.camera_name = camera_name;
   request.materials_map_path = materials_path;
   request.env = env_value;

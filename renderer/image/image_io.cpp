@@ -88,7 +88,7 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
 }
 
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
-               const std::vector<ExtraChannel>& extra) {
+               const std::vector<ExtraChannel>& extra, const DataWindow& window) {
   check_size(path, image);
   const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
   for (const ExtraChannel& c : extra)
@@ -96,6 +96,14 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
   const int channels = 3 + static_cast<int>(extra.size());
   OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::FLOAT);
   spec.attribute("compression", "zip");
+  if (window.full_width > 0) {
+    spec.x = window.x;
+    spec.y = window.y;
+    spec.full_x = 0;
+    spec.full_y = 0;
+    spec.full_width = window.full_width;
+    spec.full_height = window.full_height;
+  }
   for (const auto& [key, value] : metadata) spec.attribute(key, value);
   if (extra.empty()) {
     write_atomically(path, "openexr", spec, image.rgb.data());
@@ -268,7 +276,11 @@ std::string container_problem(const std::string& path) {
 
 }  // namespace
 
-Image read_image(const std::string& path, int* colour_channels) {
+namespace {
+
+// Every channel of the file at `path`, as floats interleaved in the file's order; *spec_out its
+// header. Throws ImageIoError("cannot read 'path': why").
+std::vector<float> read_all_channels(const std::string& path, OIIO::ImageSpec* spec_out) {
   auto fail = [&](const std::string& why) -> void {
     throw ImageIoError("cannot read '" + path + "': " + why);
   };
@@ -283,24 +295,6 @@ Image read_image(const std::string& path, int* colour_channels) {
   const int nc = spec.nchannels;
   if (spec.width <= 0 || spec.height <= 0 || nc <= 0) fail("empty image");
   if (spec.depth > 1) fail("volume images are not supported");
-
-  // Which file channels become R, G, B: named R/G/B if present, grey (one channel, or grey +
-  // alpha) replicated, otherwise the first three channels.
-  int src[3] = {0, 1, 2};
-  auto find = [&](const char* name) {
-    for (int c = 0; c < nc; ++c)
-      if (spec.channelnames.size() > static_cast<std::size_t>(c) && spec.channelnames[c] == name) return c;
-    return -1;
-  };
-  const int r = find("R"), g = find("G"), b = find("B");
-  if (r >= 0 && g >= 0 && b >= 0) {
-    src[0] = r, src[1] = g, src[2] = b;
-  } else if (nc < 3) {
-    const int y = find("Y");
-    src[0] = src[1] = src[2] = (y >= 0 ? y : 0);
-  }
-  if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
-
   // The header's size is the file's claim: refused before allocating above the limit.
   const double samples = static_cast<double>(spec.width) * spec.height * nc;
   if (samples > static_cast<double>(kMaxImageSamples))
@@ -311,9 +305,35 @@ Image read_image(const std::string& path, int* colour_channels) {
     std::string why = in->geterror();
     fail(why.empty() ? "read failed (truncated or corrupt file?)" : why);
   }
-  const bool srgb = stored_as_srgb(spec);
+  *spec_out = spec;
   in->close();
+  return all;
+}
 
+int channel_index(const OIIO::ImageSpec& spec, const std::string& name) {
+  for (int c = 0; c < spec.nchannels; ++c)
+    if (spec.channelnames.size() > static_cast<std::size_t>(c) && spec.channelnames[c] == name) return c;
+  return -1;
+}
+
+}  // namespace
+
+Image read_image(const std::string& path, int* colour_channels) {
+  OIIO::ImageSpec spec;
+  const std::vector<float> all = read_all_channels(path, &spec);
+  const int nc = spec.nchannels;
+  // Which file channels become R, G, B: named R/G/B if present, grey (one channel, or grey +
+  // alpha) replicated, otherwise the first three channels.
+  int src[3] = {0, 1, 2};
+  const int r = channel_index(spec, "R"), g = channel_index(spec, "G"), b = channel_index(spec, "B");
+  if (r >= 0 && g >= 0 && b >= 0) {
+    src[0] = r, src[1] = g, src[2] = b;
+  } else if (nc < 3) {
+    const int y = channel_index(spec, "Y");
+    src[0] = src[1] = src[2] = (y >= 0 ? y : 0);
+  }
+  if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
+  const bool srgb = stored_as_srgb(spec);
   Image image(spec.width, spec.height);
   const std::size_t n = static_cast<std::size_t>(spec.width) * spec.height;
   for (std::size_t i = 0; i < n; ++i)
@@ -321,6 +341,34 @@ Image read_image(const std::string& path, int* colour_channels) {
       const float v = all[i * nc + src[c]];
       image.rgb[i * 3 + c] = srgb ? static_cast<float>(srgb_decode(v)) : v;
     }
+  return image;
+}
+
+ChannelImage read_channels(const std::string& path) {
+  OIIO::ImageSpec spec;
+  ChannelImage out;
+  out.values = read_all_channels(path, &spec);
+  out.width = spec.width;
+  out.height = spec.height;
+  for (int c = 0; c < spec.nchannels; ++c)
+    out.names.push_back(spec.channelnames.size() > static_cast<std::size_t>(c) ? spec.channelnames[c] : "");
+  return out;
+}
+
+int ChannelImage::find(const std::string& name) const {
+  for (std::size_t c = 0; c < names.size(); ++c)
+    if (names[c] == name) return static_cast<int>(c);
+  return -1;
+}
+
+Image ChannelImage::gather(const std::string& path, const std::string& a, const std::string& b, const std::string& c) const {
+  const int src[3] = {find(a), find(b), find(c)};
+  for (int k = 0; k < 3; ++k)
+    if (src[k] < 0) throw ImageIoError(path + ": no channel " + (k == 0 ? a : k == 1 ? b : c));
+  Image image(width, height);
+  const std::size_t n = static_cast<std::size_t>(width) * height, nc = names.size();
+  for (std::size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) image.rgb[i * 3 + k] = values[i * nc + static_cast<std::size_t>(src[k])];
   return image;
 }
 

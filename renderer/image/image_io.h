@@ -28,8 +28,24 @@ struct ExtraChannel {
   std::string name;
   std::vector<float> values;
 };
+// Where the pixels sit in a larger image (a crop): the EXR's data window starts at (x, y) of a
+// display window full_width x full_height. full_width 0: the image is the whole.
+struct DataWindow {
+  int x = 0, y = 0, full_width = 0, full_height = 0;
+};
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
-               const std::vector<ExtraChannel>& extra);
+               const std::vector<ExtraChannel>& extra, const DataWindow& window = {});
+// Every channel of an image file by name (R, G, B, the AOVs' "albedo.R", "N.X", "Z", ...),
+// interleaved as stored; the size is the data window's.
+struct ChannelImage {
+  int width = 0, height = 0;
+  std::vector<std::string> names;
+  std::vector<float> values;  // width * height * names.size()
+  int find(const std::string& name) const;  // the channel's index, -1 if absent
+  // Three channels as an Image; throws ImageIoError naming `path` if one is missing.
+  Image gather(const std::string& path, const std::string& a, const std::string& b, const std::string& c) const;
+};
+ChannelImage read_channels(const std::string& path);
 // Writes an 8-bit sRGB PNG (exposure 1, clamped), atomically as above.
 void write_png(const std::string& path, const Image& image);
 // Reads any image OpenImageIO reads (EXR, HDR, PNG, JPEG) as linear RGB (8-bit files are

@@ -162,7 +162,7 @@ glm::dvec2 sample_tent_filter(glm::dvec2 u) {
 }
 
 Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
-                       RayCounters* rays, const LayeredShading* layered, const HeroStrata* strata) {
+                       RayCounters* rays, const LayeredShading* layered, const HeroStrata* strata, FirstHit* first_hit) {
   const SceneDesc& desc = scene.desc();
   thread_local StackScratch scratch;  // stack_at() may build a stack per hit here
   Spectrum radiance(0.0), beta(1.0);
@@ -200,6 +200,11 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     if (glm::dot(ns, wo_world) <= 0.0) ns = ng;
     const Frame frame(ns);
     const glm::dvec3 wo = frame.to_local(wo_world);
+    if (depth == 0 && first_hit) {
+      first_hit->hit = true;
+      first_hit->distance = hit.t * glm::length(ray.direction);
+      first_hit->normal = ns;
+    }
 
     const LayeredMaterial* lm = layered && layered->bindings ? layered->bindings->get(material_index) : nullptr;
     const SubsurfaceMode mode = lm ? layered->mode_for(material_index) : SubsurfaceMode::RandomWalk;
@@ -283,6 +288,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     const glm::dvec3 wi_world = frame.to_world(next.wi);
     const double cos_g = glm::dot(wi_world, ng);
     if (!(cos_g * next.wi.z > 0.0)) break;  // leaks through the geometric surface: no light
+    if (depth == 0 && first_hit) first_hit->albedo = next.weight;
     beta *= next.weight;
     unweighted = next.delta;
     bsdf_pdf = next.pdf;
@@ -316,6 +322,9 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
 // image does not depend on the thread count, nor on the rounds). A time limit is checked before
 // each tile of every round after the first; the count of each pixel's samples goes to
 // RenderStats::pixel_samples (an EXR channel).
+// Crop: only the region's pixels are rendered, with the random streams of their place in the
+// full image; the pilot pass also covers a one-pixel margin around the region (clamped to the
+// image), so every pixel of the region is planned from the same neighbours as in the full image.
 namespace {
 
 constexpr int kRoundSamples = 8;
@@ -332,6 +341,29 @@ struct TileCounters {
   }
 };
 
+// The running sums of one pixel: its colour, and what the AOVs and the pilot pass need.
+struct PixelSums {
+  Spectrum sum{0.0}, sum2{0.0}, albedo{0.0};
+  glm::dvec3 normal{0.0};
+  double depth = 0.0;
+  double y_sum = 0.0, y_sum2 = 0.0;  // luminance, for the adaptive pilot
+  std::uint32_t count = 0;           // samples drawn (non-finite ones included, as 0)
+  std::uint32_t hits = 0;            // samples whose camera ray met a surface
+};
+
+// A rectangle of pixels with its tiles.
+struct Tiled {
+  PixelRegion r;
+  int tiles_x = 0, tiles = 0;
+  explicit Tiled(PixelRegion region) : r(region) {
+    tiles_x = (r.x1 - r.x0 + kTile - 1) / kTile;
+    tiles = tiles_x * ((r.y1 - r.y0 + kTile - 1) / kTile);
+  }
+  int width() const { return r.x1 - r.x0; }
+  std::size_t index(int x, int y) const { return static_cast<std::size_t>(y - r.y0) * width() + (x - r.x0); }
+  std::size_t pixels() const { return static_cast<std::size_t>(width()) * (r.y1 - r.y0); }
+};
+
 }  // namespace
 
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& s,
@@ -342,49 +374,81 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
 }
 
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& s,
-                   RenderStats* stats, const RenderProgress& progress) {
+                   RenderStats* stats, const RenderProgress& progress, RenderAovs* aovs) {
   const auto start = std::chrono::steady_clock::now();
-  const int tiles_x = (s.width + kTile - 1) / kTile, tiles_y = (s.height + kTile - 1) / kTile;
-  const int tiles = tiles_x * tiles_y;
-  const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
+  const Tiled out(s.crop.empty() ? PixelRegion{0, 0, s.width, s.height} : s.crop);
+  const std::size_t pixels = out.pixels();
+  const AovSelection want = aovs ? s.aovs : AovSelection{};
+  const bool first_hits = want.albedo || want.normal || want.depth;
   TileCounters counters;
 
-  // Samples [first, first + count) of a pixel (sample index offset `stream`), added to *sum;
-  // the luminance of each also to *y_sum, *y_sum2 if given.
-  auto sample_pixel = [&](int x, int y, std::uint64_t stream, int first, int count, Spectrum* sum, RayCounters& rays,
-                          std::uint64_t* bad, double* y_sum, double* y_sum2) {
+  // Samples [first, first + count) of pixel (x, y) of the full image, added to *acc.
+  auto sample_pixel = [&](int x, int y, int first, int count, PixelSums* acc, RayCounters& rays, std::uint64_t* bad,
+                          bool luminance) {
     const std::uint64_t pixel = static_cast<std::uint64_t>(y) * s.width + x;
     for (int i = first; i < first + count; ++i) {
-      const std::uint64_t index = stream + static_cast<std::uint64_t>(i);
+      const std::uint64_t index = static_cast<std::uint64_t>(i);
       Rng rng(s.seed, pixel, index);
       const glm::dvec2 d = sample_tent_filter({rng.uniform(), rng.uniform()});
       const Ray ray = camera.generate_ray({x + 0.5 + d.x, y + 0.5 + d.y});
       ++rays.camera;
       const HeroStrata strata{s.seed, pixel, index};
-      const Spectrum l = path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered, &strata);
+      FirstHit hit;
+      const Spectrum l =
+          path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered, &strata, first_hits ? &hit : nullptr);
+      ++acc->count;
       if (!l.is_finite()) {
         ++*bad;
         continue;
       }
-      *sum += l;
-      if (y_sum) {
+      acc->sum += l;
+      if (want.variance) acc->sum2 += l * l;
+      if (hit.hit) {
+        acc->albedo += hit.albedo;
+        acc->normal += hit.normal;
+        acc->depth += hit.distance;
+        ++acc->hits;
+      }
+      if (luminance) {
         const double lum = 0.2126 * l[0] + 0.7152 * l[1] + 0.0722 * l[2];
-        *y_sum += lum;
-        *y_sum2 += lum * lum;
+        acc->y_sum += lum;
+        acc->y_sum2 += lum * lum;
       }
     }
   };
-  // Runs body(x, y) for every pixel of every tile in `todo`, in parallel; false from keep_going
-  // skips the tiles not yet started.
+
+  Image image(out.width(), out.r.y1 - out.r.y0);
+  if (want.albedo) aovs->albedo = Image(image.width, image.height);
+  if (want.normal) aovs->normal = Image(image.width, image.height);
+  if (want.variance) aovs->variance = Image(image.width, image.height);
+  if (want.depth) aovs->depth.assign(pixels, 0.0f);
+  // The image's pixel i from its sums (and the AOVs'); a pixel with no samples is black.
+  auto resolve = [&](std::size_t i, const PixelSums& acc, Image* target) {
+    float* p = &target->rgb[i * 3];
+    const double n = acc.count;
+    for (int c = 0; c < 3; ++c) p[c] = acc.count > 0 ? static_cast<float>(acc.sum[c] / n) : 0.0f;
+    if (target != &image || acc.count == 0) return;
+    for (int c = 0; c < 3; ++c) {
+      if (want.albedo) aovs->albedo.rgb[i * 3 + c] = static_cast<float>(acc.albedo[c] / n);
+      if (want.normal) aovs->normal.rgb[i * 3 + c] = static_cast<float>(acc.normal[c] / n);
+      if (want.variance)  // of the mean: the unbiased sample variance over n
+        aovs->variance.rgb[i * 3 + c] =
+            acc.count > 1 ? static_cast<float>(std::max(0.0, acc.sum2[c] - acc.sum[c] * acc.sum[c] / n) / (n - 1.0) / n) : 0.0f;
+    }
+    if (want.depth) aovs->depth[i] = acc.hits > 0 ? static_cast<float>(acc.depth / acc.hits) : 0.0f;
+  };
+
+  // Runs body(x, y) for every pixel of every tile of `area`, in parallel; false from keep_going
+  // skips the tiles not yet started. body returns the samples it rendered, for the progress.
   tbb::task_arena arena(s.ray_log ? 1 : s.threads > 0 ? s.threads : tbb::task_arena::automatic);
-  auto for_tiles = [&](const std::function<std::uint64_t(int, int, RayCounters&, std::uint64_t*)>& body,
+  auto for_tiles = [&](const Tiled& area, const std::function<std::uint64_t(int, int, RayCounters&, std::uint64_t*)>& body,
                        const std::function<bool()>& keep_going) {
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
-        for (int tile = r.begin(); tile != r.end(); ++tile) {
+      tbb::parallel_for(tbb::blocked_range<int>(0, area.tiles, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int tile = range.begin(); tile != range.end(); ++tile) {
           if (keep_going && !keep_going()) continue;
-          const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-          const int x1 = std::min(x0 + kTile, s.width), y1 = std::min(y0 + kTile, s.height);
+          const int x0 = area.r.x0 + (tile % area.tiles_x) * kTile, y0 = area.r.y0 + (tile / area.tiles_x) * kTile;
+          const int x1 = std::min(x0 + kTile, area.r.x1), y1 = std::min(y0 + kTile, area.r.y1);
           RayCounters rays;
           rays.log = s.ray_log;
           std::uint64_t bad = 0, done = 0;
@@ -397,51 +461,55 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     });
   };
 
-  Image image(s.width, s.height);
   const bool adaptive = s.noise_threshold > 0.0;
-  if (!adaptive && !(s.time_limit > 0.0)) {
+  const bool rounds = adaptive || s.time_limit > 0.0 || (s.preview_every > 0.0 && progress.preview);
+  if (!rounds) {
     // Every pixel its spp samples in one pass.
     for_tiles(
+        out,
         [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
-          Spectrum sum(0.0);
-          sample_pixel(x, y, 0, 0, s.spp, &sum, rays, bad, nullptr, nullptr);
-          float* p = image.pixel(x, y);
-          for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(sum[c] / s.spp);
+          PixelSums acc;
+          sample_pixel(x, y, 0, s.spp, &acc, rays, bad, false);
+          resolve(out.index(x, y), acc, &image);
           return static_cast<std::uint64_t>(s.spp);
         },
         {});
   } else {
     std::vector<std::uint32_t> planned(pixels, static_cast<std::uint32_t>(s.spp));
     double converged = 0.0;
-    std::vector<Spectrum> sums(pixels, Spectrum(0.0));
-    std::vector<std::uint32_t> counts(pixels, 0);
+    std::vector<PixelSums> sums(pixels);
     int first_round = 0;
     if (adaptive) {
       const int pilot = std::clamp(s.pilot_spp, 1, s.spp);
-      std::vector<double> pilot_mean(pixels), pilot_var(pixels);
+      // The region and a one-pixel margin (the neighbours of its edge pixels).
+      const Tiled piloted(PixelRegion{std::max(out.r.x0 - 1, 0), std::max(out.r.y0 - 1, 0), std::min(out.r.x1 + 1, s.width),
+                                      std::min(out.r.y1 + 1, s.height)});
+      std::vector<double> pilot_mean(piloted.pixels()), pilot_var(piloted.pixels());
       for_tiles(
+          piloted,
           [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
-            const std::size_t i = static_cast<std::size_t>(y) * s.width + x;
-            double y_sum = 0.0, y_sum2 = 0.0;
-            sample_pixel(x, y, 0, 0, pilot, &sums[i], rays, bad, &y_sum, &y_sum2);
-            counts[i] = static_cast<std::uint32_t>(pilot);
-            const double m = y_sum / pilot;
-            pilot_mean[i] = m;
-            pilot_var[i] = pilot > 1 ? std::max(0.0, (y_sum2 - pilot * m * m) / (pilot - 1.0)) : 0.0;
-            return static_cast<std::uint64_t>(pilot);
+            const bool inside = x >= out.r.x0 && x < out.r.x1 && y >= out.r.y0 && y < out.r.y1;
+            PixelSums margin;
+            PixelSums* acc = inside ? &sums[out.index(x, y)] : &margin;
+            sample_pixel(x, y, 0, pilot, acc, rays, bad, true);
+            const double m = acc->y_sum / pilot;
+            const std::size_t q = piloted.index(x, y);
+            pilot_mean[q] = m;
+            pilot_var[q] = pilot > 1 ? std::max(0.0, (acc->y_sum2 - pilot * m * m) / (pilot - 1.0)) : 0.0;
+            return inside ? static_cast<std::uint64_t>(pilot) : std::uint64_t{0};
           },
           {});
       const double e2 = s.noise_threshold * s.noise_threshold;
       std::uint64_t below = 0, total = 0;
-      for (int y = 0; y < s.height; ++y)
-        for (int x = 0; x < s.width; ++x) {
+      for (int y = out.r.y0; y < out.r.y1; ++y)
+        for (int x = out.r.x0; x < out.r.x1; ++x) {
           double m = 0.0, v = 0.0;
           int n = 0;
           for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
               const int qx = x + dx, qy = y + dy;
               if ((dx == 0 && dy == 0) || qx < 0 || qy < 0 || qx >= s.width || qy >= s.height) continue;
-              const std::size_t q = static_cast<std::size_t>(qy) * s.width + qx;
+              const std::size_t q = piloted.index(qx, qy);
               m += pilot_mean[q];
               v += pilot_var[q];
               ++n;
@@ -453,7 +521,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
             target = m > 0.0 ? std::ceil(v / (e2 * m * m)) : pilot;
           }
           const auto planned_n = static_cast<std::uint32_t>(std::clamp(target, static_cast<double>(pilot), static_cast<double>(s.spp)));
-          planned[static_cast<std::size_t>(y) * s.width + x] = planned_n;
+          planned[out.index(x, y)] = planned_n;
           below += planned_n < static_cast<std::uint32_t>(s.spp);
           total += planned_n;
         }
@@ -468,24 +536,35 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
       if (s.time_limit > 0.0 && elapsed >= s.time_limit) out_of_time = true;
       return !out_of_time.load();
     };
+    auto last_preview = std::chrono::steady_clock::now();
     for (int first = first_round; first < s.spp && !out_of_time.load(); first += kRoundSamples) {
       for_tiles(
+          out,
           [&](int x, int y, RayCounters& rays, std::uint64_t* bad) {
-            const std::size_t i = static_cast<std::size_t>(y) * s.width + x;
+            const std::size_t i = out.index(x, y);
             const int count = std::min(static_cast<int>(planned[i]) - first, kRoundSamples);
             if (count <= 0) return std::uint64_t{0};
-            sample_pixel(x, y, 0, first, count, &sums[i], rays, bad, nullptr, nullptr);
-            counts[i] += static_cast<std::uint32_t>(count);
+            sample_pixel(x, y, first, count, &sums[i], rays, bad, false);
             return static_cast<std::uint64_t>(count);
           },
           first == 0 ? std::function<bool()>() : std::function<bool()>(in_time));  // round 0 always completes
+      const auto now = std::chrono::steady_clock::now();
+      if (progress.preview && s.preview_every > 0.0 && first + kRoundSamples < s.spp &&
+          std::chrono::duration<double>(now - last_preview).count() >= s.preview_every) {
+        Image so_far(image.width, image.height);
+        std::uint64_t samples = 0;
+        for (std::size_t i = 0; i < pixels; ++i) {
+          resolve(i, sums[i], &so_far);
+          samples += sums[i].count;
+        }
+        progress.preview(so_far, samples);
+        last_preview = std::chrono::steady_clock::now();
+      }
     }
-    for (std::size_t i = 0; i < pixels; ++i) {
-      float* p = &image.rgb[i * 3];
-      for (int c = 0; c < 3; ++c) p[c] = counts[i] > 0 ? static_cast<float>(sums[i][c] / counts[i]) : 0.0f;
-    }
-    if (stats) {
-      stats->pixel_samples = counts;
+    for (std::size_t i = 0; i < pixels; ++i) resolve(i, sums[i], &image);
+    if (stats && (adaptive || s.time_limit > 0.0)) {
+      stats->pixel_samples.resize(pixels);
+      for (std::size_t i = 0; i < pixels; ++i) stats->pixel_samples[i] = sums[i].count;
       stats->pilot_samples = adaptive ? pixels * static_cast<std::uint64_t>(first_round) : 0;
       stats->time_limit_reached = out_of_time.load();
       stats->converged_fraction = converged;

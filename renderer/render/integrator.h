@@ -32,6 +32,23 @@ struct HeroStrata {
   int hero(int walk_index) const;
 };
 
+// The feature images (AOVs) a render keeps besides the colour, each averaged over the pixel's
+// samples like the colour (docs/contracts.md, "AOVs"). Off by default: a render pays for what it
+// asks for.
+struct AovSelection {
+  bool albedo = false;    // one-sample estimate of the first hit's directional albedo (below)
+  bool normal = false;    // the first hit's shading normal, world space, towards the camera
+  bool depth = false;     // distance from the camera to the first hit along the ray
+  bool variance = false;  // per channel, the variance of the pixel's mean (sample variance / n)
+  bool any() const { return albedo || normal || depth || variance; }
+};
+
+// A rectangle of pixels [x0, x1) x [y0, y1) of the full image; empty (x1 <= x0) is the whole.
+struct PixelRegion {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool empty() const { return x1 <= x0 || y1 <= y0; }
+};
+
 struct RenderSettings {
   int width = 640;
   int height = 480;
@@ -51,6 +68,32 @@ struct RenderSettings {
   // rounds over the whole image, and rounds stop when the budget is spent (the first round
   // always completes, so every pixel has samples). Not deterministic (it depends on the speed).
   double time_limit = 0.0;
+  AovSelection aovs;
+  // --crop: only these pixels are rendered (the image is the region's size), each exactly as in
+  // the full image (the same random streams, and with adaptive sampling the same plan).
+  PixelRegion crop;
+  // Seconds between progressive previews (RenderProgress::preview); 0: none. Samples are then
+  // rendered in rounds over the whole image, which gives the same image as one pass.
+  double preview_every = 0.0;
+};
+
+// What the first surface a camera ray meets looks like (for the AOVs). The albedo is the weight
+// of the surface's own continuation sample, f |cos| / pdf: its expectation is the directional
+// albedo at the camera's direction, for any surface, a layered walk's (reflection and
+// transmission) included, and it costs nothing since the path samples it anyway.
+struct FirstHit {
+  bool hit = false;
+  double distance = 0.0;
+  glm::dvec3 normal{0.0};
+  Spectrum albedo{0.0};
+};
+
+// The AOV images of a render (those selected in RenderSettings::aovs; the others stay empty),
+// each the size of the rendered image. Pixels whose camera rays miss every surface have albedo,
+// normal and depth 0.
+struct RenderAovs {
+  Image albedo, normal, variance;
+  std::vector<float> depth;
 };
 
 struct RenderStats {
@@ -70,6 +113,9 @@ struct RenderStats {
 struct RenderProgress {
   std::function<void(std::uint64_t samples)> advance;
   std::function<void(std::uint64_t total_samples, double converged_fraction)> planned;
+  // With RenderSettings::preview_every: the image so far (each pixel the mean of its samples so
+  // far) and the samples in it, called between rounds from the rendering thread.
+  std::function<void(const Image& image, std::uint64_t samples)> preview;
 };
 
 // Radiance arriving at ray.origin along -ray.direction, estimated by one path.
@@ -77,13 +123,13 @@ struct RenderProgress {
 // layered->stratified_hero); null makes every walk draw its own hero.
 Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng& rng, int max_depth,
                        RayCounters* rays, const LayeredShading* layered = nullptr,
-                       const HeroStrata* strata = nullptr);
+                       const HeroStrata* strata = nullptr, FirstHit* first_hit = nullptr);
 
 // Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
                    RenderStats* stats, const std::function<void(std::uint64_t)>& on_progress = {});
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
-                   RenderStats* stats, const RenderProgress& progress);
+                   RenderStats* stats, const RenderProgress& progress, RenderAovs* aovs = nullptr);
 
 // A film offset in [-1, 1]^2 distributed as the tent filter of radius 1 pixel, so each
 // sample has weight 1 (filter importance sampling, pbrt-v4 8.8.1).

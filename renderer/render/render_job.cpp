@@ -35,6 +35,39 @@ double mean_spp(const RenderStats& stats, const RenderSettings& settings) {
   for (std::uint32_t n : stats.pixel_samples) sum += n;
   return sum / static_cast<double>(stats.pixel_samples.size());
 }
+std::string aov_names(const AovSelection& aovs) {
+  std::string names;
+  auto add = [&](bool on, const char* name) {
+    if (on) names += (names.empty() ? "" : ",") + std::string(name);
+  };
+  add(aovs.albedo, "albedo");
+  add(aovs.normal, "normal");
+  add(aovs.depth, "depth");
+  add(aovs.variance, "variance");
+  return names.empty() ? "none" : names;
+}
+
+bool parse_aov_names(const std::string& list, AovSelection* aovs, std::string* bad) {
+  AovSelection chosen;
+  std::size_t start = 0;
+  while (start <= list.size()) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, comma - start);
+    if (name == "albedo") chosen.albedo = true;
+    else if (name == "normal") chosen.normal = true;
+    else if (name == "depth") chosen.depth = true;
+    else if (name == "variance") chosen.variance = true;
+    else if (name == "all") chosen = AovSelection{true, true, true, true};
+    else if (name != "none" || list != "none") {
+      *bad = name;
+      return false;
+    }
+    start = comma + 1;
+  }
+  *aovs = chosen;
+  return true;
+}
+
 namespace {
 
 void say(const std::function<void(const std::string&)>& to, const std::string& line) {
@@ -184,7 +217,10 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   RenderResult result;
   result.camera = cam.name;
   result.layered_materials = bindings.count();
-  const std::uint64_t pixels = static_cast<std::uint64_t>(settings.width) * settings.height;
+  const PixelRegion region = settings.crop.empty() ? PixelRegion{0, 0, settings.width, settings.height} : settings.crop;
+  const std::uint64_t pixels = static_cast<std::uint64_t>(region.x1 - region.x0) * (region.y1 - region.y0);
+  const DataWindow window = settings.crop.empty() ? DataWindow{}
+                                                  : DataWindow{region.x0, region.y0, settings.width, settings.height};
   Progress progress("render", pixels * static_cast<std::uint64_t>(settings.spp) +
                                   (settings.noise_threshold > 0.0 ? pixels * settings.pilot_spp : 0));
   RenderProgress on_progress;
@@ -193,7 +229,19 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     progress.set_total(total);
     progress.set_note(string_printf("adaptive: %.0f%% of pixels converge below %d spp", 100.0 * converged, settings.spp));
   };
-  const Image image = render_image(scene, lights, camera, settings, &result.stats, on_progress);
+  // --preview-every: the image so far replaces the outputs (each written atomically), marked as a
+  // preview in the header; the final image replaces them in the end.
+  on_progress.preview = [&](const Image& so_far, std::uint64_t samples) {
+    const Metadata preview_meta = {{"lamina:version", lamina_version()},
+                                   {"lamina:command", request.command_line},
+                                   {"lamina:scene", request.scene_path},
+                                   {"lamina:camera", cam.name},
+                                   {"lamina:preview", string_printf("%.6g", static_cast<double>(samples) / static_cast<double>(pixels))}};
+    write_exr(request.out_path, so_far, preview_meta, {}, window);
+    if (!request.png_path.empty()) write_png(request.png_path, tone_mapped(so_far, request.tone_map));
+  };
+  RenderAovs aovs;
+  const Image image = render_image(scene, lights, camera, settings, &result.stats, on_progress, &aovs);
   progress.finish();
   result.seconds = progress.elapsed_seconds();
   if (cache)
@@ -221,6 +269,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:time_limit", string_printf("%.17g", settings.time_limit)},
       {"lamina:time_limit_reached", result.stats.time_limit_reached ? "1" : "0"},
       {"lamina:mean_spp", string_printf("%.6g", mean_spp(result.stats, settings))},
+      {"lamina:aovs", aov_names(settings.aovs)},
       {"lamina:seconds", sec.str()},
       {"lamina:rays_closest", std::to_string(rays.closest)},
       {"lamina:rays_camera", std::to_string(rays.camera)},
@@ -228,6 +277,8 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:layered_materials", std::to_string(bindings.count())},
       {"lamina:scatter_events", std::to_string(rays.scatter_events)},
   };
+  if (!settings.crop.empty())
+    meta.emplace_back("lamina:crop", string_printf("%d,%d,%d,%d", region.x0, region.y0, region.x1, region.y1));
   meta.insert(meta.end(), similarity_meta.begin(), similarity_meta.end());
   meta.insert(meta.end(), ignored_meta.begin(), ignored_meta.end());
   if (auto_mode) {
@@ -272,8 +323,23 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     spp.values.assign(result.stats.pixel_samples.begin(), result.stats.pixel_samples.end());
     extra.push_back(std::move(spp));
   }
-  stage(request.out_path, [&](const std::string& tmp) { write_exr(tmp, image, meta, extra); });
-  if (!request.png_path.empty()) stage(request.png_path, [&](const std::string& tmp) { write_png(tmp, image); });
+  // The AOVs, under the names compositors and denoisers look for (docs/contracts.md, "AOVs").
+  auto add_rgb = [&](const Image& aov, const char* layer, const char* const names[3]) {
+    if (aov.rgb.empty()) return;
+    for (int c = 0; c < 3; ++c) {
+      ExtraChannel channel{std::string(layer) + "." + names[c], std::vector<float>(pixels)};
+      for (std::size_t i = 0; i < pixels; ++i) channel.values[i] = aov.rgb[i * 3 + static_cast<std::size_t>(c)];
+      extra.push_back(std::move(channel));
+    }
+  };
+  static const char* const kRgb[3] = {"R", "G", "B"};
+  static const char* const kXyz[3] = {"X", "Y", "Z"};
+  add_rgb(aovs.albedo, "albedo", kRgb);
+  add_rgb(aovs.normal, "N", kXyz);
+  if (!aovs.depth.empty()) extra.push_back({"Z", aovs.depth});
+  add_rgb(aovs.variance, "variance", kRgb);
+  stage(request.out_path, [&](const std::string& tmp) { write_exr(tmp, image, meta, extra, window); });
+  if (!request.png_path.empty()) stage(request.png_path, [&](const std::string& tmp) { write_png(tmp, tone_mapped(image, request.tone_map)); });
   for (std::size_t i = 0; i < staged.size(); ++i) {
     try {
       commit_temporary(staged[i].tmp, staged[i].path);  // removes its temporary on failure

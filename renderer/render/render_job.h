@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "renderer/image/image_io.h"
+#include "renderer/image/tone_map.h"
 #include "renderer/layered/material_binding.h"
 #include "renderer/render/integrator.h"
 
@@ -21,6 +22,7 @@ struct RenderRequest {
   std::string scene_path;  // .gltf or .glb
   std::string out_path;    // the EXR
   std::string png_path;    // "" for none: an sRGB preview
+  ToneMap tone_map;        // of the PNG (the EXR stays linear)
   std::string camera_name;  // "" for the first camera (none: one framing the scene)
   std::string materials_map_path;  // --materials ("" for none)
   // Stacks given in memory (lamina batch's variants), as if the map named them; they win over
@@ -65,6 +67,12 @@ struct RenderLog {
 // Throws std::runtime_error (SceneError, StackFileError messages, image errors, an unknown
 // camera) with one line naming the file.
 RenderResult render_job(const RenderRequest& request, const RenderLog& log = {});
+
+// The selected AOVs as the header and --aovs write them: "albedo,normal,depth,variance" or a
+// part of it, "none" for none. parse_aov_names reads such a list ("all" for every one); false on
+// an unknown name, which *bad then holds.
+std::string aov_names(const AovSelection& aovs);
+bool parse_aov_names(const std::string& list, AovSelection* aovs, std::string* bad);
 
 // Mean samples per pixel in the image (settings.spp unless adaptive sampling or a time limit
 // varied it).

@@ -7,9 +7,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
@@ -361,6 +363,63 @@ TEST(RenderJobOutputs, AFailedPngLeavesNoNewExr) {
 // Under a 1 GB address-space limit (ulimit -v), a 16384 x 16384 image (3 GiB of floats) cannot be
 // held: lamina render refuses it at once (exit 2, naming --width), instead of loading the scene
 // and dying of std::bad_alloc (exit 1) as it did.
+// --aovs all writes the usual channel names after R, G, B; --crop writes the region's pixels,
+// equal to the same pixels of the full image, in an EXR whose data window sits in the full
+// display window; --preview-every writes the outputs while rendering and the final image last.
+TEST(RenderCli, AovsCropAndPreviews) {
+  TempDir dir("cli-aovs");
+  write_quad(dir / "quad.gltf");
+  const std::string common = " --width 20 --height 14 --spp 12 --env 1 --threads 2";
+  const Result full = run(dir, dir / "quad.gltf -o " + dir / "full.exr --aovs all" + common);
+  ASSERT_EQ(full.exit_code, 0) << full.err;
+  const ChannelImage channels = read_channels(dir / "full.exr");
+  // (OpenEXR keeps channels sorted by name; readers find them by name.)
+  std::vector<std::string> names = channels.names;
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "albedo.B", "albedo.G", "albedo.R",
+                                             "variance.B", "variance.G", "variance.R"}));
+  bool listed = false;
+  for (const auto& [k, v] : read_metadata(dir / "full.exr")) listed |= k == "lamina:aovs" && v == "albedo,normal,depth,variance";
+  EXPECT_TRUE(listed);
+
+  const Result crop = run(dir, dir / "quad.gltf -o " + dir / "crop.exr --aovs all --crop 3,4,17,11" + common);
+  ASSERT_EQ(crop.exit_code, 0) << crop.err;
+  const ChannelImage part = read_channels(dir / "crop.exr");
+  ASSERT_EQ(part.width, 14);
+  ASSERT_EQ(part.height, 7);
+  ASSERT_EQ(part.names, channels.names);
+  const std::size_t nc = channels.names.size();
+  for (int y = 0; y < 7; ++y)
+    for (int x = 0; x < 14; ++x)
+      for (std::size_t c = 0; c < nc; ++c)
+        ASSERT_EQ(part.values[(static_cast<std::size_t>(y) * 14 + x) * nc + c],
+                  channels.values[(static_cast<std::size_t>(y + 4) * 20 + x + 3) * nc + c])
+            << x << "," << y << " " << channels.names[c];
+  std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(dir / "crop.exr");
+  ASSERT_TRUE(in);
+  EXPECT_EQ(in->spec().x, 3);
+  EXPECT_EQ(in->spec().y, 4);
+  EXPECT_EQ(in->spec().full_width, 20);
+  EXPECT_EQ(in->spec().full_height, 14);
+
+  // Previews after every round (rounds of 8: one preview at 8 spp), then the final image, which
+  // is the one-pass image.
+  const Result previewed =
+      run(dir, dir / "quad.gltf -o " + dir / "prev.exr --png " + dir / "prev.png --preview-every 0.000001" + common);
+  ASSERT_EQ(previewed.exit_code, 0) << previewed.err;
+  const Image a = read_image(dir / "full.exr"), b = read_image(dir / "prev.exr");
+  EXPECT_EQ(a.rgb, b.rgb);
+  for (const auto& [k, v] : read_metadata(dir / "prev.exr")) EXPECT_NE(k, "lamina:preview") << "the final image is not a preview";
+
+  // Bad values are one line naming the option.
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --aovs albedo,colour" + common), "--aovs", "colour", dir / "x.exr");
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --crop 5,5,5,9" + common), "--crop", "X0 < X1", dir / "x.exr");
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --crop 0,0,21,9" + common), "--crop", "--width (20)", dir / "x.exr");
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --crop 0,0,9" + common), "--crop", "4", dir / "x.exr");
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --exposure nan" + common), "--exposure", "finite", dir / "x.exr");
+  expect_failure(run(dir, dir / "quad.gltf -o " + dir / "x.exr --tone-curve aces" + common), "--tone-curve", "aces", dir / "x.exr");
+}
+
 TEST(RenderCli, AnImageThatDoesNotFitMemoryIsRefusedFirst) {
 #if defined(__SANITIZE_ADDRESS__)
   // AddressSanitizer maps terabytes of shadow memory at start-up, which no 1 GB address-space

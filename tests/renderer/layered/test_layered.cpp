@@ -237,6 +237,45 @@ TEST(LayeredSlab, RandomWalkTransmissionBothWays) {
                            3.0, "light below, viewer above");
 }
 
+// The albedo AOV of a layered surface is its directional albedo at the viewer's direction: the
+// random-walk surface's continuation weight has that expectation. A skin-like stack over a
+// Lambert substrate (reflection only) seen at 40 degrees: the AOV's image mean against
+// 1 - absorbed of `lamina brdf`'s walk at the same incidence (reciprocity of the albedo is not
+// needed: both are the albedo for light arriving from, and leaving towards, that direction).
+TEST(LayeredAovs, AlbedoIsTheDirectionalAlbedo) {
+  const LayerStack stack = substrate_stack();
+  const SceneDesc d = make_scene({slab_plane(0)});
+  const LayeredBindings b = bind(stack);
+  const glm::dvec3 wo_world = world_dir(40, 0);
+  const Scene scene{SceneDesc(d)};
+  const LightSet lights(scene, EnvironmentMap());
+  const Camera camera(camera_towards(wo_world), 24, 24);
+  LayeredShading layered;
+  layered.bindings = &b;
+  RenderSettings s;
+  s.width = s.height = 24;
+  s.spp = 16;
+  s.seed = 3;
+  s.layered = &layered;
+  s.aovs.albedo = true;
+  RenderAovs aovs;
+  RenderStats stats;
+  render_image(scene, lights, camera, s, &stats, RenderProgress{}, &aovs);
+  const ImageStats rendered = stats_of(aovs.albedo);
+
+  BrdfOptions o;
+  o.theta_i_deg = 40.0;
+  o.samples = 200000;
+  o.seed = 17;
+  const BrdfTable t = brdf_table_monte_carlo(stack, o);
+  for (int c = 0; c < 3; ++c) {
+    const double expected = 1.0 - t.totals.absorbed.value[c];
+    const double se = std::hypot(rendered.stderr_[c], t.totals.absorbed.stderr_[c]);
+    EXPECT_NEAR(rendered.mean[c], expected, 4.0 * se) << "channel " << c << " (se " << se << ")";
+    EXPECT_GT(rendered.mean[c], 0.05);
+  }
+}
+
 TEST(LayeredSlab, FirstOrderReflectionAndTransmission) {
   expect_slab_matches_brdf(coloured_slab(), world_dir(30, 0), world_dir(50, 180), SubsurfaceMode::FirstOrder, 3.0,
                            "reflection");

@@ -300,6 +300,197 @@ TEST(Integrator, TimeLimitKeepsTheFirstRound) {
   EXPECT_EQ(0, std::memcmp(im.rgb.data(), eight.rgb.data(), im.rgb.size() * sizeof(float)));
 }
 
+// Renders with AOVs (and optionally a crop, a preview callback) on the given settings.
+Image render_full(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, RenderSettings s,
+                  RenderAovs* aovs, RenderStats* stats = nullptr, const RenderProgress& progress = {}) {
+  const Scene scene{SceneDesc(desc)};
+  const LightSet lights(scene, env);
+  const Camera camera(cam, s.width, s.height);
+  RenderStats st;
+  Image im = render_image(scene, lights, camera, s, &st, progress, aovs);
+  EXPECT_EQ(st.invalid_samples, 0u);
+  if (stats) *stats = st;
+  return im;
+}
+
+RenderSettings settings_of(int w, int h, int spp) {
+  RenderSettings s;
+  s.width = w;
+  s.height = h;
+  s.spp = spp;
+  s.seed = 7;
+  s.max_depth = 1000;
+  return s;
+}
+
+// A Lambert plane y = 0 seen straight down from height 5: the albedo AOV is the base colour
+// exactly (the cosine-sampled Lambert weight is the albedo), the normal is +Y, and the depth at
+// a pixel is 5 / cos of its ray's angle to -Y (each sample's ray; the pixel averages them, so
+// the centre pixel's depth lies within the spread of its footprint's rays).
+TEST(IntegratorAovs, LambertPlaneAlbedoNormalDepth) {
+  Material mat;
+  mat.base_color = Spectrum(0.6, 0.3, 0.9);
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  const SceneDesc d = make_scene({plane}, {mat});
+  RenderSettings s = settings_of(9, 9, 16);
+  s.aovs = AovSelection{true, true, true, false};
+  RenderAovs aovs;
+  render_full(d, EnvironmentMap::constant(Spectrum(1.0)), camera_at({0.0, 5.0, 0.0}, {0.0, -1.0, 0.0}, 40.0), s, &aovs);
+  ASSERT_EQ(aovs.albedo.width, 9);
+  ASSERT_EQ(aovs.depth.size(), 81u);
+  EXPECT_TRUE(aovs.variance.rgb.empty());  // not asked for
+  const double half = std::tan(20.0 * kPi / 180.0);
+  for (int y = 0; y < 9; ++y)
+    for (int x = 0; x < 9; ++x) {
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(aovs.albedo.pixel(x, y)[c], mat.base_color[c], 1e-6);
+      EXPECT_NEAR(aovs.normal.pixel(x, y)[0], 0.0, 1e-6);
+      EXPECT_NEAR(aovs.normal.pixel(x, y)[1], 1.0, 1e-6);
+      EXPECT_NEAR(aovs.normal.pixel(x, y)[2], 0.0, 1e-6);
+      // The pixel's rays span film offsets within one pixel of its centre (tent filter).
+      auto depth_at = [&](double fx, double fy) {
+        const double u = (2.0 * fx / 9.0 - 1.0) * half, v = (2.0 * fy / 9.0 - 1.0) * half;
+        return 5.0 * std::sqrt(1.0 + u * u + v * v);
+      };
+      double lo = 1e300, hi = 0.0;
+      for (double dx : {-0.5, 0.5, 1.5})
+        for (double dy : {-0.5, 0.5, 1.5}) {
+          lo = std::min(lo, depth_at(x + dx, y + dy));
+          hi = std::max(hi, depth_at(x + dx, y + dy));
+        }
+      const double centre = depth_at(x + 0.5, y + 0.5);
+      lo = std::min(lo, centre);
+      EXPECT_GE(aovs.depth[static_cast<std::size_t>(y) * 9 + x], lo - 1e-6) << x << "," << y;
+      EXPECT_LE(aovs.depth[static_cast<std::size_t>(y) * 9 + x], hi + 1e-6) << x << "," << y;
+    }
+}
+
+// Rays that miss every surface leave albedo, normal and depth at 0.
+TEST(IntegratorAovs, MissesAreZero) {
+  Material mat;
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  RenderSettings s = settings_of(8, 8, 4);
+  s.aovs = AovSelection{true, true, true, true};
+  RenderAovs aovs;
+  render_full(d, EnvironmentMap::constant(Spectrum(0.5)), camera_at({0.0, 0.0, 30.0}, {0.0, 1.0, 0.0}, 10.0), s, &aovs);
+  for (std::size_t i = 0; i < 64; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(aovs.albedo.rgb[i * 3 + c], 0.0f);
+      EXPECT_EQ(aovs.normal.rgb[i * 3 + c], 0.0f);
+      EXPECT_EQ(aovs.variance.rgb[i * 3 + c], 0.0f);  // the environment alone: no noise
+    }
+    EXPECT_EQ(aovs.depth[i], 0.0f);
+  }
+}
+
+// The variance AOV is each pixel's estimate of the variance of its mean. In the emissive furnace
+// every pixel is an independent estimate of the same radiance, so the spread of the pixel values
+// over the image estimates the same variance independently: the two must agree. With N = 1024
+// pixels the sample variance of the pixel values has a relative standard error of about
+// sqrt(2 / (N - 1)) = 4.4 % (for near-normal pixel means); the AOV's mean over the pixels is far
+// tighter. We allow 4 of those standard errors, 18 %: the variance of the samples instead of the
+// mean's would be spp times too large. And the AOV must fall as 1/spp from 16 to 64 spp (the
+// ratio's relative error is about 5 %; we allow 20 %).
+TEST(IntegratorAovs, VarianceOfTheMeanMatchesThePixelSpread) {
+  Material mat;
+  mat.base_color = Spectrum(0.6);
+  mat.emission = Spectrum(1.0, 0.5, 2.0);
+  mat.double_sided = true;
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  const CameraDesc cam = camera_at({0.1, 0.2, 0.3}, {0.3, -0.2, -1.0}, 70.0);
+  double mean_aov[2][3] = {};
+  int k = 0;
+  for (int spp : {16, 64}) {
+    RenderSettings s = settings_of(32, 32, spp);
+    s.aovs.variance = true;
+    RenderAovs aovs;
+    const Image im = render_full(d, EnvironmentMap(), cam, s, &aovs);
+    const ImageStats st = stats_of(im);
+    const double n = 32.0 * 32.0;
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0.0;
+      for (std::size_t i = 0; i < 1024; ++i) sum += aovs.variance.rgb[i * 3 + c];
+      mean_aov[k][c] = sum / n;
+      const double spread = st.stderr_[c] * st.stderr_[c] * n;  // sample variance of the pixel values
+      EXPECT_NEAR(mean_aov[k][c], spread, 4.0 * std::sqrt(2.0 / (n - 1.0)) * spread) << "spp " << spp << " channel " << c;
+    }
+    ++k;
+  }
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean_aov[0][c] / mean_aov[1][c], 4.0, 4.0 * 0.2) << "channel " << c;
+}
+
+// A lit Cornell-like box with an area light: every output of a crop equals the same region of the
+// full image bit for bit, with uniform and with adaptive sampling (whose plan near the crop's
+// edge needs the neighbours outside it), AOVs included.
+TEST(IntegratorCrop, EqualsTheRegionOfTheFullImage) {
+  Material wall;
+  wall.base_color = Spectrum(0.7, 0.5, 0.3);
+  Material lamp;
+  lamp.emission = Spectrum(5.0);
+  lamp.double_sided = true;
+  Mesh light;
+  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
+  light.material = 1;
+  const SceneDesc d = make_scene({cube(0), light}, {wall, lamp});
+  const CameraDesc cam = camera_at({0.0, 0.0, 0.9}, {0.0, 0.0, -1.0}, 60.0);
+  for (bool adaptive : {false, true}) {
+    RenderSettings s = settings_of(40, 36, 24);
+    s.aovs = AovSelection{true, true, true, true};
+    if (adaptive) {
+      s.noise_threshold = 0.1;
+      s.pilot_spp = 4;
+    }
+    RenderAovs full_aovs, crop_aovs;
+    RenderStats full_stats, crop_stats;
+    const Image full = render_full(d, EnvironmentMap(), cam, s, &full_aovs, &full_stats);
+    s.crop = PixelRegion{5, 17, 29, 36};  // touches the bottom edge, crosses tiles
+    const Image crop = render_full(d, EnvironmentMap(), cam, s, &crop_aovs, &crop_stats);
+    ASSERT_EQ(crop.width, 24);
+    ASSERT_EQ(crop.height, 19);
+    for (int y = 0; y < crop.height; ++y)
+      for (int x = 0; x < crop.width; ++x) {
+        const int fx = x + 5, fy = y + 17;
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(crop.pixel(x, y)[c], full.pixel(fx, fy)[c]) << adaptive << " " << x << "," << y;
+          ASSERT_EQ(crop_aovs.albedo.pixel(x, y)[c], full_aovs.albedo.pixel(fx, fy)[c]);
+          ASSERT_EQ(crop_aovs.normal.pixel(x, y)[c], full_aovs.normal.pixel(fx, fy)[c]);
+          ASSERT_EQ(crop_aovs.variance.pixel(x, y)[c], full_aovs.variance.pixel(fx, fy)[c]);
+        }
+        ASSERT_EQ(crop_aovs.depth[static_cast<std::size_t>(y) * 24 + x], full_aovs.depth[static_cast<std::size_t>(fy) * 40 + fx]);
+        if (adaptive)
+          ASSERT_EQ(crop_stats.pixel_samples[static_cast<std::size_t>(y) * 24 + x],
+                    full_stats.pixel_samples[static_cast<std::size_t>(fy) * 40 + fx]);
+      }
+  }
+}
+
+// Previews: rendering in rounds to call the preview gives the same image as one pass, and the
+// previews come with growing sample counts, each image the mean of the samples so far.
+TEST(IntegratorPreview, PreviewsDoNotChangeTheImage) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  const CameraDesc cam = camera_at({0.0, 0.0, 3.0}, {0.0, 0.0, -1.0}, 30.0);
+  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
+  RenderSettings s = settings_of(20, 20, 40);
+  RenderAovs none;
+  const Image once = render_full(d, env, cam, s, &none);
+  s.preview_every = 1e-9;  // after every round
+  std::vector<std::uint64_t> samples;
+  RenderProgress progress;
+  progress.preview = [&](const Image& so_far, std::uint64_t n) {
+    EXPECT_EQ(so_far.width, 20);
+    samples.push_back(n);
+  };
+  RenderStats st;
+  const Image rounds = render_full(d, env, cam, s, &none, &st, progress);
+  EXPECT_EQ(0, std::memcmp(once.rgb.data(), rounds.rgb.data(), once.rgb.size() * sizeof(float)));
+  EXPECT_TRUE(st.pixel_samples.empty());  // previews alone add no sample-count channel
+  // Rounds of 8 samples: previews after 8, 16, 24 and 32 (not after the last round, 40).
+  EXPECT_EQ(samples, (std::vector<std::uint64_t>{400 * 8, 400 * 16, 400 * 24, 400 * 32}));
+}
+
 // The tent filter sampler: the sample mean of x is 0 and E[x^2] = 1/6 for f(x) = 1 - |x|.
 TEST(Integrator, TentFilterMoments) {
   const int n = 200000;
