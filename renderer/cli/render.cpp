@@ -136,6 +136,9 @@ void print_render_summary(const RenderRequest& request, const RenderResult& r) {
                 settings.time_limit > 0.0 ? string_printf("; time limit %g s", settings.time_limit).c_str() : "",
                 r.stats.time_limit_reached ? " (reached)" : "");
   }
+  if (settings.clamp > 0.0)
+    std::printf("lamina render: --clamp %g (biased): %llu of the path samples clamped\n", settings.clamp,
+                static_cast<unsigned long long>(r.stats.clamped_samples));
   if (r.stats.invalid_samples > 0)
     std::fprintf(stderr, "lamina render: warning: %llu non-finite path samples dropped\n",
                  static_cast<unsigned long long>(r.stats.invalid_samples));
@@ -236,6 +239,10 @@ int run_render(int argc, char** argv) {
   app.add_option("--preview-every", settings.preview_every,
                  "write the image so far to the outputs every this many seconds (between rounds of 8 samples per pixel)")
       ->check(cli::real(0.0, 1e9, true, false));
+  app.add_option("--clamp", settings.clamp,
+                 "BIASED: scale down any path sample whose largest channel exceeds this radiance (fireflies); "
+                 "the light removed is lost, and the count of clamped samples is printed")
+      ->check(cli::real(0.0, 1e30, true, false));
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 

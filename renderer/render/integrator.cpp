@@ -349,6 +349,7 @@ struct PixelSums {
   double y_sum = 0.0, y_sum2 = 0.0;  // luminance, for the adaptive pilot
   std::uint32_t count = 0;           // samples drawn (non-finite ones included, as 0)
   std::uint32_t hits = 0;            // samples whose camera ray met a surface
+  std::uint32_t clamped = 0;         // samples scaled down by --clamp
 };
 
 // A rectangle of pixels with its tiles.
@@ -394,12 +395,16 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
       ++rays.camera;
       const HeroStrata strata{s.seed, pixel, index};
       FirstHit hit;
-      const Spectrum l =
+      Spectrum l =
           path_radiance(scene, lights, ray, rng, s.max_depth, &rays, s.layered, &strata, first_hits ? &hit : nullptr);
       ++acc->count;
       if (!l.is_finite()) {
         ++*bad;
         continue;
+      }
+      if (s.clamp > 0.0 && l.max() > s.clamp) {
+        l *= s.clamp / l.max();
+        ++acc->clamped;
       }
       acc->sum += l;
       if (want.variance) acc->sum2 += l * l;
@@ -423,11 +428,13 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
   if (want.variance) aovs->variance = Image(image.width, image.height);
   if (want.depth) aovs->depth.assign(pixels, 0.0f);
   // The image's pixel i from its sums (and the AOVs'); a pixel with no samples is black.
+  std::atomic<std::uint64_t> clamped_total{0};
   auto resolve = [&](std::size_t i, const PixelSums& acc, Image* target) {
     float* p = &target->rgb[i * 3];
     const double n = acc.count;
     for (int c = 0; c < 3; ++c) p[c] = acc.count > 0 ? static_cast<float>(acc.sum[c] / n) : 0.0f;
     if (target != &image || acc.count == 0) return;
+    if (acc.clamped > 0) clamped_total += acc.clamped;
     for (int c = 0; c < 3; ++c) {
       if (want.albedo) aovs->albedo.rgb[i * 3 + c] = static_cast<float>(acc.albedo[c] / n);
       if (want.normal) aovs->normal.rgb[i * 3 + c] = static_cast<float>(acc.normal[c] / n);
@@ -571,6 +578,7 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
     }
   }
   if (stats) {
+    stats->clamped_samples = clamped_total;
     stats->rays.closest = counters.closest;
     stats->rays.camera = counters.camera;
     stats->rays.shadow = counters.shadow;

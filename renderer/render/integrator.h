@@ -75,6 +75,9 @@ struct RenderSettings {
   // Seconds between progressive previews (RenderProgress::preview); 0: none. Samples are then
   // rendered in rounds over the whole image, which gives the same image as one pass.
   double preview_every = 0.0;
+  // --clamp: BIASED firefly suppression (0: off). A path sample whose largest channel exceeds it
+  // is scaled down to it (hue kept); the light removed is lost, not redistributed.
+  double clamp = 0.0;
 };
 
 // What the first surface a camera ray meets looks like (for the AOVs). The albedo is the weight
@@ -99,6 +102,7 @@ struct RenderAovs {
 struct RenderStats {
   RayCounters rays;
   std::uint64_t invalid_samples = 0;  // NaN/Inf path estimates, dropped (should stay 0)
+  std::uint64_t clamped_samples = 0;  // path samples scaled down by RenderSettings::clamp
   // With adaptive sampling or a time limit: each pixel's number of samples in the image (row
   // major; empty otherwise), how many of them the pilot pass rendered, and whether the time limit
   // stopped the render before every pixel had its planned samples.

@@ -270,6 +270,8 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:time_limit_reached", result.stats.time_limit_reached ? "1" : "0"},
       {"lamina:mean_spp", string_printf("%.6g", mean_spp(result.stats, settings))},
       {"lamina:aovs", aov_names(settings.aovs)},
+      {"lamina:clamp", string_printf("%.17g", settings.clamp)},
+      {"lamina:clamped_samples", std::to_string(result.stats.clamped_samples)},
       {"lamina:seconds", sec.str()},
       {"lamina:rays_closest", std::to_string(rays.closest)},
       {"lamina:rays_camera", std::to_string(rays.camera)},

@@ -458,9 +458,10 @@ TEST(IntegratorCrop, EqualsTheRegionOfTheFullImage) {
           ASSERT_EQ(crop_aovs.variance.pixel(x, y)[c], full_aovs.variance.pixel(fx, fy)[c]);
         }
         ASSERT_EQ(crop_aovs.depth[static_cast<std::size_t>(y) * 24 + x], full_aovs.depth[static_cast<std::size_t>(fy) * 40 + fx]);
-        if (adaptive)
+        if (adaptive) {
           ASSERT_EQ(crop_stats.pixel_samples[static_cast<std::size_t>(y) * 24 + x],
                     full_stats.pixel_samples[static_cast<std::size_t>(fy) * 40 + fx]);
+        }
       }
   }
 }
@@ -489,6 +490,37 @@ TEST(IntegratorPreview, PreviewsDoNotChangeTheImage) {
   EXPECT_TRUE(st.pixel_samples.empty());  // previews alone add no sample-count channel
   // Rounds of 8 samples: previews after 8, 16, 24 and 32 (not after the last round, 40).
   EXPECT_EQ(samples, (std::vector<std::uint64_t>{400 * 8, 400 * 16, 400 * 24, 400 * 32}));
+}
+
+// --clamp (biased): a clamp above every sample changes no bit; a clamp below them scales each
+// sample down to it, keeping its hue, and counts them. The Lambert plane under a directional
+// light has zero-variance samples L = a E cos(theta) / pi.
+TEST(IntegratorClamp, ScalesSamplesAboveItAndNothingElse) {
+  Material mat;
+  mat.base_color = Spectrum(0.6, 0.3, 0.9);
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  SceneDesc d = make_scene({plane}, {mat});
+  LightDesc sun;
+  sun.type = LightType::kDirectional;
+  sun.intensity = Spectrum(2.0);
+  sun.direction = glm::dvec3(0.0, -1.0, 0.0);
+  d.lights.push_back(sun);
+  const CameraDesc cam = camera_at({0.0, 5.0, 0.0}, {0.0, -1.0, 0.0}, 40.0);
+  RenderAovs none;
+  RenderStats plain_stats, high_stats, low_stats;
+  RenderSettings s = settings_of(8, 8, 4);
+  const Image plain = render_full(d, EnvironmentMap(), cam, s, &none, &plain_stats);
+  const double top = 0.9 * 2.0 / kPi;  // the blue channel, the largest
+  s.clamp = 1.01 * top;
+  const Image high = render_full(d, EnvironmentMap(), cam, s, &none, &high_stats);
+  EXPECT_EQ(0, std::memcmp(plain.rgb.data(), high.rgb.data(), plain.rgb.size() * sizeof(float)));
+  EXPECT_EQ(high_stats.clamped_samples, 0u);
+  s.clamp = 0.5 * top;
+  const Image low = render_full(d, EnvironmentMap(), cam, s, &none, &low_stats);
+  EXPECT_EQ(low_stats.clamped_samples, 8u * 8u * 4u);
+  for (std::size_t i = 0; i < low.rgb.size(); ++i) EXPECT_NEAR(low.rgb[i], 0.5 * plain.rgb[i], 1e-6);
 }
 
 // The tent filter sampler: the sample mean of x is 0 and E[x^2] = 1/6 for f(x) = 1 - |x|.
