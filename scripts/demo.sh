@@ -10,8 +10,12 @@ LAMINA="$BUILD_DIR"/renderer/lamina
 SPP=${LAMINA_DEMO_SPP:-128}
 mkdir -p out
 echo "demo: built $("$LAMINA" --version)"
+# Every PNG is tone mapped (filmic, the default of --tone-curve); the EXRs stay linear. Renders
+# that are denoised keep the albedo and normal AOVs (--aovs), and lamina denoise writes the
+# denoised image beside the raw one (*_denoised.exr/.png).
 "$LAMINA" render scenes/cornell_box/CornellBox.glb -o out/cornell_box.exr --png out/cornell_box.png \
-  --width 512 --height 512 --spp "$SPP"
+  --width 512 --height 512 --spp "$SPP" --aovs albedo,normal
+"$LAMINA" denoise out/cornell_box.exr -o out/cornell_box_denoised.exr --png out/cornell_box_denoised.png
 "$LAMINA" render scenes/lee_perry_smith_head/head_lit.gltf -o out/head.exr --png out/head.png \
   --width 480 --height 600 --spp "$SPP" --env 0.1
 # glTF metallic-roughness: gold and red plastic spheres from roughness 0.05 to 1.
@@ -34,24 +38,23 @@ done
 # LAMINA_DEMO_SPP, if set, overrides these too.
 LEAF_SPP=${LAMINA_DEMO_SPP:-32}
 # The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light,
-# 480x600. The exact walk with adaptive sampling for 150 s (LAMINA_DEMO_HEAD_SECONDS), and a
-# preview with --similarity-after 0 (APPROXIMATE: its printed albedo bias is +0.6/+6.4/+13 %,
-# R/G/B) that reaches about 5 % luminance noise in 100 s.
+# 480x600. The exact walk with adaptive sampling for 150 s (LAMINA_DEMO_HEAD_SECONDS), with the
+# AOVs, then denoised (Open Image Denoise; the raw render stays in out/head_skin.exr).
 HEAD_SECONDS=${LAMINA_DEMO_HEAD_SECONDS:-150}
 "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
-  --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$HEAD_SECONDS" --env 0.05
-"$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin_similarity.exr --png out/head_skin_similarity.png \
-  --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$(( HEAD_SECONDS * 2 / 3 ))" \
-  --env 0.05 --similarity-after 0
+  --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$HEAD_SECONDS" --env 0.05 \
+  --aovs albedo,normal
+"$LAMINA" denoise out/head_skin.exr -o out/head_skin_denoised.exr --png out/head_skin_denoised.png
 # The portrait: the textured glTF head (metallic-roughness, normal map) in the same camera and
-# lights, beside the layered head.
+# lights, beside the layered head (denoised).
 "$LAMINA" render scenes/head_skin/head_textured.gltf -o out/head_textured.exr --png out/head_textured.png \
   --width 480 --height 600 --spp "$SPP" --env 0.05
-oiiotool out/head_textured.png out/head_skin.png --mosaic 2x1 -o out/portrait.png
+oiiotool out/head_textured.png out/head_skin_denoised.png --mosaic 2x1 -o out/portrait.png
 # Leaves lit from the front and from behind, then side by side.
 for side in front back; do
   "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
-    --width 320 --height 240 --spp "$LEAF_SPP"
+    --width 320 --height 240 --spp "$LEAF_SPP" --aovs albedo,normal
+  "$LAMINA" denoise out/leaves_$side.exr -o out/leaves_${side}_denoised.exr --png out/leaves_${side}_denoised.png
 done
-oiiotool out/leaves_front.png out/leaves_back.png --mosaic 2x1 -o out/leaves.png
-echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/head_skin_similarity, out/leaves_front, out/leaves_back (.exr, .png), out/portrait.png and out/leaves.png"
+oiiotool out/leaves_front_denoised.png out/leaves_back_denoised.png --mosaic 2x1 -o out/leaves.png
+echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png; *_denoised beside the denoised ones), out/portrait.png and out/leaves.png"
