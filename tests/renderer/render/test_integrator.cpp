@@ -52,6 +52,30 @@ Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc&
   return im;
 }
 
+// A closed box of coloured Lambert walls lit by a small emissive quad under its ceiling, seen from
+// inside: area-light sampling, MIS and several bounces, with pixels of very different noise.
+SceneDesc lit_box() {
+  Material wall;
+  wall.base_color = Spectrum(0.7, 0.5, 0.3);
+  Material lamp;
+  lamp.emission = Spectrum(5.0);
+  lamp.double_sided = true;
+  Mesh light;
+  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
+  light.material = 1;
+  return make_scene({cube(0), light}, {wall, lamp});
+}
+
+// A Lambert plane y = 0 of the given colour (200 x 200 around the origin).
+SceneDesc lambert_plane(const Spectrum& albedo) {
+  Material mat;
+  mat.base_color = albedo;
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  return make_scene({plane}, {mat});
+}
+
 // Closed Lambert enclosure of albedo a whose walls all emit Le: L = Le + a L everywhere (the
 // irradiance inside a closed uniform-radiance enclosure is pi L, for any shape), so
 // L = Le / (1 - a). Exercises triangle lights, MIS at every bounce and Russian roulette.
@@ -119,12 +143,8 @@ TEST(Integrator, PointLightInsideSphere) {
 // A Lambert plane of albedo a under a directional light of irradiance E at 60 degrees from the
 // normal: L = a E cos(theta) / pi, with zero variance (one delta light, the bounce escapes).
 TEST(Integrator, LambertPlaneUnderDirectionalLight) {
-  Material mat;
-  mat.base_color = Spectrum(0.6, 0.3, 0.9);
-  Mesh plane;
-  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
-  plane.material = 0;
-  SceneDesc d = make_scene({plane}, {mat});
+  const Spectrum albedo(0.6, 0.3, 0.9);
+  SceneDesc d = lambert_plane(albedo);
   LightDesc sun;
   sun.type = LightType::kDirectional;
   sun.intensity = Spectrum(2.0);
@@ -135,7 +155,7 @@ TEST(Integrator, LambertPlaneUnderDirectionalLight) {
   for (int y = 0; y < 8; ++y)
     for (int x = 0; x < 8; ++x)
       for (int c = 0; c < 3; ++c) {
-        const double expected = mat.base_color[c] * 2.0 * std::cos(theta) / kPi;
+        const double expected = albedo[c] * 2.0 * std::cos(theta) / kPi;
         EXPECT_NEAR(im.pixel(x, y)[c], expected, 1e-6 * expected);
       }
 }
@@ -261,15 +281,7 @@ TEST(Integrator, AdaptiveSamplingUnbiasedInTheFurnace) {
 
 // Adaptive sampling is deterministic for any thread count: counts and pixels bit for bit.
 TEST(Integrator, AdaptiveSamplingDeterministicAcrossThreads) {
-  Material wall;
-  wall.base_color = Spectrum(0.7, 0.5, 0.3);
-  Material lamp;
-  lamp.emission = Spectrum(5.0);
-  lamp.double_sided = true;
-  Mesh light;
-  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
-  light.material = 1;
-  const SceneDesc d = make_scene({cube(0), light}, {wall, lamp});
+  const SceneDesc d = lit_box();
   const CameraDesc cam = camera_at({0.0, 0.0, 0.9}, {0.0, 0.0, -1.0}, 60.0);
   RenderSettings adaptive;
   adaptive.noise_threshold = 0.1;
@@ -328,12 +340,8 @@ RenderSettings settings_of(int w, int h, int spp) {
 // a pixel is 5 / cos of its ray's angle to -Y (each sample's ray; the pixel averages them, so
 // the centre pixel's depth lies within the spread of its footprint's rays).
 TEST(IntegratorAovs, LambertPlaneAlbedoNormalDepth) {
-  Material mat;
-  mat.base_color = Spectrum(0.6, 0.3, 0.9);
-  Mesh plane;
-  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
-  plane.material = 0;
-  const SceneDesc d = make_scene({plane}, {mat});
+  const Spectrum albedo(0.6, 0.3, 0.9);
+  const SceneDesc d = lambert_plane(albedo);
   RenderSettings s = settings_of(9, 9, 16);
   s.aovs = AovSelection{true, true, true, false};
   RenderAovs aovs;
@@ -344,7 +352,7 @@ TEST(IntegratorAovs, LambertPlaneAlbedoNormalDepth) {
   const double half = std::tan(20.0 * kPi / 180.0);
   for (int y = 0; y < 9; ++y)
     for (int x = 0; x < 9; ++x) {
-      for (int c = 0; c < 3; ++c) EXPECT_NEAR(aovs.albedo.pixel(x, y)[c], mat.base_color[c], 1e-6);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(aovs.albedo.pixel(x, y)[c], albedo[c], 1e-6);
       EXPECT_NEAR(aovs.normal.pixel(x, y)[0], 0.0, 1e-6);
       EXPECT_NEAR(aovs.normal.pixel(x, y)[1], 1.0, 1e-6);
       EXPECT_NEAR(aovs.normal.pixel(x, y)[2], 0.0, 1e-6);
@@ -424,15 +432,7 @@ TEST(IntegratorAovs, VarianceOfTheMeanMatchesThePixelSpread) {
 // full image bit for bit, with uniform and with adaptive sampling (whose plan near the crop's
 // edge needs the neighbours outside it), AOVs included.
 TEST(IntegratorCrop, EqualsTheRegionOfTheFullImage) {
-  Material wall;
-  wall.base_color = Spectrum(0.7, 0.5, 0.3);
-  Material lamp;
-  lamp.emission = Spectrum(5.0);
-  lamp.double_sided = true;
-  Mesh light;
-  add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
-  light.material = 1;
-  const SceneDesc d = make_scene({cube(0), light}, {wall, lamp});
+  const SceneDesc d = lit_box();
   const CameraDesc cam = camera_at({0.0, 0.0, 0.9}, {0.0, 0.0, -1.0}, 60.0);
   for (bool adaptive : {false, true}) {
     RenderSettings s = settings_of(40, 36, 24);
@@ -496,12 +496,8 @@ TEST(IntegratorPreview, PreviewsDoNotChangeTheImage) {
 // sample down to it, keeping its hue, and counts them. The Lambert plane under a directional
 // light has zero-variance samples L = a E cos(theta) / pi.
 TEST(IntegratorClamp, ScalesSamplesAboveItAndNothingElse) {
-  Material mat;
-  mat.base_color = Spectrum(0.6, 0.3, 0.9);
-  Mesh plane;
-  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
-  plane.material = 0;
-  SceneDesc d = make_scene({plane}, {mat});
+  const Spectrum albedo(0.6, 0.3, 0.9);
+  SceneDesc d = lambert_plane(albedo);
   LightDesc sun;
   sun.type = LightType::kDirectional;
   sun.intensity = Spectrum(2.0);
