@@ -69,6 +69,8 @@ class Loader {
   std::set<std::string> warned_;
   std::map<int, int> textures_;  // glTF texture index -> SceneDesc::textures index
   std::map<int, int> linear_textures_;  // the same, decoded without the sRGB curve
+  // glTF textures that are the base colour of a MASK or BLEND material: their alpha is kept.
+  std::set<int> alpha_textures_;
 };
 
 glm::dmat4 local_transform(const tinygltf::Node& n) {
@@ -203,13 +205,20 @@ int Loader::texture(int t, bool linear) {
   const int bytes = im.bits == 16 ? 2 : 1;
   const std::size_t needed = static_cast<std::size_t>(im.width) * im.height * im.component * bytes;
   if (im.image.size() < needed || im.component < 1) fail(path_, "image '" + im.uri + "' has inconsistent size");
+  // Alpha is the last channel of grey+alpha and RGBA images, stored linearly (glTF 2.0 section
+  // 3.9.2: "the alpha channel is linear"); kept only where a MASK or BLEND material reads it.
+  const bool keep_alpha = !linear && alpha_textures_.count(t) && (im.component == 2 || im.component == 4);
+  if (keep_alpha) tex.alpha.resize(static_cast<std::size_t>(im.width) * im.height);
+  auto channel = [&](std::size_t p, int src) {
+    const std::size_t o = (p * im.component + src) * bytes;
+    return bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
+  };
   for (std::size_t p = 0; p < static_cast<std::size_t>(im.width) * im.height; ++p) {
     for (int c = 0; c < 3; ++c) {
-      const int src = im.component >= 3 ? c : 0;  // grey (and grey+alpha) expands to RGB
-      const std::size_t o = (p * im.component + src) * bytes;
-      const float x = bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
+      const float x = channel(p, im.component >= 3 ? c : 0);  // grey (and grey+alpha) expands to RGB
       tex.rgb[p * 3 + c] = linear ? x : srgb_to_linear(x);
     }
+    if (keep_alpha) tex.alpha[p] = channel(p, im.component - 1);
   }
   if (gt.sampler >= 0 && gt.sampler < static_cast<int>(m_.samplers.size())) {
     tex.clamp_s = m_.samplers[gt.sampler].wrapS == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
@@ -296,7 +305,7 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
   // COLOR_0 (glTF 2.0 section 3.7.2.1): RGB or RGBA, float or normalized unsigned bytes/shorts,
-  // linear; it multiplies the base colour. Alpha is not used (no alpha modes yet).
+  // linear; it multiplies the base colour. Its alpha (VEC4) is kept for MASK and BLEND materials.
   std::vector<double> colour;
   int colour_comps = 0;
   if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
@@ -385,6 +394,15 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
       if (!std::isfinite(c.x + c.y + c.z) || std::min({c.x, c.y, c.z}) < 0.0)
         fail(path_, "mesh '" + gmesh.name + "': COLOR_0 of vertex " + std::to_string(i) + " is negative or not finite");
       mesh.colours[i] = glm::vec3(c);
+    }
+    if (colour_comps == 4 && out_->material(prim.material).alpha_mode != AlphaMode::kOpaque) {
+      mesh.colour_alphas.resize(nv);
+      for (std::size_t i = 0; i < nv; ++i) {
+        const double a = colour[4 * i + 3];
+        if (!(a >= 0.0 && a <= 1.0))
+          fail(path_, "mesh '" + gmesh.name + "': COLOR_0 alpha of vertex " + std::to_string(i) + " is not in [0, 1]");
+        mesh.colour_alphas[i] = static_cast<float>(a);
+      }
     }
   }
   if (!uv.empty()) {
@@ -575,10 +593,15 @@ void Loader::run() {
   // Every texture becomes float RGB, 12 bytes a texel. Image sizes are known only once decoded
   // (validate_gltf cannot count them), so they are checked here against the same limit, before
   // any texture is converted.
+  for (const tinygltf::Material& gm : m_.materials)
+    if (gm.alphaMode == "MASK" || gm.alphaMode == "BLEND") alpha_textures_.insert(gm.pbrMetallicRoughness.baseColorTexture.index);
   double texture_bytes = 0.0;
-  for (const tinygltf::Texture& t : m_.textures)
+  for (std::size_t i = 0; i < m_.textures.size(); ++i) {
+    const tinygltf::Texture& t = m_.textures[i];
     if (t.source >= 0 && t.source < static_cast<int>(m_.images.size()))
-      texture_bytes += 12.0 * std::max(m_.images[t.source].width, 0) * std::max(m_.images[t.source].height, 0);
+      texture_bytes += (alpha_textures_.count(static_cast<int>(i)) ? 16.0 : 12.0) *
+                       std::max(m_.images[t.source].width, 0) * std::max(m_.images[t.source].height, 0);
+  }
   if (texture_bytes > static_cast<double>(max_bytes_)) {
     std::ostringstream s;
     s.precision(3);
@@ -624,6 +647,17 @@ void Loader::run() {
     mat.name = gm.name;
     const std::vector<double>& bc = gm.pbrMetallicRoughness.baseColorFactor;
     if (bc.size() >= 3) mat.base_color = Spectrum(bc[0], bc[1], bc[2]);
+    // alphaMode and alphaCutoff (glTF 2.0 section 3.9.4; defaults OPAQUE and 0.5).
+    if (gm.alphaMode == "MASK") mat.alpha_mode = AlphaMode::kMask;
+    else if (gm.alphaMode == "BLEND") mat.alpha_mode = AlphaMode::kBlend;
+    else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      fail(path_, "material '" + gm.name + "': alphaMode '" + gm.alphaMode + "' is not OPAQUE, MASK or BLEND");
+    mat.alpha_cutoff = gm.alphaCutoff;
+    mat.base_alpha = bc.size() == 4 ? bc[3] : 1.0;
+    if (!(mat.alpha_cutoff >= 0.0) || !std::isfinite(mat.alpha_cutoff))
+      fail(path_, "material '" + gm.name + "': alphaCutoff must be a finite number >= 0");
+    if (!(mat.base_alpha >= 0.0 && mat.base_alpha <= 1.0))
+      fail(path_, "material '" + gm.name + "': baseColorFactor's alpha must be in [0, 1]");
     mat.base_color_texture = texture(gm.pbrMetallicRoughness.baseColorTexture.index);
     double strength = 1.0;
     if (auto it = gm.extensions.find("KHR_materials_emissive_strength"); it != gm.extensions.end() &&
@@ -690,6 +724,15 @@ Spectrum Texture::lookup(glm::dvec2 uv) const {
     s += Spectrum(p[0], p[1], p[2]) * f.weight[k];
   }
   return s;
+}
+
+double Texture::alpha_lookup(glm::dvec2 uv) const {
+  if (alpha.empty()) return 1.0;
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return 1.0;
+  double a = 0.0;
+  for (int k = 0; k < 4; ++k) a += alpha[f.texel[k]] * f.weight[k];
+  return a;
 }
 
 const Material& SceneDesc::material(int index) const {
