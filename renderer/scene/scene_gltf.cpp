@@ -53,7 +53,10 @@ class Loader {
 
  private:
   void visit(int node, const glm::dmat4& parent, int depth);
-  void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world);
+  void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world,
+                     const std::vector<double>& weights);
+  void add_morph_targets(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const std::vector<double>& weights,
+                         std::size_t nv, std::vector<double>* p, std::vector<double>* n, std::vector<double>* tangent);
   std::vector<double> read_accessor(int index, int want_components, const char* what);
   // linear: data (normal and metallic-roughness maps), not sRGB colour.
   void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh);
@@ -285,7 +288,38 @@ void write_json(const tinygltf::Value& v, std::ostringstream* out) {
   }
 }
 
-void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world) {
+// Morph targets at the given weights (glTF 2.0 section 3.7.2.2): each target holds displacements
+// of POSITION, NORMAL and TANGENT (xyz; a target's TANGENT is a VEC3), and the rendered attribute
+// is base + sum_i w_i target_i, in the mesh's local space (before the node transform). Normals
+// and tangents are renormalised later, as every normal is. Targets of weight 0 are not read.
+void Loader::add_morph_targets(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim,
+                               const std::vector<double>& weights, std::size_t nv, std::vector<double>* p,
+                               std::vector<double>* n, std::vector<double>* tangent) {
+  if (weights.size() != prim.targets.size())
+    fail(path_, "mesh '" + gmesh.name + "': " + std::to_string(prim.targets.size()) + " morph targets but " +
+                    std::to_string(weights.size()) + " weights (glTF 2.0 section 3.7.2.2: one weight per target)");
+  for (std::size_t k = 0; k < prim.targets.size(); ++k) {
+    const double w = weights[k];
+    if (!std::isfinite(w)) fail(path_, "mesh '" + gmesh.name + "': morph weight " + std::to_string(k) + " is not finite");
+    if (w == 0.0) continue;
+    auto displace = [&](const char* name, std::vector<double>* base, int stride) {
+      auto it = prim.targets[k].find(name);
+      if (it == prim.targets[k].end() || base->empty()) return;
+      const std::vector<double> d = read_accessor(it->second, 3, name);
+      if (d.size() != 3 * nv)
+        fail(path_, "mesh '" + gmesh.name + "': morph target " + std::to_string(k) + " " + name +
+                        " has a different vertex count from the base mesh");
+      for (std::size_t i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c) (*base)[stride * i + c] += w * d[3 * i + c];
+    };
+    displace("POSITION", p, 3);
+    displace("NORMAL", n, 3);
+    displace("TANGENT", tangent, 4);
+  }
+}
+
+void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world,
+                           const std::vector<double>& weights) {
   const int mode = prim.mode == -1 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
   if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN) {
     warn("primitives of points or lines are skipped");
@@ -296,10 +330,9 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     warn("a primitive without POSITION is skipped");
     return;
   }
-  if (!prim.targets.empty()) warn("morph targets are ignored (the base mesh is rendered)");
   if (prim.attributes.count("JOINTS_0")) warn("skins are ignored (the rest pose is rendered)");
 
-  const std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
+  std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
   const std::size_t nv = p.size() / 3;
   std::vector<double> n, uv, tangent;
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
@@ -321,6 +354,7 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
   if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv) ||
       (!tangent.empty() && tangent.size() / 4 != nv))
     fail(path_, "mesh '" + gmesh.name + "' has attributes of different lengths");
+  if (!prim.targets.empty()) add_morph_targets(gmesh, prim, weights, nv, &p, &n, &tangent);
 
   std::vector<std::uint32_t> idx;
   if (prim.indices >= 0) {
@@ -498,7 +532,16 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     if (node.mesh >= static_cast<int>(m_.meshes.size()))
       fail(path_, node_at(index) + ": mesh " + std::to_string(node.mesh) + " is out of range");
     const tinygltf::Mesh& mesh = m_.meshes[node.mesh];
-    for (const tinygltf::Primitive& prim : mesh.primitives) add_primitive(mesh, prim, world);
+    // Default morph weights (glTF 2.0 section 3.7.2.2): the node's `weights` override the mesh's;
+    // without either, every weight is 0. Animations are not played.
+    const std::vector<double>& weights = !node.weights.empty() ? node.weights : mesh.weights;
+    for (const tinygltf::Primitive& prim : mesh.primitives) {
+      if (weights.empty() && !prim.targets.empty()) {
+        add_primitive(mesh, prim, world, std::vector<double>(prim.targets.size(), 0.0));
+      } else {
+        add_primitive(mesh, prim, world, weights);
+      }
+    }
   }
   if (node.camera >= static_cast<int>(m_.cameras.size()))
     fail(path_, node_at(index) + ": camera " + std::to_string(node.camera) + " is out of range");
