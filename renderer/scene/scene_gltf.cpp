@@ -61,6 +61,7 @@ class Loader {
   // linear: data (normal and metallic-roughness maps), not sRGB colour.
   void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh);
   int texture(int gltf_texture, bool linear = false);
+  void read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out);
   void warn(const std::string& w) {
     if (warned_.insert(w).second) out_->warnings.push_back(w);
   }
@@ -512,6 +513,67 @@ void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m
   }
 }
 
+// KHR_materials_transmission, _diffuse_transmission, _volume and _ior, as written (defaults from
+// each extension's README). Values outside the ranges the extensions give are errors naming the
+// material and the key; their textures are not read (warned).
+void Loader::read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out) {
+  auto bad = [&](const std::string& ext, const std::string& key, const std::string& why) {
+    fail(path_, "material '" + gm.name + "': extensions." + ext + "." + key + ": " + why);
+  };
+  auto number = [&](const tinygltf::Value& e, const std::string& ext, const char* key, double fallback, double lo, double hi) {
+    if (!e.Has(key)) return fallback;
+    const tinygltf::Value& v = e.Get(key);
+    const double x = v.IsNumber() ? v.GetNumberAsDouble() : std::numeric_limits<double>::quiet_NaN();
+    if (!(x >= lo && x <= hi)) {
+      std::ostringstream s;
+      s << "must be a number in [" << lo << ", " << hi << "]";
+      bad(ext, key, s.str());
+    }
+    return x;
+  };
+  auto colour = [&](const tinygltf::Value& e, const std::string& ext, const char* key) {
+    if (!e.Has(key)) return Spectrum(1.0);
+    const tinygltf::Value& v = e.Get(key);
+    if (!v.IsArray() || v.ArrayLen() != 3) bad(ext, key, "must be an array of 3 numbers in [0, 1]");
+    Spectrum c;
+    for (int k = 0; k < 3; ++k) {
+      const tinygltf::Value& x = v.Get(k);
+      c[k] = x.IsNumber() ? x.GetNumberAsDouble() : -1.0;
+      if (!(c[k] >= 0.0 && c[k] <= 1.0)) bad(ext, key, "must be an array of 3 numbers in [0, 1]");
+    }
+    return c;
+  };
+  auto textures_ignored = [&](const tinygltf::Value& e, std::initializer_list<const char*> keys) {
+    for (const char* k : keys)
+      if (e.Has(k)) warn(std::string("glTF transmission/volume textures (") + k + ") are not read: their factors are used");
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  if (auto it = gm.extensions.find("KHR_materials_transmission"); it != gm.extensions.end()) {
+    out->transmission = true;
+    out->transmission_factor = number(it->second, it->first, "transmissionFactor", 0.0, 0.0, 1.0);
+    textures_ignored(it->second, {"transmissionTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_diffuse_transmission"); it != gm.extensions.end()) {
+    out->diffuse_transmission = true;
+    out->diffuse_transmission_factor = number(it->second, it->first, "diffuseTransmissionFactor", 0.0, 0.0, 1.0);
+    out->diffuse_transmission_color = colour(it->second, it->first, "diffuseTransmissionColorFactor");
+    textures_ignored(it->second, {"diffuseTransmissionTexture", "diffuseTransmissionColorTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_volume"); it != gm.extensions.end()) {
+    out->volume = true;
+    out->thickness = number(it->second, it->first, "thicknessFactor", 0.0, 0.0, 1e30);
+    out->attenuation_color = colour(it->second, it->first, "attenuationColor");
+    out->attenuation_distance = number(it->second, it->first, "attenuationDistance", inf, 0.0, inf);
+    if (!(out->attenuation_distance > 0.0)) bad(it->first, "attenuationDistance", "must be > 0");
+    textures_ignored(it->second, {"thicknessTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_ior"); it != gm.extensions.end()) {
+    out->ior = number(it->second, it->first, "ior", 1.5, 0.0, 10.0);
+    // The extension allows 0 (a "perfect mirror" in the spec's words); a stack needs an index >= 1.
+    if (out->ior < 1.0) bad(it->first, "ior", "must be >= 1 (0, the extension's mirror, is not supported)");
+  }
+}
+
 void Loader::visit(int index, const glm::dmat4& parent, int depth) {
   // validate_gltf has checked that the nodes form a strict forest (glTF 2.0 section 3.5.3), so
   // each node is visited once. The recursion stays bounded all the same: real hierarchies are a
@@ -624,8 +686,10 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
 }
 
 void Loader::run() {
-  static const std::set<std::string> supported = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
-                                                  "KHR_texture_transform"};
+  static const std::set<std::string> supported = {
+      "KHR_lights_punctual",        "KHR_materials_emissive_strength",    "KHR_texture_transform",
+      "KHR_materials_transmission", "KHR_materials_diffuse_transmission", "KHR_materials_volume",
+      "KHR_materials_ior"};
   std::string unsupported;
   for (const std::string& e : m_.extensionsRequired)
     if (!supported.count(e)) fail(path_, "requires unsupported extension " + e);
@@ -722,6 +786,7 @@ void Loader::run() {
     if (!std::isfinite(mat.normal_scale)) fail(path_, "material '" + gm.name + "': normalTexture.scale must be finite");
     if (!mat.base_color.is_finite() || mat.base_color.min() < 0.0 || !mat.emission.is_finite() || mat.emission.min() < 0.0)
       fail(path_, "material '" + gm.name + "' has a negative or non-finite colour");
+    read_transmissive(gm, &mat.transmissive);
     flatten_extras(gm.extras, "", &mat.extras);
     if (gm.extras.IsObject()) {
       std::ostringstream js;

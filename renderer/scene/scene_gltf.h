@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -82,6 +83,26 @@ struct Material {
   int metallic_roughness_texture = -1;  // linear: G roughness, B metalness (multiplied in)
   int normal_texture = -1;  // linear tangent-space normal map; needs Mesh::tangents
   double normal_scale = 1.0;
+  // The glTF extensions that describe light going through the material, as written (read by
+  // renderer/layered/gltf_stack.h, which maps them onto a layered stack; docs/gltf_materials.md).
+  // Lengths are in scene units.
+  struct Transmissive {
+    bool transmission = false;          // KHR_materials_transmission present
+    double transmission_factor = 0.0;   // transmissionFactor
+    bool diffuse_transmission = false;  // KHR_materials_diffuse_transmission present
+    double diffuse_transmission_factor = 0.0;
+    Spectrum diffuse_transmission_color{1.0};
+    bool volume = false;  // KHR_materials_volume present
+    double thickness = 0.0;  // thicknessFactor (0: thin-walled)
+    Spectrum attenuation_color{1.0};
+    double attenuation_distance = std::numeric_limits<double>::infinity();
+    double ior = 1.5;  // KHR_materials_ior (glTF's default 1.5 without it)
+    // Transmitting at all: the layered mapping applies (volume and ior alone change nothing:
+    // KHR_materials_volume acts only with a transmission extension).
+    bool transmits() const {
+      return (transmission && transmission_factor > 0.0) || (diffuse_transmission && diffuse_transmission_factor > 0.0);
+    }
+  } transmissive;
   // Material `extras`, flattened to dotted keys: {"lamina": {"stack": "skin.json"}} gives
   // extras["lamina.stack"] = "skin.json". Non-string leaves are stored as their JSON text.
   std::map<std::string, std::string> extras;
