@@ -21,7 +21,11 @@ bool has_gltf_stack(const Material& material) { return material.transmissive.tra
 LayerStack gltf_stack(const Material& material, const std::string& where) {
   const Material::Transmissive& t = material.transmissive;
   const bool thick = t.volume && t.thickness > 0.0;
-  const double d = thick ? t.thickness * kMillimetresPerSceneUnit : kThinWallThicknessMm;
+  // A volume's thicknessFactor is the distance through the object (KHR_materials_volume:
+  // "thickness of the volume beneath the surface", baked as the distance to the far side). A ray
+  // through a closed mesh crosses two surfaces, each shaded as a slab: each gets half, so the
+  // attenuation through the object at normal incidence is Beer-Lambert over the whole thickness.
+  const double d = thick ? 0.5 * t.thickness * kMillimetresPerSceneUnit : kThinWallThicknessMm;
   // Scattering optical depth at normal incidence. Clear transmission: the unscattered share of
   // the light that crosses the slab is transmissionFactor (Beer-Lambert, e^-tau). Otherwise the
   // diffuse transmission factor sets it through the Eddington slab.

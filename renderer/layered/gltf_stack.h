@@ -37,8 +37,8 @@ double optical_depth_from_diffuse_transmittance(double D);
 bool has_gltf_stack(const Material& material);
 
 // The stack of a material for which has_gltf_stack() is true: one layer of index ior
-// (KHR_materials_ior, default 1.5) in air (above and below), thickness thicknessFactor x
-// kMillimetresPerSceneUnit (or kThinWallThicknessMm), sigma_a = -ln(attenuationColor) /
+// (KHR_materials_ior, default 1.5) in air (above and below), thickness thicknessFactor / 2 x
+// kMillimetresPerSceneUnit (a closed mesh is crossed twice; or kThinWallThicknessMm), sigma_a = -ln(attenuationColor) /
 // (attenuationDistance x kMillimetresPerSceneUnit) plus the absorption of the scattering part,
 // whose optical depth comes from transmissionFactor (e^-tau = factor) or diffuseTransmissionFactor
 // (optical_depth_from_diffuse_transmittance) and whose single-scattering albedo is
