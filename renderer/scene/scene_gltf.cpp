@@ -701,7 +701,8 @@ void Loader::run() {
   // (validate_gltf cannot count them), so they are checked here against the same limit, before
   // any texture is converted.
   for (const tinygltf::Material& gm : m_.materials)
-    if (gm.alphaMode == "MASK" || gm.alphaMode == "BLEND") alpha_textures_.insert(gm.pbrMetallicRoughness.baseColorTexture.index);
+    if ((gm.alphaMode == "MASK" || gm.alphaMode == "BLEND") && gm.pbrMetallicRoughness.baseColorTexture.index >= 0)
+      alpha_textures_.insert(gm.pbrMetallicRoughness.baseColorTexture.index);
   double texture_bytes = 0.0;
   for (std::size_t i = 0; i < m_.textures.size(); ++i) {
     const tinygltf::Texture& t = m_.textures[i];
