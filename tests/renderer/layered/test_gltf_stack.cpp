@@ -76,6 +76,28 @@ TEST(GltfStack, RelationsAgreeWithTheRandomWalk) {
   }
 }
 
+// How far the mapped leaf (thin-walled, diffuse transmission D, index 1.5) reflects from what
+// glTF's model gives, (1 - F_avg)(1 - D) A per channel, for docs/gltf_materials.md. A physical
+// bound holds: the slab reflects less than the semi-infinite medium of the same albedo
+// (A, up to van de Hulst's 0.001), since light also leaves through its back, and its Fresnel
+// interfaces trap light that is then partly absorbed.
+TEST(GltfStack, MappedLeafReflectanceAgainstTheGltfModel) {
+  Material leaf;
+  leaf.name = "leaf";
+  leaf.base_color = Spectrum(0.22, 0.42, 0.08);
+  leaf.transmissive.diffuse_transmission = true;
+  leaf.transmissive.diffuse_transmission_factor = 0.45;
+  const LayerStack stack = gltf_stack(leaf, "test");
+  Spectrum se;
+  const Spectrum r = diffuse_bihemispherical_albedo(stack, 1 << 14, 9, &se);
+  for (int c = 0; c < 3; ++c) {
+    // 0.092: the hemispherical (cosine-weighted) Fresnel reflectance of n = 1.5 from outside.
+    std::printf("leaf channel %d: walk R %.4f +- %.4f, glTF (1 - 0.092)(1 - D) A = %.4f, A = %.2f\n", c, r[c], se[c],
+                (1.0 - 0.092) * 0.55 * leaf.base_color[c], leaf.base_color[c]);
+    EXPECT_LT(r[c], leaf.base_color[c] + 0.001 + 4.0 * se[c]) << c;
+  }
+}
+
 // A glTF material with every extension, read and mapped: coefficients per the documented formulas.
 TEST(GltfStack, ExtensionsMapOntoTheDocumentedCoefficients) {
   TempDir dir("gltf-stack");
