@@ -20,6 +20,9 @@ bool has_gltf_stack(const Material& material) { return material.transmissive.tra
 
 LayerStack gltf_stack(const Material& material, const std::string& where) {
   const Material::Transmissive& t = material.transmissive;
+  if (!(t.ior >= 1.0))
+    throw SceneError(where + ": material '" + material.name + "': extensions.KHR_materials_ior.ior is below 1, which a " +
+                     "transmitting material's stack cannot have");
   const bool thick = t.volume && t.thickness > 0.0;
   // A volume's thicknessFactor is the distance through the object (KHR_materials_volume:
   // "thickness of the volume beneath the surface", baked as the distance to the far side). A ray

@@ -134,7 +134,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
           throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + *key +
                            ": unknown key (allowed: " + key_list(kBindingKeys) + ")");
       }
-      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);    } else if (has_gltf_stack(m)) {
+      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
+    } else if (has_gltf_stack(m)) {
       // glTF transmission, diffuse transmission, volume and IOR as a stack (gltf_stack.h).
       const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
       out.by_material[i] = std::make_shared<const LayeredMaterial>(gltf_stack(m, scene.path), source);

@@ -76,7 +76,8 @@ Scene::Scene(SceneDesc desc) : desc_(std::move(desc)) {
       AlphaCoverage c;
       c.mesh = &m;
       c.material = &mat;
-      if (mat.base_color_texture >= 0 && !desc_.textures[mat.base_color_texture].alpha.empty())
+      if (mat.base_color_texture >= 0 && mat.base_color_texture < static_cast<int>(desc_.textures.size()) &&
+          !desc_.textures[mat.base_color_texture].alpha.empty())
         c.texture = &desc_.textures[mat.base_color_texture];
       c.geometry = static_cast<std::uint32_t>(i);
       alpha_.push_back(c);

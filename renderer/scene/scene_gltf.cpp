@@ -568,9 +568,9 @@ void Loader::read_transmissive(const tinygltf::Material& gm, Material::Transmiss
     textures_ignored(it->second, {"thicknessTexture"});
   }
   if (auto it = gm.extensions.find("KHR_materials_ior"); it != gm.extensions.end()) {
-    out->ior = number(it->second, it->first, "ior", 1.5, 0.0, 10.0);
-    // The extension allows 0 (a "perfect mirror" in the spec's words); a stack needs an index >= 1.
-    if (out->ior < 1.0) bad(it->first, "ior", "must be >= 1 (0, the extension's mirror, is not supported)");
+    // Any finite value >= 0 loads (the extension's schema has minimum 0); a transmitting
+    // material needs an index >= 1 for its stack (gltf_stack.cpp says so), the others ignore it.
+    out->ior = number(it->second, it->first, "ior", 1.5, 0.0, 1e30);
   }
 }
 

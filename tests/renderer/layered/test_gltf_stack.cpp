@@ -181,6 +181,27 @@ TEST(GltfStack, ExtrasWinAndBadValuesAreErrors) {
               std::string::npos)
         << msg;
   }
+  // KHR_materials_ior 0 (the schema's minimum) loads; only a transmitting material refuses it.
+  for (bool transmits : {false, true}) {
+    GltfBuilder m;
+    json ext = {{"KHR_materials_ior", {{"ior", 0.0}}}};
+    if (transmits) ext["KHR_materials_transmission"] = {{"transmissionFactor", 0.5}};
+    m.json()["materials"].push_back({{"name", "m"}, {"extensions", ext}});
+    m.add_node({{"mesh", m.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+    m.write_gltf(dir / "ior.gltf");
+    const SceneDesc desc = load_gltf(dir / "ior.gltf");
+    if (!transmits) {
+      EXPECT_EQ(bind_layered_materials(desc, "").get(0), nullptr);
+      continue;
+    }
+    try {
+      bind_layered_materials(desc, "");
+      ADD_FAILURE() << "no error for ior 0 with transmission";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("material 'm': extensions.KHR_materials_ior.ior is below 1"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 // A thin-walled leaf (diffuse transmission 0.4, green base colour) lit from the front by a
