@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "materials/stack_file.h"
+#include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
@@ -134,6 +135,10 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
                            ": unknown key (allowed: " + key_list(kBindingKeys) + ")");
       }
       out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
+    } else if (has_gltf_stack(m)) {
+      // glTF transmission, diffuse transmission, volume and IOR as a stack (gltf_stack.h).
+      const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
+      out.by_material[i] = std::make_shared<const LayeredMaterial>(gltf_stack(m, scene.path), source);
     }
   }
   return out;

@@ -29,6 +29,22 @@ float offset_one(float p, float n) {
   return out;
 }
 
+// Embree's intersection and occlusion filter for MASK and BLEND meshes: a hit that
+// keeps_hit() refuses is invalidated, and Embree goes on to the next one along the ray.
+void alpha_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* c = static_cast<const AlphaCoverage*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const float origin[3] = {RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                             RTCRayN_org_z(args->ray, args->N, i)};
+    const float direction[3] = {RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                                RTCRayN_dir_z(args->ray, args->N, i)};
+    if (!keeps_hit(*c, RTCHitN_primID(args->hit, args->N, i), RTCHitN_u(args->hit, args->N, i),
+                   RTCHitN_v(args->hit, args->N, i), origin, direction))
+      args->valid[i] = 0;
+  }
+}
+
 }  // namespace
 
 glm::dvec3 offset_ray_origin(const glm::dvec3& p, const glm::dvec3& n) {
@@ -43,6 +59,7 @@ Scene::Scene(SceneDesc desc) : desc_(std::move(desc)) {
   device_ = device;
   RTCScene scene = rtcNewScene(device);
   scene_ = scene;
+  alpha_.reserve(desc_.meshes.size());  // no reallocation below: the filters hold pointers
   for (std::size_t i = 0; i < desc_.meshes.size(); ++i) {
     const Mesh& m = desc_.meshes[i];
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -54,6 +71,20 @@ Scene::Scene(SceneDesc desc) : desc_(std::move(desc)) {
     auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                               3 * sizeof(unsigned), m.indices.size() / 3));
     std::memcpy(idx, m.indices.data(), m.indices.size() * sizeof(unsigned));
+    const Material& mat = desc_.material(m.material);
+    if (mat.alpha_mode != AlphaMode::kOpaque) {
+      AlphaCoverage c;
+      c.mesh = &m;
+      c.material = &mat;
+      if (mat.base_color_texture >= 0 && mat.base_color_texture < static_cast<int>(desc_.textures.size()) &&
+          !desc_.textures[mat.base_color_texture].alpha.empty())
+        c.texture = &desc_.textures[mat.base_color_texture];
+      c.geometry = static_cast<std::uint32_t>(i);
+      alpha_.push_back(c);
+      rtcSetGeometryUserData(g, &alpha_.back());
+      rtcSetGeometryIntersectFilterFunction(g, &alpha_filter);
+      rtcSetGeometryOccludedFilterFunction(g, &alpha_filter);
+    }
     rtcCommitGeometry(g);
     rtcAttachGeometryByID(scene, g, static_cast<unsigned>(i));
     rtcReleaseGeometry(g);

@@ -1,5 +1,7 @@
 // The scene as the integrator sees it: an Embree 3 BVH over the glTF meshes (one triangle
-// geometry per mesh, geometry id = mesh index), and the surface data at a hit.
+// geometry per mesh, geometry id = mesh index), and the surface data at a hit. Meshes of MASK
+// and BLEND materials carry an Embree filter (alpha_coverage.h) that both intersect() and
+// occluded() go through.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +12,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "renderer/scene/alpha_coverage.h"
 #include "renderer/scene/scene_gltf.h"
 
 namespace lamina {
@@ -88,6 +91,7 @@ class Scene {
   void* scene_ = nullptr;   // RTCScene
   glm::dvec3 centre_{0.0};
   double radius_ = 0.0;
+  std::vector<AlphaCoverage> alpha_;  // the filters' user data (sized once: Embree keeps pointers)
 };
 
 // A ray origin just off the surface at p, on the side of `n` (Waechter and Binder, "A Fast and

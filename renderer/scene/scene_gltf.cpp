@@ -53,11 +53,15 @@ class Loader {
 
  private:
   void visit(int node, const glm::dmat4& parent, int depth);
-  void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world);
+  void add_primitive(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const glm::dmat4& world,
+                     const std::vector<double>& weights);
+  void add_morph_targets(const tinygltf::Mesh& mesh, const tinygltf::Primitive& prim, const std::vector<double>& weights,
+                         std::size_t nv, std::vector<double>* p, std::vector<double>* n, std::vector<double>* tangent);
   std::vector<double> read_accessor(int index, int want_components, const char* what);
   // linear: data (normal and metallic-roughness maps), not sRGB colour.
   void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh);
   int texture(int gltf_texture, bool linear = false);
+  void read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out);
   void warn(const std::string& w) {
     if (warned_.insert(w).second) out_->warnings.push_back(w);
   }
@@ -69,6 +73,8 @@ class Loader {
   std::set<std::string> warned_;
   std::map<int, int> textures_;  // glTF texture index -> SceneDesc::textures index
   std::map<int, int> linear_textures_;  // the same, decoded without the sRGB curve
+  // glTF textures that are the base colour of a MASK or BLEND material: their alpha is kept.
+  std::set<int> alpha_textures_;
 };
 
 glm::dmat4 local_transform(const tinygltf::Node& n) {
@@ -203,13 +209,20 @@ int Loader::texture(int t, bool linear) {
   const int bytes = im.bits == 16 ? 2 : 1;
   const std::size_t needed = static_cast<std::size_t>(im.width) * im.height * im.component * bytes;
   if (im.image.size() < needed || im.component < 1) fail(path_, "image '" + im.uri + "' has inconsistent size");
+  // Alpha is the last channel of grey+alpha and RGBA images, stored linearly (glTF 2.0 section
+  // 3.9.2: "the alpha channel is linear"); kept only where a MASK or BLEND material reads it.
+  const bool keep_alpha = !linear && alpha_textures_.count(t) && (im.component == 2 || im.component == 4);
+  if (keep_alpha) tex.alpha.resize(static_cast<std::size_t>(im.width) * im.height);
+  auto channel = [&](std::size_t p, int src) {
+    const std::size_t o = (p * im.component + src) * bytes;
+    return bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
+  };
   for (std::size_t p = 0; p < static_cast<std::size_t>(im.width) * im.height; ++p) {
     for (int c = 0; c < 3; ++c) {
-      const int src = im.component >= 3 ? c : 0;  // grey (and grey+alpha) expands to RGB
-      const std::size_t o = (p * im.component + src) * bytes;
-      const float x = bytes == 2 ? (im.image[o] | (im.image[o + 1] << 8)) / 65535.0f : im.image[o] / 255.0f;
+      const float x = channel(p, im.component >= 3 ? c : 0);  // grey (and grey+alpha) expands to RGB
       tex.rgb[p * 3 + c] = linear ? x : srgb_to_linear(x);
     }
+    if (keep_alpha) tex.alpha[p] = channel(p, im.component - 1);
   }
   if (gt.sampler >= 0 && gt.sampler < static_cast<int>(m_.samplers.size())) {
     tex.clamp_s = m_.samplers[gt.sampler].wrapS == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
@@ -276,7 +289,38 @@ void write_json(const tinygltf::Value& v, std::ostringstream* out) {
   }
 }
 
-void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world) {
+// Morph targets at the given weights (glTF 2.0 section 3.7.2.2): each target holds displacements
+// of POSITION, NORMAL and TANGENT (xyz; a target's TANGENT is a VEC3), and the rendered attribute
+// is base + sum_i w_i target_i, in the mesh's local space (before the node transform). Normals
+// and tangents are renormalised later, as every normal is. Targets of weight 0 are not read.
+void Loader::add_morph_targets(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim,
+                               const std::vector<double>& weights, std::size_t nv, std::vector<double>* p,
+                               std::vector<double>* n, std::vector<double>* tangent) {
+  if (weights.size() != prim.targets.size())
+    fail(path_, "mesh '" + gmesh.name + "': " + std::to_string(prim.targets.size()) + " morph targets but " +
+                    std::to_string(weights.size()) + " weights (glTF 2.0 section 3.7.2.2: one weight per target)");
+  for (std::size_t k = 0; k < prim.targets.size(); ++k) {
+    const double w = weights[k];
+    if (!std::isfinite(w)) fail(path_, "mesh '" + gmesh.name + "': morph weight " + std::to_string(k) + " is not finite");
+    if (w == 0.0) continue;
+    auto displace = [&](const char* name, std::vector<double>* base, int stride) {
+      auto it = prim.targets[k].find(name);
+      if (it == prim.targets[k].end() || base->empty()) return;
+      const std::vector<double> d = read_accessor(it->second, 3, name);
+      if (d.size() != 3 * nv)
+        fail(path_, "mesh '" + gmesh.name + "': morph target " + std::to_string(k) + " " + name +
+                        " has a different vertex count from the base mesh");
+      for (std::size_t i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c) (*base)[stride * i + c] += w * d[3 * i + c];
+    };
+    displace("POSITION", p, 3);
+    displace("NORMAL", n, 3);
+    displace("TANGENT", tangent, 4);
+  }
+}
+
+void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitive& prim, const glm::dmat4& world,
+                           const std::vector<double>& weights) {
   const int mode = prim.mode == -1 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
   if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN) {
     warn("primitives of points or lines are skipped");
@@ -287,16 +331,15 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     warn("a primitive without POSITION is skipped");
     return;
   }
-  if (!prim.targets.empty()) warn("morph targets are ignored (the base mesh is rendered)");
   if (prim.attributes.count("JOINTS_0")) warn("skins are ignored (the rest pose is rendered)");
 
-  const std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
+  std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
   const std::size_t nv = p.size() / 3;
   std::vector<double> n, uv, tangent;
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
   // COLOR_0 (glTF 2.0 section 3.7.2.1): RGB or RGBA, float or normalized unsigned bytes/shorts,
-  // linear; it multiplies the base colour. Alpha is not used (no alpha modes yet).
+  // linear; it multiplies the base colour. Its alpha (VEC4) is kept for MASK and BLEND materials.
   std::vector<double> colour;
   int colour_comps = 0;
   if (auto it = prim.attributes.find("COLOR_0"); it != prim.attributes.end()) {
@@ -312,6 +355,7 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
   if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv) ||
       (!tangent.empty() && tangent.size() / 4 != nv))
     fail(path_, "mesh '" + gmesh.name + "' has attributes of different lengths");
+  if (!prim.targets.empty()) add_morph_targets(gmesh, prim, weights, nv, &p, &n, &tangent);
 
   std::vector<std::uint32_t> idx;
   if (prim.indices >= 0) {
@@ -385,6 +429,15 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
       if (!std::isfinite(c.x + c.y + c.z) || std::min({c.x, c.y, c.z}) < 0.0)
         fail(path_, "mesh '" + gmesh.name + "': COLOR_0 of vertex " + std::to_string(i) + " is negative or not finite");
       mesh.colours[i] = glm::vec3(c);
+    }
+    if (colour_comps == 4 && out_->material(prim.material).alpha_mode != AlphaMode::kOpaque) {
+      mesh.colour_alphas.resize(nv);
+      for (std::size_t i = 0; i < nv; ++i) {
+        const double a = colour[4 * i + 3];
+        if (!(a >= 0.0 && a <= 1.0))
+          fail(path_, "mesh '" + gmesh.name + "': COLOR_0 alpha of vertex " + std::to_string(i) + " is not in [0, 1]");
+        mesh.colour_alphas[i] = static_cast<float>(a);
+      }
     }
   }
   if (!uv.empty()) {
@@ -460,6 +513,67 @@ void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m
   }
 }
 
+// KHR_materials_transmission, _diffuse_transmission, _volume and _ior, as written (defaults from
+// each extension's README). Values outside the ranges the extensions give are errors naming the
+// material and the key; their textures are not read (warned).
+void Loader::read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out) {
+  auto bad = [&](const std::string& ext, const std::string& key, const std::string& why) {
+    fail(path_, "material '" + gm.name + "': extensions." + ext + "." + key + ": " + why);
+  };
+  auto number = [&](const tinygltf::Value& e, const std::string& ext, const char* key, double fallback, double lo, double hi) {
+    if (!e.Has(key)) return fallback;
+    const tinygltf::Value& v = e.Get(key);
+    const double x = v.IsNumber() ? v.GetNumberAsDouble() : std::numeric_limits<double>::quiet_NaN();
+    if (!(x >= lo && x <= hi)) {
+      std::ostringstream s;
+      s << "must be a number in [" << lo << ", " << hi << "]";
+      bad(ext, key, s.str());
+    }
+    return x;
+  };
+  auto colour = [&](const tinygltf::Value& e, const std::string& ext, const char* key) {
+    if (!e.Has(key)) return Spectrum(1.0);
+    const tinygltf::Value& v = e.Get(key);
+    if (!v.IsArray() || v.ArrayLen() != 3) bad(ext, key, "must be an array of 3 numbers in [0, 1]");
+    Spectrum c;
+    for (int k = 0; k < 3; ++k) {
+      const tinygltf::Value& x = v.Get(k);
+      c[k] = x.IsNumber() ? x.GetNumberAsDouble() : -1.0;
+      if (!(c[k] >= 0.0 && c[k] <= 1.0)) bad(ext, key, "must be an array of 3 numbers in [0, 1]");
+    }
+    return c;
+  };
+  auto textures_ignored = [&](const tinygltf::Value& e, std::initializer_list<const char*> keys) {
+    for (const char* k : keys)
+      if (e.Has(k)) warn(std::string("glTF transmission/volume textures (") + k + ") are not read: their factors are used");
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  if (auto it = gm.extensions.find("KHR_materials_transmission"); it != gm.extensions.end()) {
+    out->transmission = true;
+    out->transmission_factor = number(it->second, it->first, "transmissionFactor", 0.0, 0.0, 1.0);
+    textures_ignored(it->second, {"transmissionTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_diffuse_transmission"); it != gm.extensions.end()) {
+    out->diffuse_transmission = true;
+    out->diffuse_transmission_factor = number(it->second, it->first, "diffuseTransmissionFactor", 0.0, 0.0, 1.0);
+    out->diffuse_transmission_color = colour(it->second, it->first, "diffuseTransmissionColorFactor");
+    textures_ignored(it->second, {"diffuseTransmissionTexture", "diffuseTransmissionColorTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_volume"); it != gm.extensions.end()) {
+    out->volume = true;
+    out->thickness = number(it->second, it->first, "thicknessFactor", 0.0, 0.0, 1e30);
+    out->attenuation_color = colour(it->second, it->first, "attenuationColor");
+    out->attenuation_distance = number(it->second, it->first, "attenuationDistance", inf, 0.0, inf);
+    if (!(out->attenuation_distance > 0.0)) bad(it->first, "attenuationDistance", "must be > 0");
+    textures_ignored(it->second, {"thicknessTexture"});
+  }
+  if (auto it = gm.extensions.find("KHR_materials_ior"); it != gm.extensions.end()) {
+    // Any finite value >= 0 loads (the extension's schema has minimum 0); a transmitting
+    // material needs an index >= 1 for its stack (gltf_stack.cpp says so), the others ignore it.
+    out->ior = number(it->second, it->first, "ior", 1.5, 0.0, 1e30);
+  }
+}
+
 void Loader::visit(int index, const glm::dmat4& parent, int depth) {
   // validate_gltf has checked that the nodes form a strict forest (glTF 2.0 section 3.5.3), so
   // each node is visited once. The recursion stays bounded all the same: real hierarchies are a
@@ -480,7 +594,16 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     if (node.mesh >= static_cast<int>(m_.meshes.size()))
       fail(path_, node_at(index) + ": mesh " + std::to_string(node.mesh) + " is out of range");
     const tinygltf::Mesh& mesh = m_.meshes[node.mesh];
-    for (const tinygltf::Primitive& prim : mesh.primitives) add_primitive(mesh, prim, world);
+    // Default morph weights (glTF 2.0 section 3.7.2.2): the node's `weights` override the mesh's;
+    // without either, every weight is 0. Animations are not played.
+    const std::vector<double>& weights = !node.weights.empty() ? node.weights : mesh.weights;
+    for (const tinygltf::Primitive& prim : mesh.primitives) {
+      if (weights.empty() && !prim.targets.empty()) {
+        add_primitive(mesh, prim, world, std::vector<double>(prim.targets.size(), 0.0));
+      } else {
+        add_primitive(mesh, prim, world, weights);
+      }
+    }
   }
   if (node.camera >= static_cast<int>(m_.cameras.size()))
     fail(path_, node_at(index) + ": camera " + std::to_string(node.camera) + " is out of range");
@@ -563,8 +686,10 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
 }
 
 void Loader::run() {
-  static const std::set<std::string> supported = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
-                                                  "KHR_texture_transform"};
+  static const std::set<std::string> supported = {
+      "KHR_lights_punctual",        "KHR_materials_emissive_strength",    "KHR_texture_transform",
+      "KHR_materials_transmission", "KHR_materials_diffuse_transmission", "KHR_materials_volume",
+      "KHR_materials_ior"};
   std::string unsupported;
   for (const std::string& e : m_.extensionsRequired)
     if (!supported.count(e)) fail(path_, "requires unsupported extension " + e);
@@ -575,10 +700,16 @@ void Loader::run() {
   // Every texture becomes float RGB, 12 bytes a texel. Image sizes are known only once decoded
   // (validate_gltf cannot count them), so they are checked here against the same limit, before
   // any texture is converted.
+  for (const tinygltf::Material& gm : m_.materials)
+    if ((gm.alphaMode == "MASK" || gm.alphaMode == "BLEND") && gm.pbrMetallicRoughness.baseColorTexture.index >= 0)
+      alpha_textures_.insert(gm.pbrMetallicRoughness.baseColorTexture.index);
   double texture_bytes = 0.0;
-  for (const tinygltf::Texture& t : m_.textures)
+  for (std::size_t i = 0; i < m_.textures.size(); ++i) {
+    const tinygltf::Texture& t = m_.textures[i];
     if (t.source >= 0 && t.source < static_cast<int>(m_.images.size()))
-      texture_bytes += 12.0 * std::max(m_.images[t.source].width, 0) * std::max(m_.images[t.source].height, 0);
+      texture_bytes += (alpha_textures_.count(static_cast<int>(i)) ? 16.0 : 12.0) *
+                       std::max(m_.images[t.source].width, 0) * std::max(m_.images[t.source].height, 0);
+  }
   if (texture_bytes > static_cast<double>(max_bytes_)) {
     std::ostringstream s;
     s.precision(3);
@@ -624,6 +755,17 @@ void Loader::run() {
     mat.name = gm.name;
     const std::vector<double>& bc = gm.pbrMetallicRoughness.baseColorFactor;
     if (bc.size() >= 3) mat.base_color = Spectrum(bc[0], bc[1], bc[2]);
+    // alphaMode and alphaCutoff (glTF 2.0 section 3.9.4; defaults OPAQUE and 0.5).
+    if (gm.alphaMode == "MASK") mat.alpha_mode = AlphaMode::kMask;
+    else if (gm.alphaMode == "BLEND") mat.alpha_mode = AlphaMode::kBlend;
+    else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      fail(path_, "material '" + gm.name + "': alphaMode '" + gm.alphaMode + "' is not OPAQUE, MASK or BLEND");
+    mat.alpha_cutoff = gm.alphaCutoff;
+    mat.base_alpha = bc.size() == 4 ? bc[3] : 1.0;
+    if (!(mat.alpha_cutoff >= 0.0) || !std::isfinite(mat.alpha_cutoff))
+      fail(path_, "material '" + gm.name + "': alphaCutoff must be a finite number >= 0");
+    if (!(mat.base_alpha >= 0.0 && mat.base_alpha <= 1.0))
+      fail(path_, "material '" + gm.name + "': baseColorFactor's alpha must be in [0, 1]");
     mat.base_color_texture = texture(gm.pbrMetallicRoughness.baseColorTexture.index);
     double strength = 1.0;
     if (auto it = gm.extensions.find("KHR_materials_emissive_strength"); it != gm.extensions.end() &&
@@ -645,6 +787,7 @@ void Loader::run() {
     if (!std::isfinite(mat.normal_scale)) fail(path_, "material '" + gm.name + "': normalTexture.scale must be finite");
     if (!mat.base_color.is_finite() || mat.base_color.min() < 0.0 || !mat.emission.is_finite() || mat.emission.min() < 0.0)
       fail(path_, "material '" + gm.name + "' has a negative or non-finite colour");
+    read_transmissive(gm, &mat.transmissive);
     flatten_extras(gm.extras, "", &mat.extras);
     if (gm.extras.IsObject()) {
       std::ostringstream js;
@@ -690,6 +833,15 @@ Spectrum Texture::lookup(glm::dvec2 uv) const {
     s += Spectrum(p[0], p[1], p[2]) * f.weight[k];
   }
   return s;
+}
+
+double Texture::alpha_lookup(glm::dvec2 uv) const {
+  if (alpha.empty()) return 1.0;
+  BilinearFootprint f;
+  if (!bilinear_footprint(uv, width, height, clamp_s, clamp_t, &f)) return 1.0;
+  double a = 0.0;
+  for (int k = 0; k < 4; ++k) a += alpha[f.texel[k]] * f.weight[k];
+  return a;
 }
 
 const Material& SceneDesc::material(int index) const {

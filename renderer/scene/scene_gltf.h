@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -44,16 +45,30 @@ struct Texture {
   int width = 0;
   int height = 0;
   std::vector<float> rgb;  // row-major from the top row (glTF: v = 0 at the top)
+  // The alpha channel (linear, glTF 2.0 section 3.9.2), one per texel; kept only for the base
+  // colour textures of MASK and BLEND materials (empty: alpha 1 everywhere).
+  std::vector<float> alpha;
   bool clamp_s = false;    // CLAMP_TO_EDGE, else REPEAT (mirrored repeat is read as repeat)
   bool clamp_t = false;
   // Bilinear lookup at texture coordinates uv.
   Spectrum lookup(glm::dvec2 uv) const;
+  // Bilinear lookup of the alpha channel (1 where the texture has none kept).
+  double alpha_lookup(glm::dvec2 uv) const;
 };
+
+// glTF 2.0 material alphaMode (section 3.9.4 "Alpha Coverage").
+enum class AlphaMode { kOpaque, kMask, kBlend };
 
 struct Material {
   std::string name;
   Spectrum base_color{0.8};  // linear; glTF default baseColorFactor is 1, see load_gltf
   int base_color_texture = -1;
+  // Coverage (renderer/scene/alpha_coverage.h): alpha = base_alpha x the base colour texture's
+  // alpha x COLOR_0's alpha. MASK keeps a hit where alpha >= alpha_cutoff; BLEND keeps it with
+  // probability alpha (stochastic transparency); OPAQUE ignores alpha.
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  double alpha_cutoff = 0.5;  // glTF default
+  double base_alpha = 1.0;    // baseColorFactor[3]
   // KHR_texture_transform of each texture slot (identity without it).
   UvTransform base_color_uv, metallic_roughness_uv, normal_uv, emissive_uv;
   Spectrum emission;  // emissiveFactor x emissive_strength
@@ -68,6 +83,26 @@ struct Material {
   int metallic_roughness_texture = -1;  // linear: G roughness, B metalness (multiplied in)
   int normal_texture = -1;  // linear tangent-space normal map; needs Mesh::tangents
   double normal_scale = 1.0;
+  // The glTF extensions that describe light going through the material, as written (read by
+  // renderer/layered/gltf_stack.h, which maps them onto a layered stack; docs/gltf_materials.md).
+  // Lengths are in scene units.
+  struct Transmissive {
+    bool transmission = false;          // KHR_materials_transmission present
+    double transmission_factor = 0.0;   // transmissionFactor
+    bool diffuse_transmission = false;  // KHR_materials_diffuse_transmission present
+    double diffuse_transmission_factor = 0.0;
+    Spectrum diffuse_transmission_color{1.0};
+    bool volume = false;  // KHR_materials_volume present
+    double thickness = 0.0;  // thicknessFactor (0: thin-walled)
+    Spectrum attenuation_color{1.0};
+    double attenuation_distance = std::numeric_limits<double>::infinity();
+    double ior = 1.5;  // KHR_materials_ior (glTF's default 1.5 without it)
+    // Transmitting at all: the layered mapping applies (volume and ior alone change nothing:
+    // KHR_materials_volume acts only with a transmission extension).
+    bool transmits() const {
+      return (transmission && transmission_factor > 0.0) || (diffuse_transmission && diffuse_transmission_factor > 0.0);
+    }
+  } transmissive;
   // Material `extras`, flattened to dotted keys: {"lamina": {"stack": "skin.json"}} gives
   // extras["lamina.stack"] = "skin.json". Non-string leaves are stored as their JSON text.
   std::map<std::string, std::string> extras;
@@ -84,6 +119,7 @@ struct Mesh {
                                      // (glTF: "calculate flat normals" when NORMAL is absent)
   std::vector<glm::vec2> texcoords;  // empty, or one per position
   std::vector<glm::vec3> colours;    // COLOR_0 (linear RGB; multiplies the base colour), or empty
+  std::vector<float> colour_alphas;  // COLOR_0's alpha (a VEC4 COLOR_0 on a MASK or BLEND material), or empty
   // Tangents for the material's normal map (xyz unit, w = +-1 the bitangent's handedness:
   // B = w cross(N, T), glTF 2.0 section 3.7.2.1): TANGENT if given, else generated from the
   // texture coordinates; empty if the material has no normal map (or there are no normals or uvs).

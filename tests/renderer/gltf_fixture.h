@@ -43,14 +43,14 @@ class GltfBuilder {
   }
   nlohmann::json& json() { return json_; }
 
-  // A float accessor of `comps` components per element (VEC2/VEC3).
+  // A float accessor of `comps` components per element (SCALAR/VEC2/VEC3/VEC4).
   int add_floats(const std::vector<float>& v, int comps) {
     const std::size_t offset = append(v.data(), v.size() * sizeof(float));
     json_["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", v.size() * sizeof(float)}});
     nlohmann::json acc = {{"bufferView", json_["bufferViews"].size() - 1},
                           {"componentType", 5126},
                           {"count", v.size() / comps},
-                          {"type", comps == 3 ? "VEC3" : "VEC2"}};
+                          {"type", comps == 1 ? "SCALAR" : comps == 2 ? "VEC2" : comps == 3 ? "VEC3" : "VEC4"}};
     json_["accessors"].push_back(acc);
     return static_cast<int>(json_["accessors"].size() - 1);
   }

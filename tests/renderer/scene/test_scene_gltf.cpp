@@ -558,6 +558,45 @@ TEST(SceneGltf, SpotWithEqualConeAnglesLoads) {
   EXPECT_EQ(s.lights[0].cos_inner, s.lights[0].cos_outer);
 }
 
+// Morph targets at their default weights (glTF 2.0 section 3.7.2.2): POSITION, NORMAL and
+// TANGENT displacements weighted and added in the mesh's local space, before the node transform;
+// the node's weights override the mesh's; without weights every weight is 0; a weight count
+// different from the target count is an error naming the mesh.
+TEST(SceneGltf, MorphTargetsAtDefaultWeights) {
+  TempDir dir("gltf-morph");
+  for (int variant = 0; variant < 3; ++variant) {
+    GltfBuilder b;
+    json& j = b.json();
+    const int mesh = b.add_mesh(kTriangle, {}, {0, 0, 1, 0, 0, 1, 0, 0, 1});
+    json& prim = j["meshes"][mesh]["primitives"][0];
+    // Target 0 lifts vertex 2 by +z and tilts every normal towards +x; target 1 moves vertex 1 by +x.
+    prim["targets"] = {{{"POSITION", b.add_floats({0, 0, 0, 0, 0, 0, 0, 0, 2}, 3)},
+                        {"NORMAL", b.add_floats({1, 0, 0, 1, 0, 0, 1, 0, 0}, 3)}},
+                       {{"POSITION", b.add_floats({0, 0, 0, 4, 0, 0, 0, 0, 0}, 3)}}};
+    if (variant >= 1) j["meshes"][mesh]["weights"] = {0.5, 0.25};
+    json node = {{"mesh", mesh}, {"translation", {10.0, 0.0, 0.0}}};
+    if (variant == 2) node["weights"] = {1.0, 0.0};
+    b.add_node(node);
+    b.write_gltf(dir / "m.gltf");
+    const SceneDesc s = load_gltf(dir / "m.gltf");
+    ASSERT_EQ(s.meshes.size(), 1u);
+    const Mesh& m = s.meshes[0];
+    const double w0 = variant == 0 ? 0.0 : variant == 1 ? 0.5 : 1.0;
+    const double w1 = variant == 1 ? 0.25 : 0.0;
+    expect_vec(m.positions[1], {10.0 + 1.0 + 4.0 * w1, 0.0, 0.0});
+    expect_vec(m.positions[2], {10.0, 1.0, 2.0 * w0});
+    expect_vec(m.normals[0], glm::normalize(glm::dvec3(w0, 0.0, 1.0)));
+    for (const std::string& w : s.warnings) EXPECT_EQ(w.find("morph"), std::string::npos) << w;
+  }
+  GltfBuilder bad;
+  const int mesh = bad.add_mesh(kTriangle);
+  bad.json()["meshes"][mesh]["primitives"][0]["targets"] = {{{"POSITION", bad.add_floats({0, 0, 0, 0, 0, 0, 0, 0, 2}, 3)}}};
+  bad.json()["meshes"][mesh]["weights"] = {0.5, 0.5};
+  bad.add_node({{"mesh", mesh}});
+  bad.write_gltf(dir / "bad.gltf");
+  expect_error(dir / "bad.gltf", "1 morph targets but 2 weights");
+}
+
 TEST(SceneGltf, KhronosSamples) {
   const std::string root = "/work/shared/assets/khronos_samples/";
   if (!std::filesystem::exists(root)) GTEST_SKIP() << "no " << root;
@@ -583,6 +622,14 @@ TEST(SceneGltf, KhronosSamples) {
     EXPECT_FALSE(s.cameras[0].orthographic);
     EXPECT_TRUE(s.cameras[1].orthographic);
     EXPECT_DOUBLE_EQ(s.cameras[1].ymag, 1.0);
+  }
+  {
+    // SimpleMorph: base (0,0,0) (1,0,0) (0.5,0.5,0); targets move the apex by (-1,1,0) and
+    // (1,1,0); mesh.weights (0.5, 0.5) put it at (0.5, 1.5, 0).
+    const SceneDesc s = load_gltf(root + "SimpleMorph.gltf");
+    ASSERT_EQ(s.meshes.size(), 1u);
+    expect_vec(s.meshes[0].positions[2], {0.5, 1.5, 0.0}, 1e-6);
+    expect_vec(s.bounds_max, {1.0, 1.5, 0.0}, 1e-6);
   }
   {
     const SceneDesc s = load_gltf(root + "OrientationTest.gltf");
