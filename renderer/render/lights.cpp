@@ -103,7 +103,9 @@ class TriangleLight final : public Light {
     s->wi = v / std::sqrt(d2);
     const double cos_light = std::abs(glm::dot(n_, s->wi));
     if (!(cos_light > 0.0)) return false;
-    s->li = emitted_radiance(scene_, h, -s->wi);
+    // An alpha-cut emitter (MASK, BLEND) emits only where rays meet it: the light at the sampled
+    // point times the probability a ray keeps a hit there, as BSDF-sampled rays see it on average.
+    s->li = emitted_radiance(scene_, h, -s->wi) * scene_.coverage(mesh_, triangle_, b1, b2);
     if (s->li.is_black()) return false;
     s->pdf = d2 / (cos_light * area_);
     s->target = offset_ray_origin(h.p, glm::dot(n_, s->wi) < 0.0 ? n_ : -n_);

@@ -1,5 +1,7 @@
 #include "renderer/scene/alpha_coverage.h"
 
+#include <algorithm>
+
 #include <cstring>
 
 #include <glm/vec2.hpp>
@@ -45,6 +47,18 @@ bool keeps_hit(const AlphaCoverage& c, std::uint32_t triangle, double b1, double
       return stochastic_alpha_sample(origin, direction, c.geometry, triangle) < coverage_alpha(c, triangle, b1, b2);
   }
   return true;
+}
+
+double expected_coverage(const AlphaCoverage& c, std::uint32_t triangle, double b1, double b2) {
+  switch (c.material->alpha_mode) {
+    case AlphaMode::kOpaque:
+      return 1.0;
+    case AlphaMode::kMask:
+      return coverage_alpha(c, triangle, b1, b2) >= c.material->alpha_cutoff ? 1.0 : 0.0;
+    case AlphaMode::kBlend:
+      return std::clamp(coverage_alpha(c, triangle, b1, b2), 0.0, 1.0);
+  }
+  return 1.0;
 }
 
 }  // namespace lamina

@@ -41,4 +41,9 @@ double stochastic_alpha_sample(const float origin[3], const float direction[3], 
 bool keeps_hit(const AlphaCoverage& c, std::uint32_t triangle, double b1, double b2, const float origin[3],
                const float direction[3]);
 
+// The probability that keeps_hit() keeps a hit at (b1, b2), over its random number: 1 (OPAQUE),
+// 0 or 1 (MASK), alpha (BLEND). What a surface's emission is worth where light sampling picks a
+// point on it, so that sampling an emitter agrees with meeting it (alpha-cut emitters).
+double expected_coverage(const AlphaCoverage& c, std::uint32_t triangle, double b1, double b2);
+
 }  // namespace lamina

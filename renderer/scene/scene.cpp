@@ -47,6 +47,11 @@ void alpha_filter(const RTCFilterFunctionNArguments* args) {
 
 }  // namespace
 
+double Scene::coverage(int mesh, int triangle, double b1, double b2) const {
+  const int a = alpha_of_mesh_[static_cast<std::size_t>(mesh)];
+  return a < 0 ? 1.0 : expected_coverage(alpha_[static_cast<std::size_t>(a)], static_cast<std::uint32_t>(triangle), b1, b2);
+}
+
 glm::dvec3 offset_ray_origin(const glm::dvec3& p, const glm::dvec3& n) {
   return {offset_one(static_cast<float>(p.x), static_cast<float>(n.x)),
           offset_one(static_cast<float>(p.y), static_cast<float>(n.y)),
@@ -60,6 +65,7 @@ Scene::Scene(SceneDesc desc) : desc_(std::move(desc)) {
   RTCScene scene = rtcNewScene(device);
   scene_ = scene;
   alpha_.reserve(desc_.meshes.size());  // no reallocation below: the filters hold pointers
+  alpha_of_mesh_.assign(desc_.meshes.size(), -1);
   for (std::size_t i = 0; i < desc_.meshes.size(); ++i) {
     const Mesh& m = desc_.meshes[i];
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -80,6 +86,7 @@ Scene::Scene(SceneDesc desc) : desc_(std::move(desc)) {
           !desc_.textures[mat.base_color_texture].alpha.empty())
         c.texture = &desc_.textures[mat.base_color_texture];
       c.geometry = static_cast<std::uint32_t>(i);
+      alpha_of_mesh_[i] = static_cast<int>(alpha_.size());
       alpha_.push_back(c);
       rtcSetGeometryUserData(g, &alpha_.back());
       rtcSetGeometryIntersectFilterFunction(g, &alpha_filter);

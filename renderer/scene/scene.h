@@ -82,6 +82,9 @@ class Scene {
   // Bounding sphere of the geometry (for directional and environment lights).
   glm::dvec3 centre() const { return centre_; }
   double radius() const { return radius_; }
+  // How much of a point of triangle `triangle` of mesh `mesh` (barycentrics b1, b2) a ray meets
+  // on average: 1 for opaque meshes, else expected_coverage() of its alpha (alpha_coverage.h).
+  double coverage(int mesh, int triangle, double b1, double b2) const;
   // The raw Embree scene handle (RTCScene) for the benchmark's ceiling loop.
   void* embree_scene() const { return scene_; }
 
@@ -92,6 +95,7 @@ class Scene {
   glm::dvec3 centre_{0.0};
   double radius_ = 0.0;
   std::vector<AlphaCoverage> alpha_;  // the filters' user data (sized once: Embree keeps pointers)
+  std::vector<int> alpha_of_mesh_;    // index into alpha_ per mesh, -1 for opaque meshes
 };
 
 // A ray origin just off the surface at p, on the side of `n` (Waechter and Binder, "A Fast and
