@@ -70,7 +70,8 @@
 //    (the geometric series of the bounces between A and B). The stack is added from the bottom
 //    up, so only R_t and T_d of the part below are needed. Doubling is A over A for a
 //    homogeneous layer: R2 = R + T R (I - R R)^-1 T, T2 = T (I - R R)^-1 T. A semi-infinite layer
-//    is doubled until R stops changing (1e-13) or 100 steps.
+//    is doubled until R stops changing (1e-13) or its scaled optical depth reaches 1e8 (1e6 and
+//    the exact column sums 1 without absorption; see layer_element).
 //
 // 7. Lambert substrate: no interface (as in the walk); the power reaching it is reflected with
 //    the albedo into the nodes of the last layer's medium in proportion to W_i (Lambert's law
@@ -393,12 +394,35 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
       return c2;
     }();
     R = std::move(R2);
+    // Powers below 1e-200 (a beam's exp(-tau/mu) at grazing nodes of a thick layer) are zero
+    // for every total; flushing them keeps the arithmetic out of subnormal numbers, which are
+    // tens of times slower.
+    for (Matrix* x : {&R, &T})
+      for (double& v : x->a)
+        if (std::abs(v) < 1e-200) v = 0.0;
     ++*doublings;
     return change;
   };
   if (semi) {
-    for (int k = 0; k < 100; ++k)
+    // Doubled until R stops changing; at most to tau' = 1e8: without absorption R approaches 1
+    // only as 1 - R ~ 1/tau, while I - R R grows ill-conditioned (rounding ~ tau * 1e-16), so
+    // beyond 1e8 rounding would cost more than the remaining ~1e-8 of unconverged reflection.
+    // A conservative medium (sigma_a = 0) returns every photon that enters it (R's columns sum
+    // to 1 exactly), so there the 1/tau tail is not waited for: doubling stops at tau' = 1e6
+    // (rounding ~1e-10) and the columns are scaled to 1, which puts the last ~1e-5 of the
+    // reflected power in the directions of the rest.
+    const bool conservative = layer.sigma_a[c] == 0.0;
+    const double max_thickness = conservative ? 1e6 : 1e8;
+    double thickness = delta;
+    for (int k = 0; k < 100 && thickness < max_thickness; ++k, thickness *= 2.0)
       if (double_once() < 1e-13 && k > 4) break;
+    if (conservative)
+      for (int j = 0; j < na; ++j) {
+        double sum = 0.0;
+        for (int i = 0; i < na; ++i) sum += R(i, j);
+        if (sum > 0.0)
+          for (int i = 0; i < na; ++i) R(i, j) /= sum;
+      }
     e.Rt = e.Rb = embed(R);
     return e;
   }
