@@ -116,4 +116,38 @@ TEST_F(CliBrdf, BadInputGivesOneLineErrors) {
   expect_one_line_error("brdf " + bad + " --theta-i 10", "bad.json");
 }
 
+// --method adding-doubling: the totals with standard errors 0, the diffuse-incidence totals and
+// the discretisation error; the five sum to 1 and agree with a Monte Carlo run of the same
+// stack within 4 of its standard errors plus the stated discretisation error. --out is refused
+// (no table), with one line.
+TEST_F(CliBrdf, AddingDoublingWritesTotals) {
+  const std::string json = dir_ + "/ad.json", mc = dir_ + "/mc.json";
+  const CommandResult r = run("brdf " + stack_ + " --theta-i 40 --method adding-doubling --summary " + json);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CommandResult m = run("brdf " + stack_ + " --theta-i 40 --samples 20000 --summary " + mc);
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(json)), k = nlohmann::json::parse(slurp(mc));
+  EXPECT_EQ(j["method"], "adding-doubling");
+  EXPECT_EQ(j["quadrature_points"], 16);
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0.0;
+    for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed"}) {
+      sum += j[key][c].get<double>();
+      EXPECT_EQ(j[std::string(key) + "_stderr"][c].get<double>(), 0.0) << key;
+      const double err = j["discretisation_error"][key][c].get<double>();
+      EXPECT_GE(err, 0.0);
+      EXPECT_NEAR(j[key][c].get<double>(), k[key][c].get<double>(),
+                  4.0 * k[std::string(key) + "_stderr"][c].get<double>() + err + 1e-12)
+          << key << " channel " << c;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+    EXPECT_NEAR(j["R_hemispherical"][c].get<double>() + j["T_hemispherical"][c].get<double>() +
+                    j["absorbed_hemispherical"][c].get<double>(),
+                1.0, 1e-12);
+  }
+  expect_one_line_error("brdf " + stack_ + " --theta-i 40 --method adding-doubling --out " + dir_ + "/t.csv", "--out");
+  expect_one_line_error("brdf " + stack_ + " --theta-i 40 --method adding-doubling --quadrature-points 2",
+                        "--quadrature-points");
+}
+
 }  // namespace
