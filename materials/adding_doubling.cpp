@@ -76,21 +76,44 @@
 // 7. Lambert substrate: no interface (as in the walk); the power reaching it is reflected with
 //    the albedo into the nodes of the last layer's medium in proportion to W_i (Lambert's law
 //    puts power in proportion to projected solid angle): R_t,ij = albedo W_i, T = 0.
+//
+// 8. Azimuthal modes (for the BRDF/BTDF). By the addition theorem of spherical harmonics the
+//    phase function is p(mu, mu', dphi) = sum_m (2 - delta_m0) p_m(mu, mu') cos(m dphi) with
+//        p_m(mu, mu') = (1/4 pi) sum_{l>=m} (2l+1) chi'_l Pt_l^m(mu) Pt_l^m(mu')
+//    (Pt the normalised associated Legendre functions; Chandrasekhar 1960, ch. 6; Wiscombe 1977;
+//    Zeltner and Jakob 2018 use the same expansion). With the radiance written as
+//    L = sum_m L_m(mu) cos(m dphi), the in-scattering of mode m is 2 pi int p_m L_m dmu', so every
+//    mode obeys the equation of 3. with p_0 replaced by p_m (no renormalisation for m >= 1) and is
+//    solved by the same doubling and adding; interfaces are the same for every mode (Fresnel
+//    does not depend on azimuth) and a Lambert surface reflects only mode 0. A collimated beam is
+//    delta(phi) = (1/2 pi)(1 + 2 sum_m cos(m phi)), so its mode m is (2 - delta_m0) times its
+//    mode 0, and the radiance leaving in direction (mu_i, phi) per unit incident power is
+//        f(mu_i, phi) = sum_{m < M} (2 - delta_m0) cos(m (phi - pi)) F_m,i / (pi W_i)
+//    (phi from the light's azimuth as in brdf_table.h; the beam travels towards phi = pi), where
+//    F_m,i is the incidence column of the mode-m R_t (or T_d) at the outside node i. Modes
+//    m >= M (the delta-M order) have no scattering and add nothing to the bins. The bins average
+//    f over |cos| and phi weighted by projected solid angle: the phi integral of cos is exact,
+//    the cosine integral uses Gauss-Legendre in mu^2 on a Lagrange interpolant of the node
+//    values within each segment.
+// 9. The delta-M forward peak is unscattered for the solver, so the scattered power it carries
+//    leaves in the mirror or ballistic direction; it is the difference between the exact
+//    diffuse total and the bins' power, and goes into the bin that holds that direction.
 #include "materials/adding_doubling.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
-#include "materials/fresnel.h"
 #include "materials/first_order.h"  // gauss_legendre
+#include "materials/fresnel.h"
+#include "materials/sampling.h"  // kPi
 #include "materials/zeroth_order.h"
 
 namespace lamina {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Dense square matrix, row-major.
 struct Matrix {
@@ -286,16 +309,31 @@ Element interface_element(const Medium& above, const Medium& below, int size) {
   return e;
 }
 
-// Legendre polynomials P_0..P_{L-1} at x (three-term recurrence, Abramowitz and Stegun 22.7.10).
-void legendre_all(int L, double x, double* p) {
-  if (L > 0) p[0] = 1.0;
-  if (L > 1) p[1] = x;
-  for (int l = 2; l < L; ++l) p[l] = ((2.0 * l - 1.0) * x * p[l - 1] - (l - 1.0) * p[l - 2]) / l;
+// Normalised associated Legendre functions Pt_l^m(x) = sqrt((l-m)!/(l+m)!) P_l^m(x) for
+// l = 0..L-1 (0 for l < m), without the Condon-Shortley phase (only products of two enter), by
+// the stable recurrences Pt_m^m = prod_{k=1..m} sqrt((2k-1)/(2k)) (1-x^2)^(m/2),
+// Pt_{m+1}^m = sqrt(2m+1) x Pt_m^m, and
+// sqrt(l^2-m^2) Pt_l^m = (2l-1) x Pt_{l-1}^m - sqrt((l-1)^2-m^2) Pt_{l-2}^m
+// (Abramowitz and Stegun 8.5.3 rescaled). For m = 0 these are the Legendre polynomials.
+void associated_legendre_all(int L, int m, double x, double* p) {
+  for (int l = 0; l < std::min(L, m); ++l) p[l] = 0.0;
+  if (m >= L) return;
+  double pmm = 1.0;
+  const double s2 = std::max(0.0, (1.0 - x) * (1.0 + x));
+  for (int k = 1; k <= m; ++k) pmm *= std::sqrt((2.0 * k - 1.0) / (2.0 * k) * s2);
+  p[m] = pmm;
+  if (m + 1 < L) p[m + 1] = std::sqrt(2.0 * m + 1.0) * x * pmm;
+  for (int l = m + 2; l < L; ++l)
+    p[l] = ((2.0 * l - 1.0) * x * p[l - 1] - std::sqrt((l - 1.0) * (l - 1.0) - double(m) * m) * p[l - 2]) /
+           std::sqrt(double(l) * l - double(m) * m);
 }
 
-// The layer in channel c on the medium's nodes, embedded in `size` nodes (3.-6.). For a
-// semi-infinite layer Td and Tu are left empty.
-Element layer_element(const Layer& layer, int c, const Medium& m, int size, int* doublings) {
+// The delta-M truncation order of a layer in a medium (4.): the number of its nodes.
+int truncation_order(const Medium& m) { return std::max(1, m.real); }
+
+// The layer in channel c and azimuthal Fourier mode `mode` on the medium's nodes, embedded in
+// `size` nodes (3.-6.; for mode >= 1 see 8.). For a semi-infinite layer Td and Tu are left empty.
+Element layer_element(const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
   const int na = static_cast<int>(m.active.size());
   const bool semi = layer.semi_infinite();
   const double sigma_t = layer.sigma_t()[c];
@@ -317,7 +355,7 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
   }
 
   // 4. Moments and delta-M.
-  const int M = std::max(1, m.real);
+  const int M = truncation_order(m);
   std::vector<double> chi(M + 1, 0.0);
   if (sigma_s > 0.0)
     for (const PhaseLobe& lobe : layer.lobes) {
@@ -331,9 +369,9 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
 
   Matrix alpha(na), beta(na);
   for (int i = 0; i < na; ++i) alpha(i, i) = 1.0 / m.mu[i];
-  if (a_scaled > 0.0) {
+  if (a_scaled > 0.0 && mode < M) {
     std::vector<double> P(static_cast<std::size_t>(na) * M);
-    for (int i = 0; i < na; ++i) legendre_all(M, m.mu[i], &P[static_cast<std::size_t>(i) * M]);
+    for (int i = 0; i < na; ++i) associated_legendre_all(M, mode, m.mu[i], &P[static_cast<std::size_t>(i) * M]);
     std::vector<double> coef(M);  // (2l + 1) chi'_l / (4 pi)
     for (int l = 0; l < M; ++l) coef[l] = (2.0 * l + 1.0) * (chi[l] - f) / (1.0 - f) / (4.0 * kPi);
     Matrix Kp(na), Km(na);
@@ -346,14 +384,15 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
         for (int l = 0; l < M; ++l) {
           const double term = coef[l] * pi[l] * pj[l];
           same += term;
-          opposite += (l % 2 == 0) ? term : -term;
+          opposite += ((l + mode) % 2 == 0) ? term : -term;  // Pt_l^m(-x) = (-1)^(l+m) Pt_l^m(x)
         }
         Kp(i, j) = kPi * m.W[i] * same / (m.mu[i] * m.mu[j]);
         Km(i, j) = kPi * m.W[i] * opposite / (m.mu[i] * m.mu[j]);
         norm += m.mu[j] * (Kp(i, j) + Km(i, j));
       }
-      // 3.: renormalise the column so that one scattering conserves power exactly.
-      if (norm > 0.0)
+      // 3.: renormalise the column so that one scattering conserves power exactly (mode 0
+      // only: the higher modes carry no power of their own).
+      if (mode == 0 && norm > 0.0)
         for (int i = 0; i < na; ++i) {
           Kp(i, j) /= norm;
           Km(i, j) /= norm;
@@ -411,7 +450,7 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
     // to 1 exactly), so there the 1/tau tail is not waited for: doubling stops at tau' = 1e6
     // (rounding ~1e-10) and the columns are scaled to 1, which puts the last ~1e-5 of the
     // reflected power in the directions of the rest.
-    const bool conservative = layer.sigma_a[c] == 0.0;
+    const bool conservative = layer.sigma_a[c] == 0.0 && mode == 0;
     const double max_thickness = conservative ? 1e6 : 1e8;
     double thickness = delta;
     for (int k = 0; k < 100 && thickness < max_thickness; ++k, thickness *= 2.0)
@@ -432,90 +471,272 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int*
   return e;
 }
 
-Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size) {
+Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size, int mode) {
   Element e;
   e.Rt = Matrix(size);
+  if (mode > 0) return e;  // isotropic reflection has no azimuthal modes (8.)
   for (std::size_t i = 0; i < m.active.size(); ++i)
     for (std::size_t j = 0; j < m.active.size(); ++j) e.Rt(m.active[i], m.active[j]) = albedo[c] * m.W[i];
   return e;
+}
+
+// The discretised stack for one incidence cosine.
+struct Problem {
+  const LayerStack* stack = nullptr;
+  Nodes nodes;
+  Medium above, below;  // below: only for a transmitting stack
+  std::vector<Medium> media;
+  bool lambert = false, semi = false, transmits = false;
+  int size() const { return nodes.size(); }
+};
+
+Problem make_problem(const LayerStack& stack, double cos_theta_i, const AddingDoublingSettings& settings,
+                     const char* who) {
+  if (!(cos_theta_i > 0.0 && cos_theta_i <= 1.0))
+    throw std::invalid_argument(std::string(who) + ": cos_theta_i must be in (0, 1]");
+  if (settings.quadrature_points < 2)
+    throw std::invalid_argument(std::string(who) + ": quadrature_points must be at least 2");
+  if (stack.layers.empty()) throw std::invalid_argument(std::string(who) + ": the stack has no layers");
+  Problem p;
+  p.stack = &stack;
+  p.lambert = stack.below.kind == Below::Kind::Lambert;
+  p.semi = stack.layers.back().semi_infinite();
+  p.transmits = !p.lambert && !p.semi;
+  std::vector<double> indices{stack.above_ior};
+  for (const Layer& l : stack.layers) indices.push_back(l.ior);
+  if (p.transmits) indices.push_back(stack.below.ior);
+  p.nodes = make_nodes(indices, stack.above_ior, cos_theta_i, settings.quadrature_points);
+  p.above = make_medium(p.nodes, stack.above_ior);
+  for (const Layer& l : stack.layers) p.media.push_back(make_medium(p.nodes, l.ior));
+  if (p.transmits) p.below = make_medium(p.nodes, stack.below.ior);
+  return p;
+}
+
+// R_t and T_d of the whole stack in channel c and Fourier mode `mode`, added from the bottom up
+// (6.); T_d is empty unless the stack transmits.
+Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
+  const LayerStack& stack = *p.stack;
+  const int nl = static_cast<int>(stack.layers.size()), size = p.size();
+  Element acc;
+  const Layer& last = stack.layers[nl - 1];
+  if (p.semi) {
+    acc = layer_element(last, c, p.media[nl - 1], size, mode, doublings);
+    acc.Td = Matrix();
+  } else {
+    const Element bottom = p.lambert ? lambert_element(stack.below.albedo, c, p.media[nl - 1], size, mode)
+                                     : interface_element(p.media[nl - 1], p.below, size);
+    acc = add_over(layer_element(last, c, p.media[nl - 1], size, mode, doublings), bottom);
+    if (p.lambert) acc.Td = Matrix();
+  }
+  for (int k = nl - 2; k >= 0; --k) {
+    if (stack.layers[k].ior != stack.layers[k + 1].ior)
+      acc = add_over(interface_element(p.media[k], p.media[k + 1], size), acc);
+    acc = add_over(layer_element(stack.layers[k], c, p.media[k], size, mode, doublings), acc);
+  }
+  if (stack.above_ior != stack.layers[0].ior) acc = add_over(interface_element(p.above, p.media[0], size), acc);
+  return acc;
+}
+
+void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int c, AddingDoublingTotals* out) {
+  const int size = p.size(), j0 = p.nodes.incidence;
+  // Collimated: the column of the incidence node; diffuse: the columns weighted by W (2.).
+  double R = 0.0, T = 0.0;
+  for (int i = 0; i < size; ++i) {
+    R += acc.Rt(i, j0);
+    if (acc.Td.n > 0) T += acc.Td(i, j0);
+  }
+  double Rh = 0.0, Th = 0.0;
+  for (std::size_t k = 0; k < p.above.active.size(); ++k) {
+    const int j = p.above.active[k];
+    if (p.above.W[k] == 0.0) continue;
+    double r = 0.0, t = 0.0;
+    for (int i = 0; i < size; ++i) {
+      r += acc.Rt(i, j);
+      if (acc.Td.n > 0) t += acc.Td(i, j);
+    }
+    Rh += p.above.W[k] * r;
+    Th += p.above.W[k] * t;
+  }
+  out->R_specular[c] = z.R_specular[c];
+  out->T_ballistic[c] = z.T_ballistic[c];
+  out->R_diffuse[c] = R - z.R_specular[c];
+  out->T_diffuse[c] = T - z.T_ballistic[c];
+  out->absorbed[c] = 1.0 - R - T;
+  out->R_hemispherical[c] = Rh;
+  out->T_hemispherical[c] = Th;
+  out->absorbed_hemispherical[c] = 1.0 - Rh - Th;
 }
 
 }  // namespace
 
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings) {
-  if (!(cos_theta_i > 0.0 && cos_theta_i <= 1.0))
-    throw std::invalid_argument("adding_doubling_totals: cos_theta_i must be in (0, 1]");
-  if (settings.quadrature_points < 2)
-    throw std::invalid_argument("adding_doubling_totals: quadrature_points must be at least 2");
-  if (stack.layers.empty()) throw std::invalid_argument("adding_doubling_totals: the stack has no layers");
-  const int nl = static_cast<int>(stack.layers.size());
-  const bool lambert = stack.below.kind == Below::Kind::Lambert;
-  const bool semi = stack.layers.back().semi_infinite();
-  const bool below_medium = !lambert && !semi;
-
-  std::vector<double> indices{stack.above_ior};
-  for (const Layer& l : stack.layers) indices.push_back(l.ior);
-  if (below_medium) indices.push_back(stack.below.ior);
-  const Nodes nodes = make_nodes(indices, stack.above_ior, cos_theta_i, settings.quadrature_points);
-  const int size = nodes.size();
-  const Medium above = make_medium(nodes, stack.above_ior);
-  std::vector<Medium> media;
-  for (const Layer& l : stack.layers) media.push_back(make_medium(nodes, l.ior));
-  const Medium below = below_medium ? make_medium(nodes, stack.below.ior) : Medium{};
-
+  const Problem p = make_problem(stack, cos_theta_i, settings, "adding_doubling_totals");
   AddingDoublingTotals out;
-  out.nodes = nodes.real;
+  out.nodes = p.nodes.real;
   const ZerothOrder z = zeroth_order(stack, cos_theta_i);
-  const int j0 = nodes.incidence;
-  for (int c = 0; c < kChannels; ++c) {
-    // Bottom up (6.).
-    Element acc;
-    const Layer& last = stack.layers[nl - 1];
-    if (semi) {
-      acc = layer_element(last, c, media[nl - 1], size, &out.doublings);
-      acc.Td = Matrix();
-    } else {
-      const Element bottom = lambert ? lambert_element(stack.below.albedo, c, media[nl - 1], size)
-                                     : interface_element(media[nl - 1], below, size);
-      acc = add_over(layer_element(last, c, media[nl - 1], size, &out.doublings), bottom);
-      if (lambert) acc.Td = Matrix();
-    }
-    for (int k = nl - 2; k >= 0; --k) {
-      if (stack.layers[k].ior != stack.layers[k + 1].ior)
-        acc = add_over(interface_element(media[k], media[k + 1], size), acc);
-      acc = add_over(layer_element(stack.layers[k], c, media[k], size, &out.doublings), acc);
-    }
-    if (stack.above_ior != stack.layers[0].ior) acc = add_over(interface_element(above, media[0], size), acc);
-
-    // Collimated: the column of the incidence node; diffuse: the columns weighted by W (2.).
-    double R = 0.0, T = 0.0;
-    for (int i = 0; i < size; ++i) {
-      R += acc.Rt(i, j0);
-      if (acc.Td.n > 0) T += acc.Td(i, j0);
-    }
-    double Rh = 0.0, Th = 0.0;
-    for (std::size_t k = 0; k < above.active.size(); ++k) {
-      const int j = above.active[k];
-      if (above.W[k] == 0.0) continue;
-      double r = 0.0, t = 0.0;
-      for (int i = 0; i < size; ++i) {
-        r += acc.Rt(i, j);
-        if (acc.Td.n > 0) t += acc.Td(i, j);
-      }
-      Rh += above.W[k] * r;
-      Th += above.W[k] * t;
-    }
-    out.R_specular[c] = z.R_specular[c];
-    out.T_ballistic[c] = z.T_ballistic[c];
-    out.R_diffuse[c] = R - z.R_specular[c];
-    out.T_diffuse[c] = T - z.T_ballistic[c];
-    out.absorbed[c] = 1.0 - R - T;
-    out.R_hemispherical[c] = Rh;
-    out.T_hemispherical[c] = Th;
-    out.absorbed_hemispherical[c] = 1.0 - Rh - Th;
-  }
+  for (int c = 0; c < kChannels; ++c) fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, &out);
   return out;
+}
+
+namespace {
+
+// The outgoing radiance of one Fourier mode as a function of the cosine in an outside medium
+// (8.): node values L_i = F_i / (pi W_i), interpolated by a Lagrange polynomial in the segment
+// parameter t over the nodes of the segment that holds the direction (the radiance is smooth in
+// the cosine within a segment, and may have a kink where a segment ends: a critical angle).
+struct ModeRadiance {
+  const Problem* p = nullptr;
+  const Medium* medium = nullptr;
+  std::vector<double> segment_b;                 // segment tops (n^2) seen by this medium, ascending
+  std::vector<std::vector<double>> t, value;     // per segment: node parameters and radiances
+
+  void build(const Problem& problem, const Medium& m, const Matrix& M, int j0) {
+    p = &problem;
+    medium = &m;
+    segment_b.clear();
+    t.clear();
+    value.clear();
+    for (std::size_t k = 0; k < m.active.size(); ++k) {
+      if (m.W[k] == 0.0) continue;
+      const int j = m.active[k];
+      const double b = problem.nodes.b[j];
+      std::size_t s = 0;
+      while (s < segment_b.size() && segment_b[s] != b) ++s;
+      if (s == segment_b.size()) {
+        segment_b.push_back(b);
+        t.emplace_back();
+        value.emplace_back();
+      }
+      t[s].push_back(problem.nodes.t[j]);
+      value[s].push_back(M(j, j0) / (kPi * m.W[k]));
+    }
+  }
+  // The segment ends in this medium's cosine, descending in u: mu at u = b_s.
+  double operator()(double mu) const {
+    const double n2 = medium->n * medium->n;
+    const double u = n2 * (1.0 - mu * mu);
+    std::size_t s = 0;
+    while (s + 1 < segment_b.size() && u > segment_b[s]) ++s;
+    const double b = segment_b[s];
+    const double ts = std::sqrt(std::max(0.0, 1.0 - u / b));
+    const std::vector<double>& x = t[s];
+    const std::vector<double>& y = value[s];
+    double sum = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      double l = 1.0;
+      for (std::size_t k = 0; k < x.size(); ++k)
+        if (k != i) l *= (ts - x[k]) / (x[i] - x[k]);
+      sum += l * y[i];
+    }
+    return sum;
+  }
+  // int_lo^hi L(mu) mu dmu, Gauss-Legendre in x = mu^2 (mu dmu = dx/2) on each piece between
+  // the segment ends.
+  double integral(double lo, double hi) const {
+    const double n2 = medium->n * medium->n;
+    std::vector<double> cuts{lo * lo, hi * hi};
+    for (double b : segment_b) {
+      const double x = 1.0 - b / n2;  // mu^2 at u = b
+      if (x > lo * lo && x < hi * hi) cuts.push_back(x);
+    }
+    std::sort(cuts.begin(), cuts.end());
+    constexpr int kPoints = 8;
+    double xs[kPoints], ws[kPoints], sum = 0.0;
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+      gauss_legendre(kPoints, cuts[k], cuts[k + 1], xs, ws);
+      for (int i = 0; i < kPoints; ++i) sum += 0.5 * ws[i] * (*this)(std::sqrt(xs[i]));
+    }
+    return sum;
+  }
+};
+
+}  // namespace
+
+BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
+                                     const AddingDoublingSettings& settings, AddingDoublingTotals* totals) {
+  const double mu0 = incident_direction(options.theta_i_deg, options.phi_i_deg).z;
+  const Problem p = make_problem(stack, mu0, settings, "brdf_table_adding_doubling");
+  // The single-scattering part and the table's layout from the analytic first order.
+  BrdfTable table = brdf_table_first_order(stack, options);
+  const int K = options.bins_theta, Mphi = options.bins_phi;
+  const ZerothOrder z = zeroth_order(stack, mu0);
+  AddingDoublingTotals t;
+  t.nodes = p.nodes.real;
+  int modes = 1;
+  for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
+
+  // 8. phi integrals of cos(m (phi - pi)) over the bins (phi from the light's azimuth; the
+  // mirror and ballistic directions are at phi = pi).
+  auto phi_integral = [&](int mode, int bin) {
+    const double lo = 2.0 * kPi * bin / Mphi, hi = 2.0 * kPi * (bin + 1) / Mphi;
+    if (mode == 0) return hi - lo;
+    return (std::sin(mode * (hi - kPi)) - std::sin(mode * (lo - kPi))) / mode;
+  };
+  std::vector<Spectrum> value(table.value.size(), Spectrum(0.0));
+  ModeRadiance L;
+  for (int c = 0; c < kChannels; ++c)
+    for (int mode = 0; mode < modes; ++mode) {
+      const Element acc = solve_stack(p, c, mode, &t.doublings);
+      if (mode == 0) fill_totals(p, acc, z, c, &t);
+      const double weight = mode == 0 ? 1.0 : 2.0;
+      for (int side = 0; side < (acc.Td.n > 0 ? 2 : 1); ++side) {
+        L.build(p, side == 0 ? p.above : p.below, side == 0 ? acc.Rt : acc.Td, p.nodes.incidence);
+        for (int k = 0; k < K; ++k) {
+          const double mu_part = L.integral(static_cast<double>(k) / K, static_cast<double>(k + 1) / K);
+          for (int b = 0; b < Mphi; ++b)
+            value[table.bin_index(static_cast<BrdfSide>(side), k, b)][c] +=
+                weight * mu_part * phi_integral(mode, b) / table.projected_solid_angle(k);
+        }
+      }
+    }
+
+  // 9. The delta-M forward peak: the solver counts light scattered into it as unscattered, so
+  // its power, (the solver's unscattered exit) - (the exact one) = the true diffuse total minus
+  // the bins' mode-0 power, leaves in the mirror (ballistic) direction. It is put in the bin
+  // that holds that direction (split between the two bins that meet at phi = pi when M is even,
+  // over the whole top ring at normal incidence): the forward peak's width is below a bin's.
+  auto add_peak = [&](BrdfSide side, double mu, int c, double power) {
+    if (mu <= 0.0 || power == 0.0) return;
+    const int k = std::min(K - 1, static_cast<int>(mu * K));
+    std::vector<int> bins;
+    if (mu >= 1.0) {
+      for (int b = 0; b < Mphi; ++b) bins.push_back(b);
+    } else if (Mphi % 2 == 0) {
+      bins = {Mphi / 2 - 1, Mphi / 2};
+    } else {
+      bins = {Mphi / 2};
+    }
+    for (int b : bins)
+      value[table.bin_index(side, k, b)][c] += power / bins.size() / table.projected_solid_angle(k);
+  };
+  for (int c = 0; c < kChannels; ++c) {
+    double binned_R = 0.0, binned_T = 0.0;
+    for (int k = 0; k < K; ++k)
+      for (int b = 0; b < Mphi; ++b) {
+        binned_R += value[table.bin_index(BrdfSide::Reflect, k, b)][c] * table.projected_solid_angle(k);
+        binned_T += value[table.bin_index(BrdfSide::Transmit, k, b)][c] * table.projected_solid_angle(k);
+      }
+    t.R_forward_peak[c] = t.R_diffuse[c] - binned_R;
+    add_peak(BrdfSide::Reflect, mu0, c, t.R_forward_peak[c]);
+    if (p.transmits) {
+      t.T_forward_peak[c] = t.T_diffuse[c] - binned_T;
+      add_peak(BrdfSide::Transmit, z.cos_below, c, t.T_forward_peak[c]);
+    }
+  }
+
+  for (std::size_t b = 0; b < value.size(); ++b) {
+    table.value[b] = value[b];
+    table.multiple[b] = value[b] - table.single[b];
+    table.stderr_[b] = Spectrum(0.0);
+  }
+  table.totals.R_specular = {t.R_specular, Spectrum(0.0)};
+  table.totals.R_diffuse = {t.R_diffuse, Spectrum(0.0)};
+  table.totals.T_ballistic = {t.T_ballistic, Spectrum(0.0)};
+  table.totals.T_diffuse = {t.T_diffuse, Spectrum(0.0)};
+  table.totals.absorbed = {t.absorbed, Spectrum(0.0)};
+  if (totals) *totals = t;
+  return table;
 }
 
 AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, double cos_theta_i,

@@ -6,8 +6,8 @@
 // internal reflection), a Lambert substrate or a semi-infinite last layer, exactly as the walk
 // models the stack (materials/random_walk.cpp). The m = 0 component carries all of the power, so
 // it gives every total (reflected, transmitted, absorbed) for collimated incidence at any angle
-// and for uniform diffuse incidence. The angular distribution within a hemisphere (the BRDF/BTDF
-// bins of materials/brdf_table.h) needs the higher Fourier components, which are not computed.
+// and for uniform diffuse incidence. The BRDF/BTDF on the bins of materials/brdf_table.h comes
+// from the higher azimuthal Fourier modes, solved the same way (brdf_table_adding_doubling).
 //
 // Method (derivations in adding_doubling.cpp):
 //  * Directions are discretised by Snell's invariant u = (n sin theta)^2, which every smooth
@@ -28,6 +28,7 @@
 // W. J. Wiscombe, "The delta-M method", J. Atmos. Sci. 34 (1977) 1408.
 #pragma once
 
+#include "materials/brdf_table.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
 
@@ -50,6 +51,10 @@ struct AddingDoublingTotals {
   // Uniform diffuse incidence from above (equal radiance from every direction): the total
   // reflectance, transmittance and absorptance (unscattered light included in R and T).
   Spectrum R_hemispherical, T_hemispherical, absorbed_hemispherical;
+  // brdf_table_adding_doubling only: the power of the delta-M forward peak that it puts in the
+  // bin of the mirror (R) and ballistic (T) direction (adding_doubling.cpp, 9.): a measure of
+  // how much of the table's angular detail the truncation of the phase function blurs.
+  Spectrum R_forward_peak, T_forward_peak;
   int nodes = 0;      // quadrature nodes per hemisphere over all media (without the incidence)
   int doublings = 0;  // doubling steps over all layers and channels
 };
@@ -69,5 +74,16 @@ struct AddingDoublingEstimate {
 };
 AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, double cos_theta_i,
                                                   const AddingDoublingSettings& settings = {});
+
+// The BRDF/BTDF table on the bins of `options` (theta_i, phi_i, bins_theta, bins_phi; samples and
+// seed unused) and its totals, all orders, standard errors 0 (`lamina brdf --method
+// adding-doubling`). `single` is the analytic first order (brdf_table_first_order) and
+// `multiple` = value - single. Cost: one solution per Fourier mode and channel (the modes up to
+// the delta-M order, about the number of nodes). The delta-M forward peak's power is put in the
+// bin of the mirror / ballistic direction (adding_doubling.cpp, 9.), so the bins' power equals
+// R_diffuse and T_diffuse. *totals (optional) receives the totals with the diffuse-incidence ones.
+BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
+                                     const AddingDoublingSettings& settings = {},
+                                     AddingDoublingTotals* totals = nullptr);
 
 }  // namespace lamina

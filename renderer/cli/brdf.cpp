@@ -13,8 +13,9 @@
 //                        were lost). Printed to stdout if omitted.
 //                        adding-doubling: the same keys (standard errors 0), "quadrature_points",
 //                        "discretisation_error" (the five keys and the three below: |value at N -
-//                        value at N/2| nodes) and R/T/absorbed_hemispherical (diffuse incidence).
-//                        It gives the totals only: --out is refused.
+//                        value at N/2| nodes) and R/T/absorbed_hemispherical (diffuse incidence);
+//                        with --out also R/T_forward_peak (the delta-M peak's power in the
+//                        mirror / ballistic bins).
 // Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
 // renamed into place once both are written. Every number is checked by renderer/cli/options.h.
 #include <cmath>
@@ -108,7 +109,8 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
 
 // The summary of --method adding-doubling: the keys of totals_json with standard errors 0, the
 // diffuse-incidence totals, and the discretisation error estimate (materials/adding_doubling.h).
-std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const BrdfOptions& o, int quadrature_points) {
+std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const BrdfOptions& o, int quadrature_points,
+                                 bool with_table) {
   nlohmann::ordered_json j;
   j["method"] = "adding-doubling";
   j["theta_i_deg"] = o.theta_i_deg;
@@ -137,6 +139,10 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
   err["T_hemispherical"] = rgb(d.T_hemispherical);
   err["absorbed_hemispherical"] = rgb(d.absorbed_hemispherical);
   j["discretisation_error"] = err;
+  if (with_table) {
+    j["R_forward_peak"] = rgb(t.R_forward_peak);
+    j["T_forward_peak"] = rgb(t.T_forward_peak);
+  }
   return j.dump(2) + "\n";
 }
 
@@ -148,7 +154,8 @@ int run_brdf(int argc, char** argv) {
       "first-order: the analytic zeroth- and first-order solution (single scattering; 'absorbed'\n"
       "then also holds the light of higher orders). monte-carlo: the random walk, all orders,\n"
       "single and multiple scattering reported apart, with standard errors. adding-doubling: the\n"
-      "deterministic solution, all orders, totals only (no table), with a discretisation error.",
+      "deterministic solution, all orders, with a discretisation error (the table costs one\n"
+      "solution per azimuthal mode).",
       "lamina brdf"};
   std::string stack_path, method = "monte-carlo", out_path, summary_path;
   double theta_i = std::nan(""), phi_i = 0.0;
@@ -199,11 +206,6 @@ int run_brdf(int argc, char** argv) {
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method %s\n", method.c_str());
     if (method != "adding-doubling" && app.count("--quadrature-points") > 0)
       std::fprintf(stderr, "lamina brdf: note: --quadrature-points is only used by --method adding-doubling\n");
-    if (method == "adding-doubling" && !out_path.empty()) {
-      std::fprintf(stderr, "lamina brdf: --out: --method adding-doubling gives the totals only (the BRDF/BTDF bins need "
-                           "the higher Fourier components, not implemented); use --summary, or another method for the table\n");
-      return 2;
-    }
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
     if (method != "monte-carlo" && stack.rough_top()) {
@@ -225,15 +227,18 @@ int run_brdf(int argc, char** argv) {
       lamina::AddingDoublingSettings settings;
       settings.quadrature_points = quadrature_points;
       const double cos_theta_i = lamina::incident_direction(theta_i, phi_i).z;  // as the other methods
-      const std::string json = adding_doubling_json(lamina::adding_doubling_with_error(stack, cos_theta_i, settings),
-                                                    options, quadrature_points);
-      if (summary_path.empty()) {
-        std::fputs(json.c_str(), stdout);
-      } else {
-        cli::StagedOutputs outputs;
-        outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
-        outputs.commit();
+      lamina::AddingDoublingEstimate estimate = lamina::adding_doubling_with_error(stack, cos_theta_i, settings);
+      std::string csv;
+      if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling.h)
+        const BrdfTable table = lamina::brdf_table_adding_doubling(stack, options, settings, &estimate.totals);
+        csv = table_csv(table);
       }
+      const std::string json = adding_doubling_json(estimate, options, quadrature_points, !out_path.empty());
+      cli::StagedOutputs outputs;  // both files or neither
+      if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
+      if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
+      outputs.commit();
+      if (summary_path.empty()) std::fputs(json.c_str(), stdout);
       return 0;
     }
     std::optional<lamina::Progress> progress;

@@ -17,6 +17,7 @@
 #include "materials/first_order.h"  // gauss_legendre
 #include "materials/stack_file.h"
 #include "tests/materials/stack_fixtures.h"
+#include "tests/support/statistics.h"
 
 namespace lamina {
 namespace {
@@ -234,6 +235,71 @@ TEST(AddingDoublingVsWalk, SemiInfiniteForwardPeaked) {
 TEST(AddingDoublingVsWalk, CompositeSkin) {
   const LayerStack s = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
   expect_matches_walk(s, 45.0, 50000);
+}
+
+// The BRDF/BTDF bins (Fourier modes m >= 0) against the walk's bins: no bin further than 4.5
+// standard errors (Bonferroni over ~100 bins: P(|z| > 4.5) = 7e-6 each) and the chi-square of
+// all bins' z-scores consistent with their count (p > 1e-3). Green channel (the walk's bins of
+// the three channels share photons). The bins' power equals the diffuse totals.
+void expect_bins_match_walk(const LayerStack& s, double theta_deg, int K, int M, std::uint64_t samples, int points) {
+  BrdfOptions o;
+  o.theta_i_deg = theta_deg;
+  o.samples = samples;
+  o.bins_theta = K;
+  o.bins_phi = M;
+  AddingDoublingTotals totals;
+  const BrdfTable ad = brdf_table_adding_doubling(s, o, order(points), &totals);
+  const BrdfTable mc = brdf_table_monte_carlo(s, o);
+  constexpr int c = 1;
+  double chi2 = 0.0;
+  int dof = 0;
+  double power[2] = {0.0, 0.0};
+  for (int side = 0; side < 2; ++side)
+    for (int k = 0; k < K; ++k)
+      for (int m = 0; m < M; ++m) {
+        const int b = ad.bin_index(static_cast<BrdfSide>(side), k, m);
+        power[side] += ad.value[b][c] * ad.projected_solid_angle(k);
+        EXPECT_EQ(ad.stderr_[b][c], 0.0);
+        const double se = mc.stderr_[b][c];
+        if (se == 0.0) {
+          EXPECT_NEAR(ad.value[b][c], 0.0, 1e-12) << s.name << " side " << side << " k " << k << " m " << m;
+          continue;
+        }
+        const double z = (ad.value[b][c] - mc.value[b][c]) / se;
+        EXPECT_LT(std::abs(z), 4.5) << s.name << " side " << side << " k " << k << " m " << m << ": " << ad.value[b][c]
+                                    << " vs " << mc.value[b][c] << " +- " << se;
+        chi2 += z * z;
+        ++dof;
+      }
+  EXPECT_GT(test::chi_square_p_value(chi2, dof), 1e-3) << s.name << " chi2 " << chi2 << " / " << dof;
+  EXPECT_NEAR(power[0], totals.R_diffuse[c], 1e-9) << s.name;
+  EXPECT_NEAR(power[1], totals.T_diffuse[c], 1e-9) << s.name;
+  EXPECT_NEAR(ad.totals.R_diffuse.value[c], totals.R_diffuse[c], 0.0);
+}
+
+TEST(AddingDoublingBins, MismatchedSlab) {
+  LayerStack s = one_layer(1.4, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.5));
+  s.name = "n 1.4 g 0.5";
+  expect_bins_match_walk(s, 40.0, 4, 6, 1000000, 16);
+}
+
+TEST(AddingDoublingBins, LeafTwoLayersComposite) {
+  LayerStack s = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/leaf.json");
+  expect_bins_match_walk(s, 40.0, 4, 6, 400000, 16);
+}
+
+TEST(AddingDoublingBins, SkinOverLambert) {
+  const LayerStack s = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  expect_bins_match_walk(s, 60.0, 3, 4, 100000, 16);
+}
+
+// Forward-peaked (g = 0.9) transmission: delta-M at 16 points puts f = 0.9^16 = 19% of each
+// scattering into the forward delta, whose power lands in the ballistic bin and misses its
+// neighbour by ~10 standard errors at 1e6 walks (README); at 32 points (f = 3%) it agrees.
+TEST(AddingDoublingBins, ForwardPeakedSlabAt32Points) {
+  LayerStack s = one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9));
+  s.name = "matched g 0.9";
+  expect_bins_match_walk(s, 40.0, 4, 6, 1000000, 32);
 }
 
 TEST(AddingDoubling, RejectsBadArguments) {
