@@ -207,15 +207,15 @@ struct LU {
 };
 
 // The nodes of 1.: node j has invariant u_j = b_j (1 - t_j^2) and du-weight dw_j = 2 b_j t_j w_j
-// (0 for the incidence node, which has b = n_above^2 and t = mu_0).
+// (0 for the incidence nodes, which have b = n_above^2 and t = mu_0 and come after the real ones).
 struct Nodes {
   std::vector<double> b, t, du_weight;
-  int incidence = -1;
+  std::vector<int> incidences;
   int real = 0;  // nodes with weight > 0
   int size() const { return static_cast<int>(b.size()); }
 };
 
-Nodes make_nodes(const std::vector<double>& indices, double n_above, double mu0, int order) {
+Nodes make_nodes(const std::vector<double>& indices, double n_above, const std::vector<double>& mu0s, int order) {
   std::vector<double> sq;
   for (double n : indices) sq.push_back(n * n);
   std::sort(sq.begin(), sq.end());
@@ -235,10 +235,12 @@ Nodes make_nodes(const std::vector<double>& indices, double n_above, double mu0,
     a = b;
   }
   nodes.real = nodes.size();
-  nodes.incidence = nodes.size();
-  nodes.b.push_back(n_above * n_above);
-  nodes.t.push_back(mu0);
-  nodes.du_weight.push_back(0.0);
+  for (double mu0 : mu0s) {
+    nodes.incidences.push_back(nodes.size());
+    nodes.b.push_back(n_above * n_above);
+    nodes.t.push_back(mu0);
+    nodes.du_weight.push_back(0.0);
+  }
   return nodes;
 }
 
@@ -258,7 +260,7 @@ Medium make_medium(const Nodes& nodes, double n) {
   for (int j = 0; j < nodes.size(); ++j) {
     // mu^2 = 1 - u/n^2 with u = b (1 - t^2), written to keep precision in the top segment.
     const double mu2 = (n2 - nodes.b[j] + nodes.b[j] * nodes.t[j] * nodes.t[j]) / n2;
-    const bool exists = j == nodes.incidence ? mu2 > 0.0 : nodes.b[j] <= n2;
+    const bool exists = j >= nodes.real ? mu2 > 0.0 : nodes.b[j] <= n2;
     if (!exists || !(mu2 > 0.0)) continue;
     m.active.push_back(j);
     m.mu.push_back(std::min(1.0, std::sqrt(mu2)));
@@ -480,7 +482,7 @@ Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size
   return e;
 }
 
-// The discretised stack for one incidence cosine.
+// The discretised stack for a set of incidence cosines.
 struct Problem {
   const LayerStack* stack = nullptr;
   Nodes nodes;
@@ -490,10 +492,10 @@ struct Problem {
   int size() const { return nodes.size(); }
 };
 
-Problem make_problem(const LayerStack& stack, double cos_theta_i, const AddingDoublingSettings& settings,
-                     const char* who) {
-  if (!(cos_theta_i > 0.0 && cos_theta_i <= 1.0))
-    throw std::invalid_argument(std::string(who) + ": cos_theta_i must be in (0, 1]");
+Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_theta_i,
+                     const AddingDoublingSettings& settings, const char* who) {
+  for (double mu : cos_theta_i)
+    if (!(mu > 0.0 && mu <= 1.0)) throw std::invalid_argument(std::string(who) + ": cos_theta_i must be in (0, 1]");
   if (settings.quadrature_points < 2)
     throw std::invalid_argument(std::string(who) + ": quadrature_points must be at least 2");
   if (stack.layers.empty()) throw std::invalid_argument(std::string(who) + ": the stack has no layers");
@@ -537,8 +539,8 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
   return acc;
 }
 
-void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int c, AddingDoublingTotals* out) {
-  const int size = p.size(), j0 = p.nodes.incidence;
+void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int c, int j0, AddingDoublingTotals* out) {
+  const int size = p.size();
   // Collimated: the column of the incidence node; diffuse: the columns weighted by W (2.).
   double R = 0.0, T = 0.0;
   for (int i = 0; i < size; ++i) {
@@ -571,11 +573,12 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
 
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings) {
-  const Problem p = make_problem(stack, cos_theta_i, settings, "adding_doubling_totals");
+  const Problem p = make_problem(stack, {cos_theta_i}, settings, "adding_doubling_totals");
   AddingDoublingTotals out;
   out.nodes = p.nodes.real;
   const ZerothOrder z = zeroth_order(stack, cos_theta_i);
-  for (int c = 0; c < kChannels; ++c) fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, &out);
+  for (int c = 0; c < kChannels; ++c)
+    fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, p.nodes.incidences[0], &out);
   return out;
 }
 
@@ -653,16 +656,38 @@ struct ModeRadiance {
 
 }  // namespace
 
-BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
-                                     const AddingDoublingSettings& settings, AddingDoublingTotals* totals) {
-  const double mu0 = incident_direction(options.theta_i_deg, options.phi_i_deg).z;
+std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
+                                                   const std::vector<double>& theta_i_deg,
+                                                   const AddingDoublingSettings& settings,
+                                                   std::vector<AddingDoublingTotals>* totals) {
+  const int n_inc = static_cast<int>(theta_i_deg.size());
+  if (n_inc == 0) return {};
+  std::vector<double> mu0(n_inc);
+  std::vector<BrdfOptions> opts(n_inc, options);
+  for (int q = 0; q < n_inc; ++q) {
+    opts[q].theta_i_deg = theta_i_deg[q];
+    mu0[q] = incident_direction(theta_i_deg[q], options.phi_i_deg).z;
+  }
   const Problem p = make_problem(stack, mu0, settings, "brdf_table_adding_doubling");
-  // The single-scattering part and the table's layout from the analytic first order.
-  BrdfTable table = brdf_table_first_order(stack, options);
   const int K = options.bins_theta, Mphi = options.bins_phi;
-  const ZerothOrder z = zeroth_order(stack, mu0);
-  AddingDoublingTotals t;
-  t.nodes = p.nodes.real;
+  std::vector<BrdfTable> tables(n_inc);
+  std::vector<ZerothOrder> z(n_inc);
+  std::vector<AddingDoublingTotals> t(n_inc);
+  std::vector<std::vector<Spectrum>> value(n_inc);
+  for (int q = 0; q < n_inc; ++q) {
+    // The single-scattering part and the table's layout from the analytic first order.
+    if (settings.single_scattering_bins) {
+      tables[q] = brdf_table_first_order(stack, opts[q]);
+    } else {
+      tables[q].options = opts[q];
+      tables[q].value.assign(2u * K * Mphi, Spectrum(0.0));
+      tables[q].stderr_ = tables[q].single = tables[q].multiple = tables[q].single_stderr = tables[q].value;
+    }
+    z[q] = zeroth_order(stack, mu0[q]);
+    t[q].nodes = p.nodes.real;
+    value[q].assign(tables[q].value.size(), Spectrum(0.0));
+  }
+  const BrdfTable& layout = tables[0];
   int modes = 1;
   for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
 
@@ -673,30 +698,53 @@ BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions&
     if (mode == 0) return hi - lo;
     return (std::sin(mode * (hi - kPi)) - std::sin(mode * (lo - kPi))) / mode;
   };
-  std::vector<Spectrum> value(table.value.size(), Spectrum(0.0));
   ModeRadiance L;
-  for (int c = 0; c < kChannels; ++c)
-    for (int mode = 0; mode < modes; ++mode) {
-      const Element acc = solve_stack(p, c, mode, &t.doublings);
-      if (mode == 0) fill_totals(p, acc, z, c, &t);
-      const double weight = mode == 0 ? 1.0 : 2.0;
-      for (int side = 0; side < (acc.Td.n > 0 ? 2 : 1); ++side) {
-        L.build(p, side == 0 ? p.above : p.below, side == 0 ? acc.Rt : acc.Td, p.nodes.incidence);
-        for (int k = 0; k < K; ++k) {
-          const double mu_part = L.integral(static_cast<double>(k) / K, static_cast<double>(k + 1) / K);
-          for (int b = 0; b < Mphi; ++b)
-            value[table.bin_index(static_cast<BrdfSide>(side), k, b)][c] +=
-                weight * mu_part * phi_integral(mode, b) / table.projected_solid_angle(k);
-        }
+  // The size of a mode: its largest outgoing power from an incidence column.
+  auto mode_size = [&](const Element& acc) {
+    double size = 0.0;
+    for (int j : p.nodes.incidences)
+      for (int i = 0; i < p.nodes.real; ++i) {
+        size = std::max(size, std::abs(acc.Rt(i, j)));
+        if (acc.Td.n > 0) size = std::max(size, std::abs(acc.Td(i, j)));
       }
+    return size;
+  };
+  int doublings = 0;
+  for (int c = 0; c < kChannels; ++c) {
+    double size0 = 0.0;
+    int small = 0;
+    for (int mode = 0; mode < modes; ++mode) {
+      const Element acc = solve_stack(p, c, mode, &doublings);
+      if (mode == 0)
+        for (int q = 0; q < n_inc; ++q) fill_totals(p, acc, z[q], c, p.nodes.incidences[q], &t[q]);
+      // The modes fall off with m (multiple scattering smooths the azimuthal dependence, and the
+      // phase function's own modes decay as g^m): after two modes below 1e-7 of mode 0 the rest
+      // cannot change a bin by more than about that fraction of the largest value, so they are
+      // not solved.
+      const double size = mode_size(acc);
+      if (mode == 0) size0 = size;
+      small = size <= 1e-7 * size0 ? small + 1 : 0;
+      const double weight = mode == 0 ? 1.0 : 2.0;
+      for (int q = 0; q < n_inc; ++q)
+        for (int side = 0; side < (acc.Td.n > 0 ? 2 : 1); ++side) {
+          L.build(p, side == 0 ? p.above : p.below, side == 0 ? acc.Rt : acc.Td, p.nodes.incidences[q]);
+          for (int k = 0; k < K; ++k) {
+            const double mu_part = L.integral(static_cast<double>(k) / K, static_cast<double>(k + 1) / K);
+            for (int b = 0; b < Mphi; ++b)
+              value[q][layout.bin_index(static_cast<BrdfSide>(side), k, b)][c] +=
+                  weight * mu_part * phi_integral(mode, b) / layout.projected_solid_angle(k);
+          }
+        }
+      if (small >= 2) break;
     }
+  }
 
   // 9. The delta-M forward peak: the solver counts light scattered into it as unscattered, so
   // its power, (the solver's unscattered exit) - (the exact one) = the true diffuse total minus
   // the bins' mode-0 power, leaves in the mirror (ballistic) direction. It is put in the bin
   // that holds that direction (split between the two bins that meet at phi = pi when M is even,
   // over the whole top ring at normal incidence): the forward peak's width is below a bin's.
-  auto add_peak = [&](BrdfSide side, double mu, int c, double power) {
+  auto add_peak = [&](std::vector<Spectrum>& v, BrdfSide side, double mu, int c, double power) {
     if (mu <= 0.0 || power == 0.0) return;
     const int k = std::min(K - 1, static_cast<int>(mu * K));
     std::vector<int> bins;
@@ -707,36 +755,46 @@ BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions&
     } else {
       bins = {Mphi / 2};
     }
-    for (int b : bins)
-      value[table.bin_index(side, k, b)][c] += power / bins.size() / table.projected_solid_angle(k);
+    for (int b : bins) v[layout.bin_index(side, k, b)][c] += power / bins.size() / layout.projected_solid_angle(k);
   };
-  for (int c = 0; c < kChannels; ++c) {
-    double binned_R = 0.0, binned_T = 0.0;
-    for (int k = 0; k < K; ++k)
-      for (int b = 0; b < Mphi; ++b) {
-        binned_R += value[table.bin_index(BrdfSide::Reflect, k, b)][c] * table.projected_solid_angle(k);
-        binned_T += value[table.bin_index(BrdfSide::Transmit, k, b)][c] * table.projected_solid_angle(k);
+  for (int q = 0; q < n_inc; ++q) {
+    t[q].doublings = doublings;
+    for (int c = 0; c < kChannels; ++c) {
+      double binned_R = 0.0, binned_T = 0.0;
+      for (int k = 0; k < K; ++k)
+        for (int b = 0; b < Mphi; ++b) {
+          binned_R += value[q][layout.bin_index(BrdfSide::Reflect, k, b)][c] * layout.projected_solid_angle(k);
+          binned_T += value[q][layout.bin_index(BrdfSide::Transmit, k, b)][c] * layout.projected_solid_angle(k);
+        }
+      t[q].R_forward_peak[c] = t[q].R_diffuse[c] - binned_R;
+      add_peak(value[q], BrdfSide::Reflect, mu0[q], c, t[q].R_forward_peak[c]);
+      if (p.transmits) {
+        t[q].T_forward_peak[c] = t[q].T_diffuse[c] - binned_T;
+        add_peak(value[q], BrdfSide::Transmit, z[q].cos_below, c, t[q].T_forward_peak[c]);
       }
-    t.R_forward_peak[c] = t.R_diffuse[c] - binned_R;
-    add_peak(BrdfSide::Reflect, mu0, c, t.R_forward_peak[c]);
-    if (p.transmits) {
-      t.T_forward_peak[c] = t.T_diffuse[c] - binned_T;
-      add_peak(BrdfSide::Transmit, z.cos_below, c, t.T_forward_peak[c]);
     }
+    BrdfTable& table = tables[q];
+    for (std::size_t b = 0; b < value[q].size(); ++b) {
+      table.value[b] = value[q][b];
+      table.multiple[b] = value[q][b] - table.single[b];
+      table.stderr_[b] = Spectrum(0.0);
+    }
+    table.totals.R_specular = {t[q].R_specular, Spectrum(0.0)};
+    table.totals.R_diffuse = {t[q].R_diffuse, Spectrum(0.0)};
+    table.totals.T_ballistic = {t[q].T_ballistic, Spectrum(0.0)};
+    table.totals.T_diffuse = {t[q].T_diffuse, Spectrum(0.0)};
+    table.totals.absorbed = {t[q].absorbed, Spectrum(0.0)};
   }
-
-  for (std::size_t b = 0; b < value.size(); ++b) {
-    table.value[b] = value[b];
-    table.multiple[b] = value[b] - table.single[b];
-    table.stderr_[b] = Spectrum(0.0);
-  }
-  table.totals.R_specular = {t.R_specular, Spectrum(0.0)};
-  table.totals.R_diffuse = {t.R_diffuse, Spectrum(0.0)};
-  table.totals.T_ballistic = {t.T_ballistic, Spectrum(0.0)};
-  table.totals.T_diffuse = {t.T_diffuse, Spectrum(0.0)};
-  table.totals.absorbed = {t.absorbed, Spectrum(0.0)};
   if (totals) *totals = t;
-  return table;
+  return tables;
+}
+
+BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
+                                     const AddingDoublingSettings& settings, AddingDoublingTotals* totals) {
+  std::vector<AddingDoublingTotals> t;
+  std::vector<BrdfTable> tables = brdf_tables_adding_doubling(stack, options, {options.theta_i_deg}, settings, &t);
+  if (totals) *totals = t[0];
+  return std::move(tables[0]);
 }
 
 AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, double cos_theta_i,

@@ -28,6 +28,8 @@
 // W. J. Wiscombe, "The delta-M method", J. Atmos. Sci. 34 (1977) 1408.
 #pragma once
 
+#include <vector>
+
 #include "materials/brdf_table.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
@@ -39,6 +41,9 @@ struct AddingDoublingSettings {
   // segment gets a share in proportion to its cosine range (at least 2). The delta-M truncation
   // order of a layer is the number of its nodes (iad's choice).
   int quadrature_points = 16;
+  // brdf_table_adding_doubling: fill the table's `single` with the analytic first order (else
+  // single = 0 and multiple = value; the table mode does not need it).
+  bool single_scattering_bins = true;
 };
 
 struct AddingDoublingTotals {
@@ -85,5 +90,12 @@ AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, doubl
 BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
                                      const AddingDoublingSettings& settings = {},
                                      AddingDoublingTotals* totals = nullptr);
+// The same for several incidences at once (options.theta_i_deg is replaced by each of
+// theta_i_deg): one solution serves them all (each incidence is one more node of weight zero),
+// so a table of 9 incidences costs about twice one incidence.
+std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
+                                                   const std::vector<double>& theta_i_deg,
+                                                   const AddingDoublingSettings& settings = {},
+                                                   std::vector<AddingDoublingTotals>* totals = nullptr);
 
 }  // namespace lamina

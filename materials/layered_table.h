@@ -1,5 +1,6 @@
 // The table mode's BRDF/BTDF table of a stack, estimated by THE random walk (materials/brdf_table,
-// the same code as `lamina brdf --method monte-carlo`) before rendering; renderer/surfaces/
+// the same code as `lamina brdf --method monte-carlo`) or computed by adding-doubling
+// (materials/adding_doubling, `--method adding-doubling`) before rendering; renderer/surfaces/
 // table_surface.h evaluates and samples it, renderer/layered/layered_tables.h holds a scene's.
 //
 // Layout: `nodes` incidence cosines from grazing to normal (table_node_cosine); per node the walk's bin averages
@@ -33,6 +34,14 @@ struct TableSettings {
   int bins_phi = 24;     // M
   std::uint64_t walks_per_node = 50000;
   std::uint64_t seed = 7;
+  // How each node's bins are computed: the walk (brdf_table_monte_carlo with walks_per_node and
+  // seed) or adding-doubling (brdf_table_adding_doubling at quadrature_points: no noise, the
+  // delta-M forward peak in the mirror / ballistic bin). The renderer still uses the walk (the
+  // default): switching it, a command-line option and subsurface_auto's table-noise model are
+  // issue 13 item 4's remaining steps (README, "Adding-doubling").
+  enum class Method { MonteCarlo, AddingDoubling };
+  Method method = Method::MonteCarlo;
+  int quadrature_points = 16;
 };
 
 struct LayeredTable {
@@ -62,7 +71,8 @@ struct TableNodes {
 };
 TableNodes table_nodes_at(const TableSettings& settings, double mu);
 
-// Builds the table of `stack` by the walk; deterministic for any thread count.
+// Builds the table of `stack` by the walk or by adding-doubling (settings.method);
+// deterministic for any thread count.
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings);
 
 }  // namespace lamina

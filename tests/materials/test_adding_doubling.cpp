@@ -15,6 +15,7 @@
 
 #include "materials/brdf_table.h"
 #include "materials/first_order.h"  // gauss_legendre
+#include "materials/layered_table.h"
 #include "materials/stack_file.h"
 #include "tests/materials/stack_fixtures.h"
 #include "tests/support/statistics.h"
@@ -300,6 +301,46 @@ TEST(AddingDoublingBins, ForwardPeakedSlabAt32Points) {
   LayerStack s = one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9));
   s.name = "matched g 0.9";
   expect_bins_match_walk(s, 40.0, 4, 6, 1000000, 32);
+}
+
+// The table mode's builder (materials/layered_table) with Method::AddingDoubling against the
+// same builder with the walk: every node's bins (3 nodes, grazing to normal), green, within 4.5
+// standard errors and chi-square p > 1e-3; the CDF ends at 1 and the powers agree.
+TEST(AddingDoublingBins, LayeredTableMatchesTheWalksTable) {
+  LayerStack s = one_layer(1.4, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.5));
+  TableSettings ts;
+  ts.nodes = 3;
+  ts.bins_theta = 3;
+  ts.bins_phi = 4;
+  ts.walks_per_node = 200000;
+  TableSettings ad_settings = ts;
+  ad_settings.method = TableSettings::Method::AddingDoubling;
+  const LayeredTable mc = build_layered_table(s, ts);
+  const LayeredTable ad = build_layered_table(s, ad_settings);
+  // The walk's standard errors of the same bins (the table keeps only the values).
+  double chi2 = 0.0;
+  int dof = 0;
+  for (int j = 0; j < ts.nodes; ++j) {
+    BrdfOptions o;
+    o.theta_i_deg = std::acos(table_node_cosine(ts, j)) * 180.0 / 3.14159265358979323846;
+    o.samples = ts.walks_per_node;
+    o.bins_theta = ts.bins_theta;
+    o.bins_phi = ts.bins_phi;
+    o.seed = ts.seed + 1000003ull * j;
+    const BrdfTable walk = brdf_table_monte_carlo(s, o);  // the same walks as the table's node j
+    for (int b = 0; b < ad.bins(); ++b) {
+      ASSERT_EQ(walk.value[b][1], mc.at(j, b)[1]);
+      const double se = walk.stderr_[b][1];
+      if (se == 0.0) continue;
+      const double z = (ad.at(j, b)[1] - mc.at(j, b)[1]) / se;
+      EXPECT_LT(std::abs(z), 4.5) << "node " << j << " bin " << b;
+      chi2 += z * z;
+      ++dof;
+    }
+    EXPECT_DOUBLE_EQ(ad.cdf[static_cast<std::size_t>(j) * ad.bins() + ad.bins() - 1], 1.0);
+    EXPECT_NEAR(ad.power[j], mc.power[j], 0.02 * mc.power[j]);
+  }
+  EXPECT_GT(test::chi_square_p_value(chi2, dof), 1e-3) << chi2 << " / " << dof;
 }
 
 TEST(AddingDoubling, RejectsBadArguments) {
