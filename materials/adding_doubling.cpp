@@ -46,7 +46,8 @@
 //    addition theorem's m = 0 term, p0(mu, mu') = (1/4 pi) sum_{l<M} (2l+1) chi'_l P_l(mu) P_l(mu').
 //    Delta-M (Wiscombe 1977) keeps M terms exactly and puts the rest in a forward delta of
 //    weight f = chi_M: chi'_l = (chi_l - f)/(1 - f), tau' = (1 - a f) tau,
-//    a' = a (1 - f)/(1 - a f). The forward delta is unscattered light for the solver, so the
+//    a' = a (1 - f)/(1 - a f) (f from the lobes with g > 0 only: a backward lobe has no forward
+//    peak to truncate). The forward delta is unscattered light for the solver, so the
 //    totals R and T are right but their split into unscattered and scattered is not: the exact
 //    unscattered parts come from materials/zeroth_order and the scattered parts are the rest.
 //    M is the number of the medium's nodes per hemisphere, as in iad (Prahl 1995, 5.3.3).
@@ -365,7 +366,13 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
       double gl = 1.0;
       for (int l = 0; l <= M; ++l, gl *= g) chi[l] += w * gl;
     }
-  const double f = a > 0.0 ? chi[M] : 0.0;
+  // Delta-M truncates forward peaks only: f is the M-th moment of the lobes with g > 0 (a
+  // backward lobe's g^M, positive for even M, is no forward peak and would make the truncated
+  // moments (chi_l - f)/(1 - f) explode as g -> -1).
+  double f = 0.0;
+  if (a > 0.0)
+    for (const PhaseLobe& lobe : layer.lobes)
+      if (lobe.g[c] > 0.0) f += lobe.sigma_s[c] / sigma_s * std::pow(lobe.g[c], M);
   const double a_scaled = a > 0.0 ? a * (1.0 - f) / (1.0 - a * f) : 0.0;
   const double tau_scale = 1.0 - a * f;  // tau' = tau (1 - a f)
 
@@ -795,6 +802,27 @@ BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions&
   std::vector<BrdfTable> tables = brdf_tables_adding_doubling(stack, options, {options.theta_i_deg}, settings, &t);
   if (totals) *totals = t[0];
   return std::move(tables[0]);
+}
+
+DeltaMTruncation delta_m_truncation(const LayerStack& stack, const AddingDoublingSettings& settings) {
+  const Problem p = make_problem(stack, {1.0}, settings, "delta_m_truncation");
+  DeltaMTruncation out;
+  for (std::size_t k = 0; k < stack.layers.size(); ++k) {
+    const Layer& layer = stack.layers[k];
+    const int M = truncation_order(p.media[k]);
+    for (int c = 0; c < kChannels; ++c) {
+      const double sigma_s = layer.sigma_s()[c];
+      if (!(sigma_s > 0.0)) continue;
+      double forward = 0.0, backward = 0.0;
+      for (const PhaseLobe& lobe : layer.lobes) {
+        const double w = lobe.sigma_s[c] / sigma_s, g = lobe.g[c];
+        (g > 0.0 ? forward : backward) += w * std::pow(std::abs(g), M);
+      }
+      out.forward = std::max(out.forward, forward);
+      out.backward = std::max(out.backward, backward);
+    }
+  }
+  return out;
 }
 
 AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, double cos_theta_i,

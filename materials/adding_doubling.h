@@ -70,6 +70,18 @@ struct AddingDoublingTotals {
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings = {});
 
+// How much of the phase function the delta-M truncation at the order of `settings` leaves out,
+// the largest over layers and channels: `forward`, the weight of the forward delta (the lobes
+// with g > 0: sum w g^M, M the layer's number of nodes), which the totals handle exactly but the
+// bins only as a peak in the mirror / ballistic bin; `backward`, the part of lobes with g < 0
+// beyond order M (sum w |g|^M), which the truncated series represents badly (a backward peak
+// is not truncated: its Legendre series oscillates, and the bins can go negative). The table
+// mode uses adding-doubling only where both are small (materials/layered_table.h).
+struct DeltaMTruncation {
+  double forward = 0.0, backward = 0.0;
+};
+DeltaMTruncation delta_m_truncation(const LayerStack& stack, const AddingDoublingSettings& settings = {});
+
 // The totals at the order of `settings` and an estimate of their discretisation error: the
 // absolute difference from the solution at half the order (a conservative estimate, since the
 // error falls quickly with the order; see the README's convergence table).

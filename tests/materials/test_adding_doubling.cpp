@@ -313,6 +313,7 @@ TEST(AddingDoublingBins, LayeredTableMatchesTheWalksTable) {
   ts.bins_theta = 3;
   ts.bins_phi = 4;
   ts.walks_per_node = 200000;
+  ts.method = TableSettings::Method::MonteCarlo;
   TableSettings ad_settings = ts;
   ad_settings.method = TableSettings::Method::AddingDoubling;
   const LayeredTable mc = build_layered_table(s, ts);
@@ -341,6 +342,27 @@ TEST(AddingDoublingBins, LayeredTableMatchesTheWalksTable) {
     EXPECT_NEAR(ad.power[j], mc.power[j], 0.02 * mc.power[j]);
   }
   EXPECT_GT(test::chi_square_p_value(chi2, dof), 1e-3) << chi2 << " / " << dof;
+}
+
+// The table builder's choice (TableSettings): adding-doubling at the given order where delta-M
+// leaves little out (skin, g 0.8: 0.8^28), a higher order for g = 0.9 (0.9^N <= 3%), the walk for a
+// backward lobe the truncated series cannot resolve (g = -0.9: 0.9^28 = 5%).
+TEST(AddingDoublingBins, TableChoosesOrderOrFallsBackToTheWalk) {
+  TableSettings ts;
+  ts.nodes = 2;
+  ts.bins_theta = 2;
+  ts.bins_phi = 2;
+  ts.walks_per_node = 1000;
+  const LayerStack skin = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  const LayeredTable a = build_layered_table(skin, ts);
+  EXPECT_FALSE(a.walk_fallback);
+  EXPECT_EQ(a.quadrature_points, 16);
+  const LayeredTable b = build_layered_table(one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9)), ts);
+  EXPECT_FALSE(b.walk_fallback);
+  EXPECT_GE(b.quadrature_points, 32);
+  EXPECT_LE(delta_m_truncation(one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9)), order(b.quadrature_points)).forward, 0.03);
+  const LayeredTable c = build_layered_table(one_layer(1.4, 0.2, Spectrum(0.3), Spectrum(6.0), Spectrum(-0.9)), ts);
+  EXPECT_TRUE(c.walk_fallback);
 }
 
 TEST(AddingDoubling, RejectsBadArguments) {
