@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "materials/adding_doubling.h"
 #include "materials/brdf_table.h"
 #include "materials/sampling.h"
 
@@ -42,6 +43,28 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
   t.value.resize(static_cast<std::size_t>(settings.nodes) * B);
   t.cdf.resize(static_cast<std::size_t>(settings.nodes) * B);
   t.power.resize(settings.nodes);
+  // Adding-doubling solves every node at once (one solution, an incidence node per table node).
+  std::vector<BrdfTable> ad_tables;
+  AddingDoublingSettings ad;
+  ad.quadrature_points = settings.quadrature_points;
+  ad.single_scattering_bins = false;
+  if (settings.method == TableSettings::Method::AddingDoubling) {
+    DeltaMTruncation truncation = delta_m_truncation(stack, ad);
+    while (truncation.forward > 0.03 && ad.quadrature_points < 48) {
+      ad.quadrature_points = std::min(48, ad.quadrature_points + 8);
+      truncation = delta_m_truncation(stack, ad);
+    }
+    t.quadrature_points = ad.quadrature_points;
+    t.walk_fallback = truncation.forward > 0.03 || truncation.backward > 1e-3;
+  }
+  if (settings.method == TableSettings::Method::AddingDoubling && !t.walk_fallback) {
+    BrdfOptions o;
+    o.bins_theta = settings.bins_theta;
+    o.bins_phi = settings.bins_phi;
+    std::vector<double> theta(settings.nodes);
+    for (int j = 0; j < settings.nodes; ++j) theta[j] = std::acos(table_node_cosine(settings, j)) * 180.0 / kPi;
+    ad_tables = brdf_tables_adding_doubling(stack, o, theta, ad);
+  }
   for (int j = 0; j < settings.nodes; ++j) {
     BrdfOptions o;
     const double mu = table_node_cosine(settings, j);
@@ -50,7 +73,7 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
     o.bins_theta = settings.bins_theta;
     o.bins_phi = settings.bins_phi;
     o.seed = settings.seed + 1000003ull * j;
-    const BrdfTable bt = brdf_table_monte_carlo(stack, o);
+    const BrdfTable bt = ad_tables.empty() ? brdf_table_monte_carlo(stack, o) : std::move(ad_tables[j]);
     double sum = 0.0;
     for (int side = 0; side < 2; ++side)
       for (int k = 0; k < settings.bins_theta; ++k)

@@ -1,5 +1,6 @@
 // The table mode's BRDF/BTDF table of a stack, estimated by THE random walk (materials/brdf_table,
-// the same code as `lamina brdf --method monte-carlo`) before rendering; renderer/surfaces/
+// the same code as `lamina brdf --method monte-carlo`) or computed by adding-doubling
+// (materials/adding_doubling, `--method adding-doubling`) before rendering; renderer/surfaces/
 // table_surface.h evaluates and samples it, renderer/layered/layered_tables.h holds a scene's.
 //
 // Layout: `nodes` incidence cosines from grazing to normal (table_node_cosine); per node the walk's bin averages
@@ -33,6 +34,17 @@ struct TableSettings {
   int bins_phi = 24;     // M
   std::uint64_t walks_per_node = 50000;
   std::uint64_t seed = 7;
+  // How each node's bins are computed: adding-doubling (the default: brdf_tables_adding_doubling
+  // at quadrature_points, all nodes in one solution, no noise, the delta-M forward peak in the
+  // mirror / ballistic bin) or the walk (brdf_table_monte_carlo with walks_per_node and seed).
+  // Adding-doubling raises the quadrature order from quadrature_points (in steps of 8, up to 48)
+  // until the delta-M forward peak holds at most 3% of a scattering (delta_m_truncation; at 16
+  // points g = 0.9 puts 19% in it and the bins beside the ballistic direction miss by ~10 sigma
+  // of a 1e6-walk table), and falls back to the walk when that is not enough or a backward lobe
+  // is not resolved (backward part > 1e-3, e.g. g < -0.8): LayeredTable::walk_fallback.
+  enum class Method { MonteCarlo, AddingDoubling };
+  Method method = Method::AddingDoubling;
+  int quadrature_points = 16;
 };
 
 struct LayeredTable {
@@ -45,6 +57,9 @@ struct LayeredTable {
   std::vector<double> cdf;
   std::vector<double> power;
   double build_seconds = 0.0;
+  // Method::AddingDoubling only: the order used, and whether the stack needed the walk instead.
+  int quadrature_points = 0;
+  bool walk_fallback = false;
 
   int bins() const { return 2 * settings.bins_theta * settings.bins_phi; }
   const Spectrum& at(int node, int bin) const { return value[static_cast<std::size_t>(node) * bins() + bin]; }
@@ -62,7 +77,8 @@ struct TableNodes {
 };
 TableNodes table_nodes_at(const TableSettings& settings, double mu);
 
-// Builds the table of `stack` by the walk; deterministic for any thread count.
+// Builds the table of `stack` by the walk or by adding-doubling (settings.method);
+// deterministic for any thread count.
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings);
 
 }  // namespace lamina

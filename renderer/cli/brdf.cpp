@@ -11,6 +11,11 @@
 //                        "seed" for provenance, and "walk_ends" (monte-carlo: how many walks
 //                        left through the top or bottom, were absorbed, ended by roulette or
 //                        were lost). Printed to stdout if omitted.
+//                        adding-doubling: the same keys (standard errors 0), "quadrature_points",
+//                        "discretisation_error" (the five keys and the three below: |value at N -
+//                        value at N/2| nodes) and R/T/absorbed_hemispherical (diffuse incidence);
+//                        with --out also R/T_forward_peak (the delta-M peak's power in the
+//                        mirror / ballistic bins).
 // Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
 // renamed into place once both are written. Every number is checked by renderer/cli/options.h.
 #include <cmath>
@@ -19,11 +24,13 @@
 #include <sstream>
 #include <stdexcept>
 #include <optional>
+#include <utility>
 #include <string>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "materials/adding_doubling.h"
 #include "materials/brdf_table.h"
 #include "materials/stack_file.h"
 #include "renderer/cli/commands.h"
@@ -100,6 +107,45 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
   return j.dump(2) + "\n";
 }
 
+// The summary of --method adding-doubling: the keys of totals_json with standard errors 0, the
+// diffuse-incidence totals, and the discretisation error estimate (materials/adding_doubling.h).
+std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const BrdfOptions& o, int quadrature_points,
+                                 bool with_table) {
+  nlohmann::ordered_json j;
+  j["method"] = "adding-doubling";
+  j["theta_i_deg"] = o.theta_i_deg;
+  j["phi_i_deg"] = o.phi_i_deg;
+  j["quadrature_points"] = quadrature_points;
+  auto rgb = [](const lamina::Spectrum& s) { return nlohmann::ordered_json{s[0], s[1], s[2]}; };
+  const lamina::AddingDoublingTotals& t = e.totals;
+  const std::pair<const char*, const lamina::Spectrum*> keys[] = {
+      {"R_specular", &t.R_specular}, {"R_diffuse", &t.R_diffuse}, {"T_ballistic", &t.T_ballistic},
+      {"T_diffuse", &t.T_diffuse},   {"absorbed", &t.absorbed}};
+  for (const auto& [key, value] : keys) {
+    j[key] = rgb(*value);
+    j[std::string(key) + "_stderr"] = rgb(lamina::Spectrum(0.0));
+  }
+  j["R_hemispherical"] = rgb(t.R_hemispherical);
+  j["T_hemispherical"] = rgb(t.T_hemispherical);
+  j["absorbed_hemispherical"] = rgb(t.absorbed_hemispherical);
+  const lamina::AddingDoublingTotals& d = e.error;
+  nlohmann::ordered_json err;
+  err["R_specular"] = rgb(d.R_specular);
+  err["R_diffuse"] = rgb(d.R_diffuse);
+  err["T_ballistic"] = rgb(d.T_ballistic);
+  err["T_diffuse"] = rgb(d.T_diffuse);
+  err["absorbed"] = rgb(d.absorbed);
+  err["R_hemispherical"] = rgb(d.R_hemispherical);
+  err["T_hemispherical"] = rgb(d.T_hemispherical);
+  err["absorbed_hemispherical"] = rgb(d.absorbed_hemispherical);
+  j["discretisation_error"] = err;
+  if (with_table) {
+    j["R_forward_peak"] = rgb(t.R_forward_peak);
+    j["T_forward_peak"] = rgb(t.T_forward_peak);
+  }
+  return j.dump(2) + "\n";
+}
+
 }  // namespace
 
 int run_brdf(int argc, char** argv) {
@@ -107,21 +153,27 @@ int run_brdf(int argc, char** argv) {
       "BRDF/BTDF table and energy totals of a layered material for light from (theta_i, phi_i).\n"
       "first-order: the analytic zeroth- and first-order solution (single scattering; 'absorbed'\n"
       "then also holds the light of higher orders). monte-carlo: the random walk, all orders,\n"
-      "single and multiple scattering reported apart, with standard errors.",
+      "single and multiple scattering reported apart, with standard errors. adding-doubling: the\n"
+      "deterministic solution, all orders, with a discretisation error (the table costs one\n"
+      "solution per azimuthal mode).",
       "lamina brdf"};
   std::string stack_path, method = "monte-carlo", out_path, summary_path;
   double theta_i = std::nan(""), phi_i = 0.0;
   std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
   int roulette_cap = lamina::WalkSettings{}.forced_exponential_after;
+  int quadrature_points = lamina::AddingDoublingSettings{}.quadrature_points;
   namespace cli = lamina::cli;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();
   app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")
       ->required()
       ->check(cli::real(0.0, 90.0, false, true));
   app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)")->check(cli::finite());
-  app.add_option("--method", method, "first-order | monte-carlo (default monte-carlo)")
-      ->check(CLI::IsMember({"first-order", "monte-carlo"}));
+  app.add_option("--method", method, "first-order | monte-carlo | adding-doubling (default monte-carlo)")
+      ->check(CLI::IsMember({"first-order", "monte-carlo", "adding-doubling"}));
+  app.add_option("--quadrature-points", quadrature_points,
+                 "adding-doubling: Gauss nodes per cosine segment (default 16); the error estimate uses half")
+      ->check(cli::integer(4, 128));
   app.add_option("--samples", samples, "Monte Carlo photons (default 100000)")->check(cli::integer(2, kMaxSamples));
   app.add_option("--bins-theta", bins_theta, "K bins uniform in cos(theta_o) per hemisphere (default 18)")
       ->check(cli::integer(1, kMaxBins));
@@ -150,13 +202,15 @@ int run_brdf(int argc, char** argv) {
   }
 
   try {
-    if (method == "first-order" && app.count("--samples") + app.count("--seed") > 0)
-      std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method first-order\n");
+    if (method != "monte-carlo" && app.count("--samples") + app.count("--seed") > 0)
+      std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method %s\n", method.c_str());
+    if (method != "adding-doubling" && app.count("--quadrature-points") > 0)
+      std::fprintf(stderr, "lamina brdf: note: --quadrature-points is only used by --method adding-doubling\n");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
-    if (method == "first-order" && stack.rough_top()) {
-      std::fprintf(stderr, "lamina brdf: %s: roughness: the first-order solution is for a smooth top interface; use --method monte-carlo\n",
-                   stack_path.c_str());
+    if (method != "monte-carlo" && stack.rough_top()) {
+      std::fprintf(stderr, "lamina brdf: %s: roughness: the %s solution is for a smooth top interface; use --method monte-carlo\n",
+                   stack_path.c_str(), method == "first-order" ? "first-order" : "adding-doubling");
       return 1;
     }
     // Fail before a long computation if an output cannot be written.
@@ -169,6 +223,24 @@ int run_brdf(int argc, char** argv) {
     options.bins_phi = bins_phi;
     options.seed = seed;
     options.walk.forced_exponential_after = roulette_cap;
+    if (method == "adding-doubling") {
+      lamina::AddingDoublingSettings settings;
+      settings.quadrature_points = quadrature_points;
+      const double cos_theta_i = lamina::incident_direction(theta_i, phi_i).z;  // as the other methods
+      lamina::AddingDoublingEstimate estimate = lamina::adding_doubling_with_error(stack, cos_theta_i, settings);
+      std::string csv;
+      if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling.h)
+        const BrdfTable table = lamina::brdf_table_adding_doubling(stack, options, settings, &estimate.totals);
+        csv = table_csv(table);
+      }
+      const std::string json = adding_doubling_json(estimate, options, quadrature_points, !out_path.empty());
+      cli::StagedOutputs outputs;  // both files or neither
+      if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
+      if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
+      outputs.commit();
+      if (summary_path.empty()) std::fputs(json.c_str(), stdout);
+      return 0;
+    }
     std::optional<lamina::Progress> progress;
     if (method == "monte-carlo") {
       progress.emplace("brdf", samples);

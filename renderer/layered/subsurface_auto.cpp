@@ -214,6 +214,9 @@ Relative relative_to(const Difference& diff, const Binned& walk, double shape_re
 // the shape's relative error with sqrt(bin count ratio) (see subsurface_auto.h).
 void add_table_statistics(const std::vector<std::pair<const Binned*, double>>& nodes, const AutoSettings& s,
                           const Relative& rel, double* shape2, double* uniform2) {
+  // An adding-doubling table has no noise (its discretisation error, ~1e-4 of a bin, is far
+  // below what the prediction resolves).
+  if (s.table.method == TableSettings::Method::AddingDoubling) return;
   const double bins_ratio = static_cast<double>(s.table.bins_theta * s.table.bins_phi) / (s.bins_theta * s.bins_phi);
   for (const auto& [x, w] : nodes) {
     const double walks_ratio = static_cast<double>(x->walks) / static_cast<double>(std::max<std::uint64_t>(s.table.walks_per_node, 1));

@@ -122,8 +122,11 @@ std::string table_cache_key(const LayerStack& stack, const TableSettings& settin
   std::ostringstream text;
   text << std::hexfloat << "table\nnodes " << settings.nodes << " grazing " << settings.grazing_cosine << " bins "
        << settings.bins_theta << ' ' << settings.bins_phi << " walks " << settings.walks_per_node << " seed "
-       << settings.seed << '\n'
-       << stack_fingerprint(stack);
+       << settings.seed << '\n';
+  // Adding-doubling tables are keyed apart (the walk's keys stay as they were).
+  if (settings.method == TableSettings::Method::AddingDoubling)
+    text << "adding-doubling " << settings.quadrature_points << '\n';
+  text << stack_fingerprint(stack);
   return walk_cache_key(text.str());
 }
 

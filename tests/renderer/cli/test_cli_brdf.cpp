@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -114,6 +115,70 @@ TEST_F(CliBrdf, BadInputGivesOneLineErrors) {
   std::ofstream(bad) << R"({ "lamina_material": 1, "layers": [ { "ior": 1.4, "thickness": 0.1,
       "sigma_a": 0.1, "sigma_s": 1.0, "g": 1.5 } ] })";
   expect_one_line_error("brdf " + bad + " --theta-i 10", "bad.json");
+}
+
+// --method adding-doubling: the totals with standard errors 0, the diffuse-incidence totals and
+// the discretisation error; the five sum to 1 and agree with a Monte Carlo run of the same
+// stack within 4 of its standard errors plus the stated discretisation error; the table.
+TEST_F(CliBrdf, AddingDoublingWritesTotalsAndTable) {
+  const std::string json = dir_ + "/ad.json", mc = dir_ + "/mc.json";
+  const CommandResult r = run("brdf " + stack_ + " --theta-i 40 --method adding-doubling --summary " + json);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CommandResult m = run("brdf " + stack_ + " --theta-i 40 --samples 20000 --summary " + mc);
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  const nlohmann::json j = nlohmann::json::parse(slurp(json)), k = nlohmann::json::parse(slurp(mc));
+  EXPECT_EQ(j["method"], "adding-doubling");
+  EXPECT_EQ(j["quadrature_points"], 16);
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0.0;
+    for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed"}) {
+      sum += j[key][c].get<double>();
+      EXPECT_EQ(j[std::string(key) + "_stderr"][c].get<double>(), 0.0) << key;
+      const double err = j["discretisation_error"][key][c].get<double>();
+      EXPECT_GE(err, 0.0);
+      EXPECT_NEAR(j[key][c].get<double>(), k[key][c].get<double>(),
+                  4.0 * k[std::string(key) + "_stderr"][c].get<double>() + err + 1e-12)
+          << key << " channel " << c;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+    EXPECT_NEAR(j["R_hemispherical"][c].get<double>() + j["T_hemispherical"][c].get<double>() +
+                    j["absorbed_hemispherical"][c].get<double>(),
+                1.0, 1e-12);
+  }
+  // The table: the CSV layout of the other methods, stderr 0, and the bins' power (value times
+  // projected solid angle) equal to R_diffuse and T_diffuse.
+  const std::string csv = dir_ + "/ad.csv", json2 = dir_ + "/ad2.json";
+  const CommandResult t = run("brdf " + stack_ + " --theta-i 40 --method adding-doubling --bins-theta 3 --bins-phi 5 --out " +
+                              csv + " --summary " + json2);
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  const nlohmann::json j2 = nlohmann::json::parse(slurp(json2));
+  EXPECT_TRUE(j2.contains("R_forward_peak") && j2.contains("T_forward_peak"));
+  std::istringstream lines(slurp(csv));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple");
+  int rows = 0;
+  double power[2][3] = {{0, 0, 0}, {0, 0, 0}};
+  while (std::getline(lines, line)) {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    ASSERT_EQ(f.size(), 8u) << line;
+    const int side = f[0] == "reflect" ? 0 : 1, c = f[1] == "r" ? 0 : f[1] == "g" ? 1 : 2;
+    const double mu = std::cos(std::stod(f[2]) * 3.14159265358979323846 / 180.0);
+    const int k = std::min(2, static_cast<int>(mu * 3));  // the bin of the centre's cosine
+    const double omega = 0.5 * ((k + 1) * (k + 1) - k * k) / 9.0 * (2.0 * 3.14159265358979323846 / 5);
+    power[side][c] += std::stod(f[4]) * omega;
+    EXPECT_EQ(std::stod(f[5]), 0.0);
+  }
+  EXPECT_EQ(rows, 2 * 3 * 5 * 3);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(power[0][c], j2["R_diffuse"][c].get<double>(), 1e-7);
+    EXPECT_NEAR(power[1][c], j2["T_diffuse"][c].get<double>(), 1e-7);
+  }
+  expect_one_line_error("brdf " + stack_ + " --theta-i 40 --method adding-doubling --quadrature-points 2",
+                        "--quadrature-points");
 }
 
 }  // namespace
