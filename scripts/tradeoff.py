@@ -87,7 +87,7 @@ def render(args, scene, mode, spp, seed, out_exr):
     if p.returncode != 0:
         fail(f"{' '.join(cmd)} failed: {p.stderr.strip() or p.stdout.strip()}")
     precompute = 0.0
-    m = re.search(r"table mode: .* built by the walk in ([0-9.]+) s", p.stdout)
+    m = re.search(r"table mode: .* built in ([0-9.]+) s", p.stdout)
     if m:
         precompute += float(m.group(1))
     m = re.search(r"lambert mode: albedos by the walk in ([0-9.]+) s", p.stdout)

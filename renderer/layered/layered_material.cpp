@@ -117,11 +117,13 @@ int LayeredBindings::count() const {
 std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode) {
   std::string out;
   auto add = [&](const std::string& what) { out += (out.empty() ? "" : "; ") + what; };
-  const bool maps_dropped = mode == SubsurfaceMode::Table;
-  if (maps_dropped && material.bindings() && !material.bindings()->empty()) {
+  // The table mode follows texture-driven parameters through tables along each of them
+  // (renderer/layered/layered_tables.h), except a roughness: its tables have a smooth top.
+  if (mode == SubsurfaceMode::Table && material.bindings()) {
     std::string names;
-    for (const StackParameter& p : material.bindings()->parameters()) names += (names.empty() ? "" : ", ") + p.path;
-    add("the texture-driven parameters (" + names + "): the base stack everywhere");
+    for (const StackParameter& p : material.bindings()->parameters())
+      if (p.kind == StackParameter::Kind::kRoughness) names += (names.empty() ? "" : ", ") + p.path;
+    if (!names.empty()) add("the texture-driven roughness (" + names + "): a smooth top everywhere");
   }
   const bool smooth_only = mode == SubsurfaceMode::Table || mode == SubsurfaceMode::FirstOrder;
   if (smooth_only && material.base_stack().rough_top()) {

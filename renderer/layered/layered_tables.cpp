@@ -1,7 +1,11 @@
 #include "renderer/layered/layered_tables.h"
 
+#include <algorithm>
+#include <array>
 #include <optional>
 
+#include "materials/stack_parameters.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/walk_cache.h"
 
 namespace lamina {
@@ -22,6 +26,7 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     auto t = std::make_unique<LayeredTable>(build_layered_table(stack, settings));
     seconds_ += t->build_seconds;
     ++built_;
+    if (t->walk_fallback || settings.method == TableSettings::Method::MonteCarlo) ++built_by_walk_;
     if (cache) cache->store(stack, *t);
     return t;
   };
@@ -35,11 +40,78 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       smooth_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
       stack = smooth_stacks_.back().get();
     }
-    tables_[{m.get(), false}] = obtain(*stack);
-    if (m->transmits()) {
-      tables_[{m.get(), true}] = obtain(m->flipped_stack());
+    const StackBindings* b = m->bindings();
+    if (!b || b->empty()) {
+      tables_[{m.get(), false}] = obtain(*stack);
+      if (m->transmits()) tables_[{m.get(), true}] = obtain(m->flipped_stack());
+      continue;
+    }
+    // Texture-driven parameters (the model in layered_tables.h): T_0 from the template's values,
+    // and per parameter that changes a (smooth-top) table, its tables at kParameterNodes values.
+    const std::vector<StackParameter>& ps = b->parameters();
+    const StackTemplate& t = b->stack_template();
+    std::vector<Spectrum> values(ps.size());
+    for (std::size_t k = 0; k < ps.size(); ++k) values[k] = ps[k].template_value(t);
+    // The stack (and its flipped copy) for the given values, smooth-topped, kept alive here.
+    const int sides = m->transmits() ? 2 : 1;
+    auto stacks_for = [&](const std::vector<Spectrum>& v) {
+      std::array<const LayerStack*, 2> pair{nullptr, nullptr};
+      auto up = std::make_unique<LayerStack>();
+      apply_parameters(t, ps, v.data(), up.get());
+      if (up->rough_top()) *up = with_smooth_top(*up);
+      pair[0] = up.get();
+      if (sides == 2) {
+        node_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));
+        pair[1] = node_stacks_.back().get();
+      }
+      node_stacks_.push_back(std::move(up));
+      return pair;
+    };
+    const auto base = stacks_for(values);
+    for (int side = 0; side < sides; ++side) tables_[{m.get(), side == 1}] = obtain(*base[side]);
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+      if (ps[k].kind == StackParameter::Kind::kRoughness) continue;
+      Spectrum lo, hi;
+      b->value_range(k, &lo, &hi);
+      int channel = 0;
+      for (int c = 1; c < kChannels; ++c)
+        if (hi[c] - lo[c] > hi[channel] - lo[channel]) channel = c;
+      if (!(hi[channel] > lo[channel])) continue;  // a constant parameter: nothing to interpolate
+      ParameterAxis axis[2];
+      std::vector<Spectrum> v = values;
+      for (int j = 0; j < kParameterNodes; ++j) {
+        v[k] = lo + (hi - lo) * (static_cast<double>(j) / (kParameterNodes - 1));
+        const auto node = stacks_for(v);
+        for (int side = 0; side < sides; ++side) {
+          axis[side].nodes.push_back(v[k][channel]);
+          axis[side].tables.push_back(obtain(*node[side]));
+          ++parameter_tables_count_;
+        }
+      }
+      for (int side = 0; side < sides; ++side) {
+        axis[side].parameter = k;
+        axis[side].channel = channel;
+        axes_[{m.get(), side == 1}].push_back(std::move(axis[side]));
+      }
     }
   }
+}
+
+int LayeredTables::factors(const LayeredMaterial* m, bool from_below, const Spectrum* values, TableFactor* out) const {
+  auto it = axes_.find({m, from_below && m->transmits()});
+  if (it == axes_.end()) return 0;
+  int n = 0;
+  for (const ParameterAxis& a : it->second) {
+    if (n == kMaxFactors) break;
+    // Linear interpolation in the node values, clamped at the ends.
+    const double x = values[a.parameter][a.channel];
+    const std::size_t last = a.nodes.size() - 1;
+    std::size_t j = 0;
+    while (j + 1 < last && x > a.nodes[j + 1]) ++j;
+    const double t = std::clamp((x - a.nodes[j]) / (a.nodes[j + 1] - a.nodes[j]), 0.0, 1.0);
+    out[n++] = TableFactor{a.tables[j].get(), a.tables[j + 1].get(), t};
+  }
+  return n;
 }
 
 const LayeredTable& LayeredTables::get(const LayeredMaterial* m, bool from_below) const {
@@ -49,7 +121,11 @@ const LayeredTable& LayeredTables::get(const LayeredMaterial* m, bool from_below
 
 std::size_t LayeredTables::bytes() const {
   std::size_t n = 0;
-  for (const auto& [k, t] : tables_) n += t->value.size() * sizeof(Spectrum) + t->cdf.size() * sizeof(double);
+  auto add = [&](const LayeredTable& t) { n += t.value.size() * sizeof(Spectrum) + t.cdf.size() * sizeof(double); };
+  for (const auto& [k, t] : tables_) add(*t);
+  for (const auto& [k, axes] : axes_)
+    for (const ParameterAxis& a : axes)
+      for (const auto& t : a.tables) add(*t);
   return n;
 }
 

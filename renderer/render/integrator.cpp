@@ -17,6 +17,7 @@
 #include "renderer/surfaces/random_walk_surface.h"
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/layered_tables.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/surfaces/surface.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/subsurface_mode.h"
@@ -229,6 +230,7 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
     }
     std::optional<FirstOrderSurface> first_order;
     std::optional<TableSurface> table;
+    TableFactor table_factors[LayeredTables::kMaxFactors];  // the table's, while it lives
     const LayerStack* stack = nullptr;
     if (lm && mode != SubsurfaceMode::Lambert) {
       // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
@@ -244,7 +246,14 @@ Spectrum path_radiance(const Scene& scene, const LightSet& lights, Ray ray, Rng&
         first_order.emplace(*stack, wo);
         surface_ptr = &*first_order;
       } else if (mode == SubsurfaceMode::Table) {
-        table.emplace(layered->tables->get(lm, sp.from_below), wo);
+        // Texture-driven parameters scale the table's bins (renderer/layered/layered_tables.h).
+        int factor_count = 0;
+        if (const StackBindings* b = lm->bindings(); b && !b->empty()) {
+          ParameterValues values(b->parameters().size());
+          b->values(hit.uv, values.data());
+          factor_count = layered->tables->factors(lm, sp.from_below, values.data(), table_factors);
+        }
+        table.emplace(layered->tables->get(lm, sp.from_below), *stack, wo, table_factors, factor_count);
         surface_ptr = &*table;
       }
     }

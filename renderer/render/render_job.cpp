@@ -139,9 +139,11 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
     int tabulated = 0;
     for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
     tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, cache ? &*cache : nullptr);
-    say(log.info, string_printf("table mode: BRDF/BTDF tables of %d layered material(s): %d built by the walk in %.2f s, %d loaded from %s (%.0f kB)",
-                         tabulated, tables->built(), tables->build_seconds(), tables->loaded(),
-                         cache ? cache->directory().c_str() : "no cache", tables->bytes() / 1024.0));
+    say(log.info, string_printf("table mode: BRDF/BTDF tables of %d layered material(s): %d built in %.2f s (%d by adding-doubling, "
+                                "%d by the walk; %d along texture-driven parameters), %d loaded from %s (%.0f kB)",
+                                tabulated, tables->built(), tables->build_seconds(), tables->built() - tables->built_by_walk(),
+                                tables->built_by_walk(), tables->parameter_tables(), tables->loaded(),
+                                cache ? cache->directory().c_str() : "no cache", tables->bytes() / 1024.0));
   }
   if (bindings.count() > 0 && !auto_mode && mode == SubsurfaceMode::Lambert) {
     // Computed before rendering so that the render's time is the render's.

@@ -7,13 +7,31 @@
 
 namespace lamina {
 
-TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo)
-    : table_(table), lobes_(*table.stack, wo) {
+TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo) : TableSurface(table, *table.stack, wo, nullptr, 0) {}
+
+TableSurface::TableSurface(const LayeredTable& table, const LayerStack& hit_stack, const glm::dvec3& wo,
+                           const TableFactor* factors, int factor_count)
+    : table_(table), factors_(factors), factor_count_(factor_count), lobes_(hit_stack, wo) {
   const TableNodes at = table_nodes_at(table.settings, wo.z);
   for (int i = 0; i < 2; ++i) {
     node_[i] = at.node[i];
     weight_[i] = at.weight[i];
   }
+}
+
+Spectrum TableSurface::value(int node, int bin) const {
+  Spectrum f = table_.at(node, bin);
+  for (int k = 0; k < factor_count_; ++k) {
+    const TableFactor& a = factors_[k];
+    const Spectrum& lo = a.lo->at(node, bin);
+    const Spectrum& hi = a.hi->at(node, bin);
+    const Spectrum& base = table_.at(node, bin);
+    // T_k(x) / T_0 per channel; a bin that T_0 leaves (nearly) empty, below 1e-12 times the node's
+    // diffuse power, keeps T_0 (layered_tables.h).
+    for (int c = 0; c < kChannels; ++c)
+      if (base[c] > 1e-12 * table_.power[node] + 1e-300) f[c] *= ((1.0 - a.t) * lo[c] + a.t * hi[c]) / base[c];
+  }
+  return f;
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
@@ -30,7 +48,7 @@ int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
 Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
   if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return Spectrum(0.0);
   const int b = bin_of(wo, wi);
-  Spectrum f = table_.at(node_[0], b) * weight_[0] + table_.at(node_[1], b) * weight_[1];
+  Spectrum f = value(node_[0], b) * weight_[0] + value(node_[1], b) * weight_[1];
   // Reciprocity (materials/walk_estimator.h): the table holds f(wo -> wi).
   if (wi.z < 0.0) f *= lobes_.t_factor;
   return f;

@@ -11,16 +11,32 @@
 
 namespace lamina {
 
+// One texture-driven parameter's factor T_k(x) / T_0 (renderer/layered/layered_tables.h): the
+// tables at the nodes below and above x, and x's weight t towards the upper one.
+struct TableFactor {
+  const LayeredTable* lo = nullptr;
+  const LayeredTable* hi = nullptr;
+  double t = 0.0;
+};
+
 class TableSurface final : public Surface {
  public:
   TableSurface(const LayeredTable& table, const glm::dvec3& wo);
+  // With texture-driven parameters: `table` is T_0, the factors scale its bins (evaluation only;
+  // sampling and pdf stay T_0's, so the estimate is unbiased for the scaled values), and the
+  // exact delta lobes come from `hit_stack`, the stack at the hit (a rough top read as smooth).
+  TableSurface(const LayeredTable& table, const LayerStack& hit_stack, const glm::dvec3& wo, const TableFactor* factors,
+               int factor_count);
   Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const override;
   bool sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const override;
   double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const override;
 
  private:
   int bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const;
+  Spectrum value(int node, int bin) const;  // T_0 times the factors
   const LayeredTable& table_;
+  const TableFactor* factors_ = nullptr;
+  int factor_count_ = 0;
   ZerothOrderLobes lobes_;
   int node_[2] = {0, 0};
   double weight_[2] = {1.0, 0.0};

@@ -4,6 +4,7 @@
 #include "renderer/layered/stack_bindings.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -18,6 +19,9 @@
 #include "renderer/layered/layered_material.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/layered/material_binding.h"
+#include "renderer/layered/layered_tables.h"
+#include "renderer/surfaces/table_surface.h"
+#include "materials/layered_table.h"
 
 namespace lamina {
 namespace {
@@ -195,6 +199,84 @@ TEST(StackBindings, LambertAlbedoFollowsTheBoundParameter) {
     }
     EXPECT_LT(model[1], previous_green[1]);  // more blood: less green
     previous_green = model;
+  }
+}
+
+// The table mode follows texture-driven parameters (renderer/layered/layered_tables.h). One bound
+// parameter (dermal blood over [0, 0.08], 5 nodes): at every texel of the ramp the scaled table
+// equals, bin for bin, the linear interpolation of the tables built for the stacks at the two
+// nodes around the texel's value (exact algebra: T_0 (T_lo (1 - t) + T_hi t) / T_0), and at the
+// ramp's ends (nodes 0 and 4) the table of the hit's own stack. Two bound parameters (blood and
+// epidermal melanin, opposite ramps): the product model against the table of the hit's stack is
+// closer than the base table that the mode used before, at every texel where they differ.
+TEST(StackBindings, TableFollowsTheBoundParameters) {
+  const fs::path dir = temp_dir("table-at");
+  write_ramp_png(dir, 2);
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/skin.json")));
+  const SceneDesc scene = empty_scene();
+  TableSettings ts;  // adding-doubling: no noise, so the comparisons can be exact
+  const glm::dvec3 wo = glm::normalize(glm::dvec3(0.3, 0.1, 0.8));
+  std::vector<glm::dvec3> wis;
+  for (double theta : {10.0, 35.0, 60.0, 80.0})
+    for (double phi : {0.0, 100.0, 200.0}) {
+      const double th = theta * kPi / 180.0, ph = phi * kPi / 180.0;
+      wis.push_back({std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)});
+    }
+  auto eval_all = [&](const TableSurface& s) {
+    std::vector<Spectrum> f;
+    for (const glm::dvec3& wi : wis) f.push_back(s.eval(wo, wi));
+    return f;
+  };
+  for (int parameters : {1, 2}) {
+    const json spec = json::parse(parameters == 1 ? R"({"bind": [
+        {"parameter": "layers[1].components[0].fraction", "texture": "ramp.png", "channel": "r", "range": [0.0, 0.08]}]})"
+                                                  : R"({"bind": [
+        {"parameter": "layers[1].components[0].fraction", "texture": "ramp.png", "channel": "r", "range": [0.0, 0.08]},
+        {"parameter": "layers[0].components[0].fraction", "texture": "ramp.png", "channel": "g", "range": [0.01, 0.2]}]})");
+    auto b = std::make_shared<const StackBindings>(spec, t, scene, (dir / "map.json").string(), "skin", (dir / "map.json").string());
+    LayeredBindings bindings;
+    bindings.by_material.push_back(std::make_shared<const LayeredMaterial>(t->stack, "skin.json", b));
+    const LayeredMaterial* m = bindings.by_material[0].get();
+    const LayeredTables tables(bindings, ts);
+    EXPECT_EQ(tables.parameter_tables(), parameters * LayeredTables::kParameterNodes);
+    const LayeredTable& base = tables.get(m, false);
+    for (double u : {0.125, 0.375, 0.625, 0.875}) {
+      StackScratch scratch;
+      ShadingPoint sp;
+      sp.uv = {u, 0.5};
+      const LayerStack& hit_stack = m->stack_at(sp, scratch);
+      Spectrum values[2];
+      b->values(sp.uv, values);
+      TableFactor factors[LayeredTables::kMaxFactors];
+      const int n = tables.factors(m, false, values, factors);
+      ASSERT_EQ(n, parameters);
+      const std::vector<Spectrum> model = eval_all(TableSurface(base, hit_stack, wo, factors, n));
+      const LayeredTable own = build_layered_table(hit_stack, ts);
+      const std::vector<Spectrum> truth = eval_all(TableSurface(own, hit_stack, wo, nullptr, 0));
+      if (parameters == 1) {
+        const std::vector<Spectrum> lo = eval_all(TableSurface(*factors[0].lo, hit_stack, wo, nullptr, 0));
+        const std::vector<Spectrum> hi = eval_all(TableSurface(*factors[0].hi, hit_stack, wo, nullptr, 0));
+        const bool on_node = u < 0.25 || u > 0.75;
+        for (std::size_t i = 0; i < wis.size(); ++i)
+          for (int c = 0; c < kChannels; ++c) {
+            const double interpolated = (1.0 - factors[0].t) * lo[i][c] + factors[0].t * hi[i][c];
+            EXPECT_NEAR(model[i][c], interpolated, 1e-9 * interpolated + 1e-15) << "u " << u << " direction " << i;
+            if (on_node) {
+              EXPECT_NEAR(model[i][c], truth[i][c], 1e-9 * truth[i][c] + 1e-15) << "u " << u << " direction " << i;
+            }
+          }
+      } else {
+        const std::vector<Spectrum> old = eval_all(TableSurface(base, hit_stack, wo, nullptr, 0));
+        double err_model = 0.0, err_base = 0.0;
+        for (std::size_t i = 0; i < wis.size(); ++i)
+          for (int c = 0; c < kChannels; ++c) {
+            err_model += std::abs(model[i][c] - truth[i][c]);
+            err_base += std::abs(old[i][c] - truth[i][c]);
+          }
+        std::printf("two parameters, u %.3f: sum |model - truth| %.4g, |base table - truth| %.4g\n", u, err_model, err_base);
+        EXPECT_LT(err_model, err_base) << "u " << u;
+      }
+    }
   }
 }
 
