@@ -1,5 +1,6 @@
 // The adding-doubling solution of the plane-parallel transport equation for a layer stack: the
-// deterministic counterpart of the random walk (materials/random_walk.h) for the energy totals.
+// deterministic counterpart of the random walk (materials/random_walk.h) for the energy totals
+// and the BRDF/BTDF table.
 //
 // What it solves: the azimuthally averaged (Fourier m = 0) radiative transfer equation in every
 // layer, with the layers' HG lobes, smooth Fresnel interfaces (the n^2 law of radiance and total

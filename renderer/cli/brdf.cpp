@@ -230,6 +230,16 @@ int run_brdf(int argc, char** argv) {
       lamina::AddingDoublingEstimate estimate = lamina::adding_doubling_with_error(stack, cos_theta_i, settings);
       std::string csv;
       if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling.h)
+        // Say when delta-M's truncation is too coarse for the bins (the totals are unaffected).
+        const lamina::DeltaMTruncation tr = lamina::delta_m_truncation(stack, settings);
+        if (tr.forward > 0.03)
+          std::fprintf(stderr, "lamina brdf: note: at %d quadrature points delta-M puts %.0f%% of a scattering in the forward peak, "
+                               "which the table puts in the mirror/ballistic bin; raise --quadrature-points for the bins near it\n",
+                       quadrature_points, 100.0 * tr.forward);
+        if (tr.backward > 1e-3)
+          std::fprintf(stderr, "lamina brdf: note: a backward lobe (g < 0) is not resolved at %d quadrature points (%.1e of it "
+                               "beyond the series): its bins can be wrong, even negative; use --method monte-carlo for the table\n",
+                       quadrature_points, tr.backward);
         const BrdfTable table = lamina::brdf_table_adding_doubling(stack, options, settings, &estimate.totals);
         csv = table_csv(table);
       }

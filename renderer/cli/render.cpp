@@ -222,6 +222,13 @@ int run_render(int argc, char** argv) {
                  "medium (g -> 0, sigma_s (1 - g)); its bias is measured and printed (-1: exact)")
       ->capture_default_str()
       ->check(cli::integer(-1, 1000000));
+  std::string table_method = "adding-doubling";
+  CLI::Option* table_method_opt =
+      app.add_option("--table-method", table_method,
+                     "with --subsurface table or auto: build the tables by adding-doubling (noise-free; the walk where it "
+                     "cannot resolve a lobe) or by the walk")
+          ->capture_default_str()
+          ->check(CLI::IsMember({"adding-doubling", "walk"}));
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
                  "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
@@ -279,6 +286,8 @@ int run_render(int argc, char** argv) {
     if (tolerance_opt->count() > 0 && !auto_mode)
       throw UsageError("--tolerance is only meaningful with --subsurface auto");
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
+    if (table_method_opt->count() > 0 && !auto_mode && mode != SubsurfaceMode::Table)
+      throw UsageError("--table-method is only meaningful with --subsurface table or auto");
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
@@ -308,6 +317,7 @@ int run_render(int argc, char** argv) {
   request.subsurface = subsurface;
   request.tolerance = tolerance;
   request.cache_dir = cache_dir;
+  request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
   request.walk.per_event_pool_samples = pool_samples == "per-event";
   request.walk.similarity_after = similarity_after;
   request.walk.guiding = guiding;

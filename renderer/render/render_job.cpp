@@ -114,6 +114,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   if (auto_mode) {
     AutoSettings as;
     as.tolerance = request.tolerance;
+    as.table.method = request.table_method;
     const std::vector<bool> visible = camera_visible_materials(scene, camera, settings.width, settings.height);
     choices = choose_subsurface_modes(bindings, as, &visible, cache ? &*cache : nullptr);
     per_material.assign(bindings.by_material.size(), SubsurfaceMode::RandomWalk);
@@ -138,7 +139,9 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       for (std::size_t i = 0; i < only.size(); ++i) only[i] = per_material[i] == SubsurfaceMode::Table;
     int tabulated = 0;
     for (std::size_t i = 0; i < only.size(); ++i) tabulated += only[i] && bindings.by_material[i] ? 1 : 0;
-    tables = std::make_unique<LayeredTables>(bindings, TableSettings{}, only, cache ? &*cache : nullptr);
+    TableSettings table_settings;
+    table_settings.method = request.table_method;
+    tables = std::make_unique<LayeredTables>(bindings, table_settings, only, cache ? &*cache : nullptr);
     say(log.info, string_printf("table mode: BRDF/BTDF tables of %d layered material(s): %d built in %.2f s (%d by adding-doubling, "
                                 "%d by the walk; %d along texture-driven parameters), %d loaded from %s (%.0f kB)",
                                 tabulated, tables->built(), tables->build_seconds(), tables->built() - tables->built_by_walk(),

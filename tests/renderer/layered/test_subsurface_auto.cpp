@@ -24,11 +24,13 @@
 namespace lamina {
 namespace {
 
-AutoChoice predict(const LayerStack& stack, double tolerance, std::uint64_t max_walks = 80000) {
+AutoChoice predict(const LayerStack& stack, double tolerance, std::uint64_t max_walks = 80000,
+                   TableSettings::Method table_method = TableSettings{}.method) {
   const LayeredMaterial m(stack, stack.name);
   AutoSettings s;
   s.tolerance = tolerance;
   s.max_walks = max_walks;
+  s.table.method = table_method;
   const AutoChoice c = choose_subsurface_mode(m, s);
   std::printf("%s: %s [%llu walks, %.2f s]\n", stack.name.c_str(), c.reason.c_str(),
               static_cast<unsigned long long>(c.walks), c.seconds);
@@ -97,16 +99,29 @@ TEST(SubsurfaceAuto, TrappedFilmRejectsFirstOrder) {
   EXPECT_NE(c.mode, SubsurfaceMode::Lambert) << c.reason;
 }
 
-// Skin-like (multiple scattering dominates): at E = 0.05 only the walk (measured: table 0.067,
-// first order 0.98, lambert 0.76: not Lambertian, and it lacks the specular; resolution 0.016,
-// spread at the table's 0.067 ~ 0.002); at E = 0.2 the table would do. 20000 walks keep the
-// test short.
+// Skin-like (multiple scattering dominates), with tables built by the walk: at E = 0.05 only
+// the walk (measured: table 0.067, first order 0.98, lambert 0.76: not Lambertian, and it lacks
+// the specular; resolution 0.016, spread at the table's 0.067 ~ 0.002); at E = 0.2 the table
+// would do. 20000 walks keep the test short.
 TEST(SubsurfaceAuto, SkinLikeNeedsTheWalkAtSmallTolerance) {
-  const AutoChoice c = predict(skin_like(), 0.05, 20000);
+  const AutoChoice c = predict(skin_like(), 0.05, 20000, TableSettings::Method::MonteCarlo);
   EXPECT_EQ(c.mode, SubsurfaceMode::RandomWalk) << c.reason;
   EXPECT_GT(c.error_first_order, 0.5) << c.reason;
   EXPECT_GT(c.error_lambert, 0.2) << c.reason;
   EXPECT_LT(c.error_table, 0.2) << c.reason;
+}
+
+// The same with the default adding-doubling tables: no table noise, so the table's predicted
+// error is its interpolation error alone (measured 0.029, against 0.067 with the walk's
+// 50000-walk tables), never above the walk-built table's from the same prediction walks, and at
+// E = 0.2 (margin > 4 resolutions) the table is chosen. (At E = 0.05 the margin, 0.021, is
+// about one resolution: not a test.)
+TEST(SubsurfaceAuto, SkinLikeAddingDoublingTableHasNoNoise) {
+  const AutoChoice walk_tables = predict(skin_like(), 0.2, 20000, TableSettings::Method::MonteCarlo);
+  const AutoChoice c = predict(skin_like(), 0.2, 20000, TableSettings::Method::AddingDoubling);
+  EXPECT_EQ(c.mode, SubsurfaceMode::Table) << c.reason;
+  EXPECT_LE(c.error_table, walk_tables.error_table) << c.reason << " | " << walk_tables.reason;
+  EXPECT_LT(c.error_table, 0.05) << c.reason;
 }
 
 // ---- Measured image error of the chosen mode against the walk --------------------------------
