@@ -34,6 +34,16 @@ TableNodes table_nodes_at(const TableSettings& settings, double mu) {
   return t;
 }
 
+bool adding_doubling_resolves(const LayerStack& stack, int quadrature_points, AddingDoublingSettings* ad) {
+  ad->quadrature_points = quadrature_points;
+  DeltaMTruncation truncation = delta_m_truncation(stack, *ad);
+  while (truncation.forward > 0.03 && ad->quadrature_points < 48) {
+    ad->quadrature_points = std::min(48, ad->quadrature_points + 8);
+    truncation = delta_m_truncation(stack, *ad);
+  }
+  return truncation.forward <= 0.03 && truncation.backward <= 1e-3;
+}
+
 LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& settings) {
   const auto start = std::chrono::steady_clock::now();
   LayeredTable t;
@@ -49,13 +59,8 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
   ad.quadrature_points = settings.quadrature_points;
   ad.single_scattering_bins = false;
   if (settings.method == TableSettings::Method::AddingDoubling) {
-    DeltaMTruncation truncation = delta_m_truncation(stack, ad);
-    while (truncation.forward > 0.03 && ad.quadrature_points < 48) {
-      ad.quadrature_points = std::min(48, ad.quadrature_points + 8);
-      truncation = delta_m_truncation(stack, ad);
-    }
+    t.walk_fallback = !adding_doubling_resolves(stack, settings.quadrature_points, &ad);
     t.quadrature_points = ad.quadrature_points;
-    t.walk_fallback = truncation.forward > 0.03 || truncation.backward > 1e-3;
   }
   if (settings.method == TableSettings::Method::AddingDoubling && !t.walk_fallback) {
     BrdfOptions o;

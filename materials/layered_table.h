@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "materials/adding_doubling.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
 
@@ -76,6 +77,12 @@ struct TableNodes {
   double weight[2] = {1.0, 0.0};
 };
 TableNodes table_nodes_at(const TableSettings& settings, double mu);
+
+// The adding-doubling settings with which bins of `stack` are computed (the table mode's rule,
+// TableSettings::method): from `quadrature_points`, the order rises by 8 (to 48) until delta-M's
+// forward peak holds at most 3% of a scattering. False if that is not enough, or a backward lobe
+// is not resolved (backward part > 1e-3): such a stack needs the walk.
+bool adding_doubling_resolves(const LayerStack& stack, int quadrature_points, AddingDoublingSettings* settings);
 
 // Builds the table of `stack` by the walk or by adding-doubling (settings.method);
 // deterministic for any thread count.

@@ -9,7 +9,9 @@
 // Lbar_in(B) the mean incident radiance over B, and D = R_specular + T_ballistic the delta
 // parts. So the models are compared through P and D at incidences mu, from both sides of a
 // stack that transmits:
-//   walk:        brdf_table_monte_carlo on a coarse grid of bins, with standard errors;
+//   walk:        brdf_table_monte_carlo on a coarse grid of bins, with standard errors; or, with
+//                adding-doubling tables (the default) and a stack it resolves, the adding-doubling
+//                bins, exact (standard errors 0: one pass, no walks);
 //   lambert:     albedo/pi on the reflect side (the mode's albedo: lambert_albedo()), 0 on the
 //                transmit side, and no delta parts;
 //   first-order: brdf_table_first_order (exact single-scattering bin averages) plus the exact D;
@@ -60,6 +62,9 @@ struct AutoSettings {
   std::uint64_t walks = 10000;      // per incidence, first round (then doubled)
   std::uint64_t max_walks = 40000;  // per incidence, in all rounds
   std::uint64_t seed = 11;
+  // With adding-doubling tables the reference is adding-doubling itself where it resolves the
+  // stack (exact, no walks); true forces the walks (tests: the two references agree).
+  bool walk_reference = false;
 };
 
 // Predicted relative errors of the cheaper models against the walk (whose own error is 0).

@@ -124,6 +124,31 @@ TEST(SubsurfaceAuto, SkinLikeAddingDoublingTableHasNoNoise) {
   EXPECT_LT(c.error_table, 0.05) << c.reason;
 }
 
+// The adding-doubling reference (the default with adding-doubling tables: no walks) predicts the
+// same errors as the walk reference, within the walk prediction's resolution: on the three test
+// stacks, each model's predicted error differs by at most 4 x the walk's noise floor (+ 0.005
+// for the walk-built Lambert albedo's own noise, which both share... and which the exact
+// reference does not remove). And it takes no walks.
+TEST(SubsurfaceAuto, AddingDoublingReferenceAgreesWithTheWalk) {
+  for (const LayerStack& stack : {thin_weak(), absorbing(), skin_like()}) {
+    const LayeredMaterial m(stack, stack.name);
+    AutoSettings s;
+    s.tolerance = 0.05;
+    s.max_walks = 80000;
+    const AutoChoice exact = choose_subsurface_mode(m, s);
+    s.walk_reference = true;
+    const AutoChoice walk = choose_subsurface_mode(m, s);
+    std::printf("%s\n  exact: %s [%.3f s]\n  walk:  %s [%llu walks, %.3f s]\n", stack.name.c_str(), exact.reason.c_str(),
+                exact.seconds, walk.reason.c_str(), static_cast<unsigned long long>(walk.walks), walk.seconds);
+    EXPECT_EQ(exact.walks, 0u);
+    EXPECT_NE(exact.reason.find("reference: adding-doubling"), std::string::npos) << exact.reason;
+    const double tol = 4.0 * walk.noise_floor + 0.005;
+    EXPECT_NEAR(exact.error_lambert, walk.error_lambert, tol) << stack.name;
+    EXPECT_NEAR(exact.error_first_order, walk.error_first_order, tol) << stack.name;
+    EXPECT_NEAR(exact.error_table, walk.error_table, tol) << stack.name;
+  }
+}
+
 // ---- Measured image error of the chosen mode against the walk --------------------------------
 //
 // A flat slab (the plane y = 0, top +y) under a sun, seen through a tiny field of view, so
