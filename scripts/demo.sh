@@ -57,4 +57,11 @@ for side in front back; do
   "$LAMINA" denoise out/leaves_$side.exr -o out/leaves_${side}_denoised.exr --png out/leaves_${side}_denoised.png
 done
 oiiotool out/leaves_front_denoised.png out/leaves_back_denoised.png --mosaic 2x1 -o out/leaves.png
-echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png; *_denoised beside the denoised ones), out/portrait.png and out/leaves.png"
+# A leaf as a Blender user exports it: alpha-masked cards with KHR_materials_diffuse_transmission,
+# mapped onto a layered stack with no stack file (docs/gltf_materials.md), front- and back-lit.
+for side in front back; do
+  "$LAMINA" render scenes/gltf_leaf/gltf_leaf_$side.gltf -o out/gltf_leaf_$side.exr --png out/gltf_leaf_$side.png \
+    --width 240 --height 180 --spp "${LAMINA_DEMO_SPP:-64}" --env 0.03
+done
+oiiotool out/gltf_leaf_front.png out/gltf_leaf_back.png --mosaic 2x1 -o out/gltf_leaf.png
+echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png; *_denoised beside the denoised ones), out/portrait.png, out/leaves.png and out/gltf_leaf.png"
