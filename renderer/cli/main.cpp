@@ -17,6 +17,7 @@ void print_usage(std::FILE* out) {
       "  brdf     BRDF/BTDF of a layered material (first order or Monte Carlo)\n"
       "  compare  relative difference of two images\n"
       "  batch    render and compare the jobs of a manifest\n"
+      "  fit      fit parameters of a layered material to measured R and T\n"
       "\n"
       "'lamina <command> --help' describes a command.\n",
       out);
@@ -43,6 +44,7 @@ int main(int argc, char** argv) {
   if (command == "compare") return run_compare(argc - 1, argv + 1);
   if (command == "render") return run_render(argc - 1, argv + 1);
   if (command == "batch") return run_batch(argc - 1, argv + 1);
+  if (command == "fit") return run_fit(argc - 1, argv + 1);
   std::fprintf(stderr, "lamina: unknown command '%s' (try 'lamina --help')\n", command.c_str());
   return 2;
 }
