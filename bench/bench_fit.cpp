@@ -1,10 +1,10 @@
 // Cost of `lamina fit`'s library (materials/stack_fit): a single-slab inversion from R and T at
 // normal incidence (iad's problem: the absorption and scattering coefficients of a slab of known
 // thickness, index and g), for one channel and for all three, and one forward evaluation.
-//   BM_FitSlab/<channels>: fit_stack from a start away from the truth (sigma_a 1.5, sigma_s 20)
+//   BM_FitSlab/<channels>/<quadrature points>: fit_stack from a start away from the truth (sigma_a 1.5, sigma_s 20)
 //     to noise-free data of the slab (sigma_a 0.3/1/2, sigma_s 8/12/15 per mm, g 0.8, 1 mm, n 1.4,
 //     in air); counters: forward-model solutions per fit (optimiser and Jacobian).
-//   BM_FitForward: one forward evaluation (adding_doubling_totals, three channels).
+//   BM_FitForward: one forward evaluation (adding_doubling_totals, three channels, 16 points).
 // README "lamina fit" quotes these numbers.
 #include <benchmark/benchmark.h>
 
@@ -40,16 +40,18 @@ std::vector<lamina::FitMeasurement> slab_data(int channels) {
 
 void BM_FitSlab(benchmark::State& state) {
   const int channels = static_cast<int>(state.range(0));
+  lamina::FitSettings settings;
+  settings.forward.quadrature_points = static_cast<int>(state.range(1));
   const lamina::StackTemplate start = lamina::parse_stack_template_json(kStart, "start");
   const std::vector<lamina::FitMeasurement> d = slab_data(channels);
   const std::vector<lamina::FitParameterSpec> specs = {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 100.0}};
   lamina::FitResult r;
-  for (auto _ : state) benchmark::DoNotOptimize(r = lamina::fit_stack(start, specs, d));
+  for (auto _ : state) benchmark::DoNotOptimize(r = lamina::fit_stack(start, specs, d, settings));
   state.counters["evaluations"] = r.evaluations;
   state.counters["chi2"] = r.chi2;
   state.counters["sigma_a_r"] = r.value[0];
 }
-BENCHMARK(BM_FitSlab)->Arg(1)->Arg(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FitSlab)->Args({1, 8})->Args({1, 16})->Args({3, 8})->Args({3, 16})->Unit(benchmark::kMillisecond);
 
 void BM_FitForward(benchmark::State& state) {
   const lamina::LayerStack truth = lamina::parse_stack_json(kSlab, "slab");

@@ -84,10 +84,11 @@ struct FitUnknown {
 };
 
 struct FitSettings {
-  // The forward model's quadrature: 8 points, whose totals are within ~4e-5 of the converged ones
-  // (README, adding-doubling's convergence table), below an integrating sphere's uncertainty
-  // and 1/8 the cost of 16; raise it for sigmas below ~1e-4 (the fit then warns, below).
-  AddingDoublingSettings forward{8};
+  // The forward model's quadrature: 16 points (adding-doubling's default). 8 points are ~5x
+  // faster (README "lamina fit": 7-12 ms against ~50 ms for a slab from R and T) but their totals
+  // can be off by 1e-4 to 4e-4 for g >= 0.85 (delta-M at order 8), a third of a typical sphere's
+  // sigma of 1e-3; the check below says when that matters.
+  AddingDoublingSettings forward{16};
   // After the fit, compare the model at twice the points: a measurement whose value moves by
   // more than 0.2 of its sigma gets a warning (the discretisation biases the fit).
   bool check_discretisation = true;

@@ -55,8 +55,10 @@ std::vector<FitMeasurement> design(bool unscattered, bool diffuse) {
 // The measurements' values for the template's stack by the fit's own forward model (so that the
 // round trips test the statistics; the discretisation has its own test), plus N(0, sigma) noise
 // (seed 0: none).
+// 8 points: the round trips test the statistics, and 8 points are ~5x faster than the default.
+const AddingDoublingSettings kRoundTripModel{8};
 void simulate(const StackTemplate& t, std::vector<FitMeasurement>* d, unsigned seed) {
-  const std::vector<double> m = fit_model_values(t.stack, *d, FitSettings{}.forward);
+  const std::vector<double> m = fit_model_values(t.stack, *d, kRoundTripModel);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal;
   for (std::size_t i = 0; i < d->size(); ++i) (*d)[i].value = m[i] + (seed ? (*d)[i].sigma * normal(rng) : 0.0);
@@ -70,6 +72,7 @@ const std::vector<FitParameterSpec> kSlabSpecs = {
 // is not part of what they test.
 FitSettings same_model() {
   FitSettings s;
+  s.forward = kRoundTripModel;
   s.check_discretisation = false;
   return s;
 }
