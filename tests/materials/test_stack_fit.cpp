@@ -127,6 +127,7 @@ TEST(StackFit, NoisyRoundTripsHavePullsOfUnitSpread) {
   // The pulls within a fit are correlated, but their mean square is still 1 in expectation; its
   // spread is about sqrt(2 / n) for independent pulls; correlation widens it, so 4 of those.
   const double rms = std::sqrt(sum2 / n);
+  std::printf("%d pulls: rms %.3f; chi2 mean %.2f for dof %d over %d seeds\n", n, rms, chi2 / seeds, dof, seeds);
   EXPECT_NEAR(rms, 1.0, 4.0 * std::sqrt(0.5 / n)) << n << " pulls";
   EXPECT_EQ(dof, 15 - 9);
   EXPECT_NEAR(chi2 / seeds, dof, 4.0 * std::sqrt(2.0 * dof / seeds));
