@@ -82,6 +82,23 @@ double truth(const StackTemplate& t, const FitUnknown& u) {
   return p.template_value(t)[u.channel < 0 ? 0 : u.channel];
 }
 
+// The per-channel fits rely on AddingDoublingSettings::only_channel giving that channel's totals
+// of the all-channel solution (the channels are independent problems in the solver).
+TEST(StackFit, OneChannelSolutionEqualsThatChannelOfAll) {
+  const StackTemplate t = parse_stack_template_json(kSlab, "slab");
+  const AddingDoublingTotals all = adding_doubling_totals(t.stack, 0.8);
+  for (int c = 0; c < kChannels; ++c) {
+    AddingDoublingSettings s;
+    s.only_channel = c;
+    const AddingDoublingTotals one = adding_doubling_totals(t.stack, 0.8, s);
+    EXPECT_EQ(one.R_diffuse[c], all.R_diffuse[c]);
+    EXPECT_EQ(one.T_diffuse[c], all.T_diffuse[c]);
+    EXPECT_EQ(one.R_hemispherical[c], all.R_hemispherical[c]);
+    EXPECT_EQ(one.T_hemispherical[c], all.T_hemispherical[c]);
+    EXPECT_EQ(one.T_ballistic[c], all.T_ballistic[c]);
+  }
+}
+
 TEST(StackFit, NoiseFreeRoundTripRecoversTheValues) {
   const StackTemplate t = parse_stack_template_json(kSlab, "slab");
   std::vector<FitMeasurement> d = design(true, true);
