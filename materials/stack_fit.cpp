@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <nlopt.h>
@@ -170,6 +171,10 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
   while (std::getline(in, line)) {
     ++line_no;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    for (unsigned char ch : line)
+      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
+        throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
+                       "): expected CSV");
     const std::vector<std::string> f = split_csv_line(line);
     const std::string where = source + ": line " + std::to_string(line_no);
     if (column.empty()) {  // the header
@@ -327,13 +332,18 @@ void fit_group(Problem& pb, const std::vector<int>& unknown_index, const std::ve
   std::vector<std::vector<double>> Cs(n, std::vector<double>(n, 0.0));
   for (int e = 0; e < n; ++e) {
     if (lambda[e] < kIdentifiabilityThreshold) {
-      // A combination not determined: name the unknowns that carry it (weight above 0.3).
-      std::string names;
+      // A combination not determined: every unknown with a part in it (weight above 0.01 of the
+      // unit eigenvector) has an unbounded variance, so it loses its sigma; the message names
+      // them, largest weight first.
+      std::vector<std::pair<double, int>> carried;
       for (int k = 0; k < n; ++k)
-        if (identified[k] && std::abs(V[k][e]) > 0.3) {
-          names += (names.empty() ? "" : ", ") + pb.unknowns[k].name;
-          identified[k] = false;
-        }
+        if (identified[k] && std::abs(V[k][e]) > 0.01) carried.push_back({-std::abs(V[k][e]), k});
+      std::sort(carried.begin(), carried.end());
+      std::string names;
+      for (const auto& [w, k] : carried) {
+        names += (names.empty() ? "" : ", ") + pb.unknowns[k].name;
+        identified[k] = false;
+      }
       if (!names.empty())
         r->warnings.push_back(names + ": not identified: the measurements determine only a combination of " +
                               (names.find(',') == std::string::npos ? "it with others" : "them") + " (eigenvalue " +

@@ -34,8 +34,9 @@
 // matter) and its eigenvalues computed; a zero diagonal means the data do not depend on that
 // unknown, and an eigenvalue below kIdentifiabilityThreshold means a combination of unknowns is
 // not determined (e.g. sigma_s and g of a slab from R and T alone: both act mainly through
-// sigma_s (1 - g), the similarity relation, van de Hulst 1980 ch. 14); the unknowns with the
-// largest weight in that eigenvector are named, and their sigmas are reported as infinite.
+// sigma_s (1 - g), the similarity relation, van de Hulst 1980 ch. 14); the unknowns with more
+// than 1% of that eigenvector are named, and their sigmas are reported as infinite (the others'
+// sigmas are those of the pseudo-inverse: the combination barely moves them).
 #pragma once
 
 #include <string>
