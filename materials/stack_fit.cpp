@@ -292,14 +292,15 @@ void fit_group(Problem& pb, const std::vector<int>& unknown_index, const std::ve
   }
 
   // The Jacobian dm_i/dx_k by central differences (one-sided within the bounds). Step: 1e-4 of
-  // the value's magnitude (or 1e-7 of the bound range for a value near 0): the truncation error
-  // O(h^2 m''') is ~1e-8 relative, the solver's round-off (~1e-12) / h far below the sigmas.
+  // the value's magnitude, or 1e-7 of min(bound range, 1) for a value near 0 (not of the range
+  // alone: absurdly wide bounds would make the step absurd too): the truncation error O(h^2
+  // m''') is ~1e-8 relative, the solver's round-off (~1e-12) / h far below the sigmas.
   std::vector<std::vector<double>> J(nm, std::vector<double>(n, 0.0));
   std::vector<bool> at_bound(n, false);
   for (int k = 0; k < n; ++k) {
     const FitUnknown& q = pb.unknowns[k];
     const double range = q.upper - q.lower;
-    const double h = 1e-4 * std::max(std::abs(x[k]), 1e-3 * range);
+    const double h = 1e-4 * std::max(std::abs(x[k]), 1e-3 * std::min(range, 1.0));
     at_bound[k] = x[k] <= q.lower + 1e-6 * range || x[k] >= q.upper - 1e-6 * range;
     std::vector<double> xp = x, xm = x;
     xp[k] = std::min(x[k] + h, q.upper);
