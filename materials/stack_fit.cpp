@@ -281,6 +281,9 @@ void fit_group(Problem& pb, const std::vector<int>& unknown_index, const std::ve
   nlopt_destroy(opt);
   if (status < 0 && status != NLOPT_ROUNDOFF_LIMITED)
     throw FitError("the optimiser failed (NLopt status " + std::to_string(static_cast<int>(status)) + ")");
+  if (status == NLOPT_MAXEVAL_REACHED)
+    r->warnings.push_back("the optimiser stopped after " + std::to_string(settings.max_evaluations) +
+                          " solutions without converging: the values may not be the minimum");
 
   std::vector<double> x(n);
   for (int k = 0; k < n; ++k) x[k] = pb.unknowns[k].lower + u[k] * (pb.unknowns[k].upper - pb.unknowns[k].lower);

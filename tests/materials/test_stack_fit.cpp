@@ -293,6 +293,18 @@ std::string error_of(const std::function<void()>& f) {
   return "no error";
 }
 
+TEST(StackFit, AnOptimiserOutOfEvaluationsIsReported) {
+  const StackTemplate t = parse_stack_template_json(kSlab, "slab");
+  std::vector<FitMeasurement> d = design(false, false);
+  simulate(t, &d, 0);
+  FitSettings s = same_model();
+  s.max_evaluations = 5;
+  const FitResult r = fit_stack(t, {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 50.0}}, d, s);
+  bool found = false;
+  for (const std::string& w : r.warnings) found |= w.find("the optimiser stopped after 5 solutions") == 0;
+  EXPECT_TRUE(found);
+}
+
 TEST(StackFit, BadParametersAreOneLineErrors) {
   const StackTemplate t = parse_stack_template_json(kSlab, "slab");
   std::vector<FitMeasurement> d = design(false, false);
