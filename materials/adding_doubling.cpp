@@ -585,7 +585,8 @@ AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_
   out.nodes = p.nodes.real;
   const ZerothOrder z = zeroth_order(stack, cos_theta_i);
   for (int c = 0; c < kChannels; ++c)
-    fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, p.nodes.incidences[0], &out);
+    if (settings.only_channel < 0 || settings.only_channel == c)
+      fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, p.nodes.incidences[0], &out);
   return out;
 }
 

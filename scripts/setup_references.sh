@@ -5,6 +5,7 @@
 #   scripts/skin_presets.py -> scenes/materials/skin_{light,medium,dark}.json, nist_skin_rgb.csv
 #     (colour-science, scipy; pip downloads the iadpython sdist itself, which needs wheel)
 #   scripts/iad_reference.py -> tests/data/iad_reference.csv (iadpython, scipy)
+#   scripts/iad_inversion_reference.py -> tests/data/iad_inversion_reference.csv (iadpython)
 # Usage: scripts/setup_references.sh, then run the script you need.
 set -euo pipefail
 PACKAGES=("mitsuba==3.9.1" "colour-science==0.4.7" "scipy==1.17.1" "numpy" "wheel" "iadpython==0.5.3")

@@ -8,6 +8,7 @@ int run_brdf(int argc, char** argv);
 int run_render(int argc, char** argv);
 int run_batch(int argc, char** argv);
 int run_denoise(int argc, char** argv);
+int run_fit(int argc, char** argv);
 
 // Shared by render and batch (which renders its jobs in-process): the render's lines on stdout
 // and stderr with the "lamina render: " prefix, and its closing summary.

@@ -18,6 +18,7 @@ void print_usage(std::FILE* out) {
       "  compare  relative difference of two images\n"
       "  batch    render and compare the jobs of a manifest\n"
       "  denoise  Open Image Denoise on a rendered EXR (a new file; the raw render stays)\n"
+      "  fit      fit parameters of a layered material to measured R and T\n"
       "\n"
       "'lamina <command> --help' describes a command.\n",
       out);
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
   if (command == "render") return run_render(argc - 1, argv + 1);
   if (command == "batch") return run_batch(argc - 1, argv + 1);
   if (command == "denoise") return run_denoise(argc - 1, argv + 1);
+  if (command == "fit") return run_fit(argc - 1, argv + 1);
   std::fprintf(stderr, "lamina: unknown command '%s' (try 'lamina --help')\n", command.c_str());
   return 2;
 }

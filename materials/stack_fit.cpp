@@ -1,0 +1,524 @@
+#include "materials/stack_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+#include <nlopt.h>
+
+namespace lamina {
+
+namespace {
+
+const char* const kChannelNames[kChannels] = {"r", "g", "b"};
+
+std::string number_text(double v) {
+  std::ostringstream os;
+  os.precision(9);
+  os << v;
+  return os.str();
+}
+
+// Splits one CSV line at commas, trimming blanks around fields (no quoting: the fields are
+// names and numbers).
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    std::string f = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    const std::size_t a = f.find_first_not_of(" \t\r"), b = f.find_last_not_of(" \t\r");
+    out.push_back(a == std::string::npos ? std::string() : f.substr(a, b - a + 1));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+// A finite number, the whole field; else throws with `what`.
+double parse_number(const std::string& field, const std::string& where, const std::string& column) {
+  if (field.empty()) throw FitError(where + ": " + column + " is empty");
+  char* end = nullptr;
+  const double v = std::strtod(field.c_str(), &end);
+  if (end != field.c_str() + field.size()) throw FitError(where + ": " + column + " '" + field + "' is not a number");
+  if (!std::isfinite(v)) throw FitError(where + ": " + column + " '" + field + "' is not finite");
+  return v;
+}
+
+// The model's value of one measurement from the totals at its incidence.
+double model_value(const FitMeasurement& m, const AddingDoublingTotals& t) {
+  const int c = m.channel;
+  if (m.diffuse) return m.quantity == FitQuantity::kR ? t.R_hemispherical[c] : t.T_hemispherical[c];
+  switch (m.quantity) {
+    case FitQuantity::kR: return t.R_specular[c] + t.R_diffuse[c];
+    case FitQuantity::kRDiffuse: return t.R_diffuse[c];
+    case FitQuantity::kT: return t.T_ballistic[c] + t.T_diffuse[c];
+    case FitQuantity::kTDiffuse: return t.T_diffuse[c];
+    case FitQuantity::kTUnscattered: return t.T_ballistic[c];
+  }
+  return 0.0;
+}
+
+// Eigen-decomposition of a small symmetric matrix by cyclic Jacobi rotations (Golub and Van
+// Loan, Matrix Computations, 4th ed., sec. 8.5): a = V diag(lambda) V^T; columns of v.
+void symmetric_eigen(std::vector<std::vector<double>> a, std::vector<double>* lambda,
+                     std::vector<std::vector<double>>* v) {
+  const int n = static_cast<int>(a.size());
+  v->assign(n, std::vector<double>(n, 0.0));
+  for (int i = 0; i < n; ++i) (*v)[i][i] = 1.0;
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    double off = 0.0;
+    for (int p = 0; p < n; ++p)
+      for (int q = p + 1; q < n; ++q) off += a[p][q] * a[p][q];
+    if (off < 1e-30) break;
+    for (int p = 0; p < n; ++p)
+      for (int q = p + 1; q < n; ++q) {
+        if (a[p][q] == 0.0) continue;
+        // The rotation that zeroes a[p][q] (Golub and Van Loan, Algorithm 8.5.1).
+        const double tau = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+        const double t = (tau >= 0 ? 1.0 : -1.0) / (std::abs(tau) + std::sqrt(1.0 + tau * tau));
+        const double c = 1.0 / std::sqrt(1.0 + t * t), s = t * c;
+        for (int k = 0; k < n; ++k) {  // a <- a J
+          const double akp = a[k][p], akq = a[k][q];
+          a[k][p] = c * akp - s * akq;
+          a[k][q] = s * akp + c * akq;
+        }
+        for (int k = 0; k < n; ++k) {  // a <- J^T a
+          const double apk = a[p][k], aqk = a[q][k];
+          a[p][k] = c * apk - s * aqk;
+          a[q][k] = s * apk + c * aqk;
+        }
+        for (int k = 0; k < n; ++k) {
+          const double vkp = (*v)[k][p], vkq = (*v)[k][q];
+          (*v)[k][p] = c * vkp - s * vkq;
+          (*v)[k][q] = s * vkp + c * vkq;
+        }
+      }
+  }
+  lambda->resize(n);
+  for (int i = 0; i < n; ++i) (*lambda)[i] = a[i][i];
+}
+
+// What the optimiser and the Jacobian evaluate: the parameter values for unknowns x, the stack,
+// the model and chi^2.
+struct Problem {
+  const StackTemplate* t = nullptr;
+  std::vector<StackParameter> parameters;
+  std::vector<Spectrum> base;  // the template's values
+  std::vector<FitUnknown> unknowns;
+  const std::vector<FitMeasurement>* data = nullptr;
+  AddingDoublingSettings forward;
+  LayerStack stack;  // reused between evaluations
+  int evaluations = 0;
+
+  std::vector<Spectrum> values(const double* x) const {
+    std::vector<Spectrum> v = base;
+    for (std::size_t k = 0; k < unknowns.size(); ++k) {
+      const FitUnknown& u = unknowns[k];
+      if (u.channel < 0) v[u.parameter] = Spectrum(x[k]);
+      else v[u.parameter][u.channel] = x[k];
+    }
+    return v;
+  }
+  std::vector<double> model(const double* x) {
+    const std::vector<Spectrum> v = values(x);
+    apply_parameters(*t, parameters, v.data(), &stack);
+    ++evaluations;
+    return fit_model_values(stack, *data, forward);
+  }
+  double chi2(const std::vector<double>& m) const {
+    double s = 0.0;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+      const double r = (m[i] - (*data)[i].value) / (*data)[i].sigma;
+      s += r * r;
+    }
+    return s;
+  }
+};
+
+// NLopt works on the unknowns scaled to [0, 1] by their bounds, so one step size and one
+// tolerance fit all of them whatever their units.
+struct Scaled {
+  Problem* problem;
+  std::vector<double> x;
+};
+double scaled_objective(unsigned n, const double* u, double* grad, void* data) {
+  Scaled* s = static_cast<Scaled*>(data);
+  for (unsigned k = 0; k < n; ++k) {
+    const FitUnknown& q = s->problem->unknowns[k];
+    s->x[k] = q.lower + u[k] * (q.upper - q.lower);
+  }
+  const std::vector<double> m = s->problem->model(s->x.data());
+  const double c = s->problem->chi2(m);
+  (void)grad;  // BOBYQA is derivative-free
+  return std::isfinite(c) ? c : std::numeric_limits<double>::max();
+}
+
+}  // namespace
+
+std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, const std::string& source) {
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  std::map<std::string, int> column;
+  static const char* const kColumns[] = {"quantity", "channel", "theta_i_deg", "value", "sigma"};
+  std::vector<FitMeasurement> out;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    for (unsigned char ch : line)
+      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
+        throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
+                       "): expected CSV");
+    const std::vector<std::string> f = split_csv_line(line);
+    const std::string where = source + ": line " + std::to_string(line_no);
+    if (column.empty()) {  // the header
+      for (std::size_t k = 0; k < f.size(); ++k) {
+        if (std::find(std::begin(kColumns), std::end(kColumns), f[k]) == std::end(kColumns))
+          throw FitError(where + ": unknown column '" + f[k] + "' (expected quantity,channel,theta_i_deg,value,sigma)");
+        if (!column.emplace(f[k], static_cast<int>(k)).second) throw FitError(where + ": column '" + f[k] + "' twice");
+      }
+      for (const char* c : kColumns)
+        if (!column.count(c)) throw FitError(where + ": missing column '" + std::string(c) + "' (expected quantity,channel,theta_i_deg,value,sigma)");
+      continue;
+    }
+    if (f.size() != column.size())
+      throw FitError(where + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(column.size()));
+    FitMeasurement m;
+    m.where = where;
+    const std::string& q = f[column["quantity"]];
+    if (q == "R") m.quantity = FitQuantity::kR;
+    else if (q == "R_diffuse") m.quantity = FitQuantity::kRDiffuse;
+    else if (q == "T") m.quantity = FitQuantity::kT;
+    else if (q == "T_diffuse") m.quantity = FitQuantity::kTDiffuse;
+    else if (q == "T_unscattered") m.quantity = FitQuantity::kTUnscattered;
+    else throw FitError(where + ": quantity '" + q + "' is not one of R, R_diffuse, T, T_diffuse, T_unscattered");
+    const std::string& ch = f[column["channel"]];
+    m.channel = ch == "r" ? 0 : ch == "g" ? 1 : ch == "b" ? 2 : -1;
+    if (m.channel < 0) throw FitError(where + ": channel '" + ch + "' is not r, g or b");
+    const std::string& th = f[column["theta_i_deg"]];
+    if (th == "diffuse") {
+      m.diffuse = true;
+      if (m.quantity != FitQuantity::kR && m.quantity != FitQuantity::kT)
+        throw FitError(where + ": " + q + " is defined for collimated incidence only (diffuse incidence: R or T)");
+    } else {
+      m.theta_i_deg = parse_number(th, where, "theta_i_deg");
+      if (m.theta_i_deg < 0.0 || m.theta_i_deg >= 90.0)
+        throw FitError(where + ": theta_i_deg " + th + " is not in [0, 90) (or 'diffuse')");
+    }
+    m.value = parse_number(f[column["value"]], where, "value");
+    m.sigma = parse_number(f[column["sigma"]], where, "sigma");
+    if (m.sigma <= 0.0) throw FitError(where + ": sigma " + f[column["sigma"]] + " must be > 0");
+    out.push_back(m);
+  }
+  if (column.empty()) throw FitError(source + ": empty (expected the header quantity,channel,theta_i_deg,value,sigma)");
+  if (out.empty()) throw FitError(source + ": no measurements after the header");
+  return out;
+}
+
+std::vector<FitMeasurement> load_fit_measurements(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FitError(path + ": cannot open");
+  std::stringstream s;
+  s << in.rdbuf();
+  return parse_fit_measurements(s.str(), path);
+}
+
+std::vector<double> fit_model_values(const LayerStack& stack, const std::vector<FitMeasurement>& data,
+                                     const AddingDoublingSettings& settings) {
+  // One solution per distinct collimated incidence; every solution also carries the
+  // diffuse-incidence totals (materials/adding_doubling.h), so diffuse data reuse the first.
+  std::map<double, AddingDoublingTotals> by_angle;
+  for (const FitMeasurement& m : data)
+    if (!m.diffuse && !by_angle.count(m.theta_i_deg))
+      by_angle.emplace(m.theta_i_deg, adding_doubling_totals(stack, std::cos(m.theta_i_deg * kPi / 180.0), settings));
+  if (by_angle.empty()) by_angle.emplace(0.0, adding_doubling_totals(stack, 1.0, settings));
+  std::vector<double> out(data.size());
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    const FitMeasurement& m = data[i];
+    out[i] = model_value(m, m.diffuse ? by_angle.begin()->second : by_angle.at(m.theta_i_deg));
+  }
+  return out;
+}
+
+namespace {
+
+// One independent least-squares problem: all unknowns and measurements if a scalar unknown ties
+// the channels together, else those of one channel (the transport in one channel does not see
+// the others, so chi^2 is a sum of independent per-channel terms and each is minimised alone,
+// with a forward model that solves that channel only). Fills r at the group's indices.
+void fit_group(Problem& pb, const std::vector<int>& unknown_index, const std::vector<int>& data_index,
+               const FitSettings& settings, FitResult* r) {
+  const int n = static_cast<int>(pb.unknowns.size());
+  const std::vector<FitMeasurement>& data = *pb.data;
+  // Minimise chi^2 with BOBYQA (M. J. D. Powell, "The BOBYQA algorithm for bound constrained
+  // optimization without derivatives", 2009: quadratic models from interpolation; chi^2 is
+  // smooth and nearly quadratic near its minimum). On the R, T slab (bench/bench_fit.cpp) it
+  // needed 58 solutions against 69 for L-BFGS and 102 for truncated Newton with difference
+  // gradients; SLSQP stopped at the start.
+  std::vector<double> u(n), lo(n, 0.0), hi(n, 1.0), step(n, 0.1);
+  for (int k = 0; k < n; ++k) {
+    const FitUnknown& q = pb.unknowns[k];
+    u[k] = (q.start - q.lower) / (q.upper - q.lower);
+  }
+  nlopt_opt opt = nlopt_create(NLOPT_LN_BOBYQA, static_cast<unsigned>(n));
+  Scaled scaled{&pb, std::vector<double>(n)};
+  nlopt_set_lower_bounds(opt, lo.data());
+  nlopt_set_upper_bounds(opt, hi.data());
+  nlopt_set_initial_step(opt, step.data());
+  nlopt_set_min_objective(opt, scaled_objective, &scaled);
+  nlopt_set_xtol_rel(opt, settings.relative_tolerance);
+  nlopt_set_xtol_abs1(opt, settings.relative_tolerance);
+  nlopt_set_ftol_abs(opt, settings.chi2_tolerance);
+  nlopt_set_maxeval(opt, settings.max_evaluations);
+  double best = 0.0;
+  const nlopt_result status = nlopt_optimize(opt, u.data(), &best);
+  nlopt_destroy(opt);
+  if (status < 0 && status != NLOPT_ROUNDOFF_LIMITED)
+    throw FitError("the optimiser failed (NLopt status " + std::to_string(static_cast<int>(status)) + ")");
+  if (status == NLOPT_MAXEVAL_REACHED)
+    r->warnings.push_back("the optimiser stopped after " + std::to_string(settings.max_evaluations) +
+                          " solutions without converging: the values may not be the minimum");
+
+  std::vector<double> x(n);
+  for (int k = 0; k < n; ++k) x[k] = pb.unknowns[k].lower + u[k] * (pb.unknowns[k].upper - pb.unknowns[k].lower);
+  const std::vector<double> model = pb.model(x.data());
+  const int nm = static_cast<int>(data.size());
+  for (int i = 0; i < nm; ++i) {
+    r->model[data_index[i]] = model[i];
+    r->residual[data_index[i]] = (model[i] - data[i].value) / data[i].sigma;
+  }
+
+  // The Jacobian dm_i/dx_k by central differences (one-sided within the bounds). Step: 1e-4 of
+  // the value's magnitude, or 1e-7 of min(bound range, 1) for a value near 0 (not of the range
+  // alone: absurdly wide bounds would make the step absurd too): the truncation error O(h^2
+  // m''') is ~1e-8 relative, the solver's round-off (~1e-12) / h far below the sigmas.
+  std::vector<std::vector<double>> J(nm, std::vector<double>(n, 0.0));
+  std::vector<bool> at_bound(n, false);
+  for (int k = 0; k < n; ++k) {
+    const FitUnknown& q = pb.unknowns[k];
+    const double range = q.upper - q.lower;
+    const double h = 1e-4 * std::max(std::abs(x[k]), 1e-3 * std::min(range, 1.0));
+    at_bound[k] = x[k] <= q.lower + 1e-6 * range || x[k] >= q.upper - 1e-6 * range;
+    std::vector<double> xp = x, xm = x;
+    xp[k] = std::min(x[k] + h, q.upper);
+    xm[k] = std::max(x[k] - h, q.lower);
+    const std::vector<double> mp = pb.model(xp.data()), mm = pb.model(xm.data());
+    for (int i = 0; i < nm; ++i) J[i][k] = (mp[i] - mm[i]) / (xp[k] - xm[k]);
+  }
+  // alpha = J^T W J, scaled to unit diagonal: S = D^-1/2 alpha D^-1/2.
+  std::vector<std::vector<double>> alpha(n, std::vector<double>(n, 0.0));
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      for (int i = 0; i < nm; ++i) alpha[a][b] += J[i][a] * J[i][b] / (data[i].sigma * data[i].sigma);
+  std::vector<bool> identified(n, true);
+  std::vector<double> d(n);
+  for (int k = 0; k < n; ++k) {
+    d[k] = alpha[k][k];
+    if (!(d[k] > 0.0)) {
+      identified[k] = false;
+      r->warnings.push_back(pb.unknowns[k].name + ": not identified: the measurements do not depend on it");
+    }
+  }
+  std::vector<std::vector<double>> S(n, std::vector<double>(n, 0.0));
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      if (identified[a] && identified[b]) S[a][b] = alpha[a][b] / std::sqrt(d[a] * d[b]);
+      else S[a][b] = a == b ? 1.0 : 0.0;  // kept out of the eigenproblem
+  std::vector<double> lambda;
+  std::vector<std::vector<double>> V;
+  symmetric_eigen(S, &lambda, &V);
+  std::vector<std::vector<double>> Cs(n, std::vector<double>(n, 0.0));
+  for (int e = 0; e < n; ++e) {
+    if (lambda[e] < kIdentifiabilityThreshold) {
+      // A combination not determined: every unknown with a part in it (weight above 0.01 of the
+      // unit eigenvector) has an unbounded variance, so it loses its sigma; the message names
+      // them, largest weight first.
+      std::vector<std::pair<double, int>> carried;
+      for (int k = 0; k < n; ++k)
+        if (identified[k] && std::abs(V[k][e]) > 0.01) carried.push_back({-std::abs(V[k][e]), k});
+      std::sort(carried.begin(), carried.end());
+      std::string names;
+      for (const auto& [w, k] : carried) {
+        names += (names.empty() ? "" : ", ") + pb.unknowns[k].name;
+        identified[k] = false;
+      }
+      if (!names.empty())
+        r->warnings.push_back(names + ": not identified: the measurements determine only a combination of " +
+                              (names.find(',') == std::string::npos ? "it with others" : "them") + " (eigenvalue " +
+                              number_text(std::max(lambda[e], 0.0)) +
+                              " of the scaled curvature matrix J^T W J); add measurements that separate them "
+                              "(other angles, T_unscattered) or fix one");
+      continue;
+    }
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) Cs[a][b] += V[a][e] * V[b][e] / lambda[e];
+  }
+  for (int a = 0; a < n; ++a) {
+    const int ga = unknown_index[a];
+    r->value[ga] = x[a];
+    r->at_bound[ga] = at_bound[a];
+    for (int b = 0; b < n; ++b)
+      if (identified[a] && identified[b]) r->covariance[ga][unknown_index[b]] = Cs[a][b] / std::sqrt(d[a] * d[b]);
+    if (identified[a]) r->sigma[ga] = std::sqrt(r->covariance[ga][ga]);
+    else r->covariance[ga][ga] = std::numeric_limits<double>::infinity();
+    if (at_bound[a])
+      r->warnings.push_back(pb.unknowns[a].name + ": at its bound (" + number_text(x[a]) +
+                            "): the optimum may lie beyond it, and its sigma assumes it does not");
+  }
+}
+
+}  // namespace
+
+FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>& specs,
+                    const std::vector<FitMeasurement>& data, const FitSettings& settings) {
+  if (specs.empty()) throw FitError("no parameter to fit");
+  if (data.empty()) throw FitError("no measurements");
+  if (t.stack.rough_top())
+    throw FitError("roughness: the adding-doubling forward model is for a smooth top interface");
+  std::vector<StackParameter> parameters;
+  std::vector<Spectrum> base;
+  std::vector<FitUnknown> unknowns;
+  bool channel_measured[kChannels] = {false, false, false};
+  for (const FitMeasurement& m : data) channel_measured[m.channel] = true;
+  bool joint = false;  // a scalar unknown ties the channels together
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    const FitParameterSpec& s = specs[k];
+    StackParameter p;
+    try {
+      p = parse_stack_parameter(t, s.path);
+    } catch (const StackParameterError& e) {
+      throw FitError(e.what());
+    }
+    if (p.kind == StackParameter::Kind::kRoughness)
+      throw FitError(s.path + ": the adding-doubling forward model is for a smooth top interface");
+    if (!std::isfinite(s.lower) || !std::isfinite(s.upper))
+      throw FitError(s.path + ": bounds must be finite, got " + number_text(s.lower) + ":" + number_text(s.upper));
+    if (!(s.lower < s.upper))
+      throw FitError(s.path + ": the lower bound " + number_text(s.lower) + " is not below the upper bound " + number_text(s.upper));
+    if (s.lower < p.min_value() || s.upper > p.max_value())
+      throw FitError(s.path + ": bounds " + number_text(s.lower) + ":" + number_text(s.upper) +
+                     " leave the parameter's range [" + number_text(p.min_value()) + ", " + number_text(p.max_value()) + "]");
+    parameters.push_back(p);
+    const Spectrum v0 = p.template_value(t);
+    base.push_back(v0);
+    auto add = [&](int channel) {
+      FitUnknown u;
+      u.parameter = static_cast<int>(k);
+      u.channel = channel;
+      u.name = channel < 0 ? s.path : s.path + "[" + kChannelNames[channel] + "]";
+      u.lower = s.lower;
+      u.upper = s.upper;
+      u.start = std::clamp(v0[channel < 0 ? 0 : channel], s.lower, s.upper);
+      unknowns.push_back(u);
+    };
+    if (!p.spectral()) {
+      add(-1);
+      joint = true;
+    } else {
+      for (int c = 0; c < kChannels; ++c)
+        if (channel_measured[c]) add(c);
+    }
+  }
+  try {
+    check_parameter_set(parameters);
+  } catch (const StackParameterError& e) {
+    throw FitError(e.what());
+  }
+  const int n = static_cast<int>(unknowns.size());
+  FitResult r;
+  r.unknowns = unknowns;
+  r.value.assign(n, 0.0);
+  r.sigma.assign(n, std::numeric_limits<double>::infinity());
+  r.at_bound.assign(n, false);
+  r.covariance.assign(n, std::vector<double>(n, 0.0));
+  r.model.assign(data.size(), 0.0);
+  r.residual.assign(data.size(), 0.0);
+  for (int group = joint ? -1 : 0; group < (joint ? 0 : kChannels); ++group) {
+    std::vector<int> ui, di;
+    for (int k = 0; k < n; ++k)
+      if (group < 0 || unknowns[k].channel == group) ui.push_back(k);
+    for (std::size_t i = 0; i < data.size(); ++i)
+      if (group < 0 || data[i].channel == group) di.push_back(static_cast<int>(i));
+    if (di.empty()) continue;
+    if (ui.empty()) {  // measurements of a channel with no unknown: the model's values, unfitted
+      const std::vector<double> m = fit_model_values(t.stack, data, settings.forward);
+      for (int i : di) {
+        r.model[i] = m[i];
+        r.residual[i] = (m[i] - data[i].value) / data[i].sigma;
+      }
+      continue;
+    }
+    std::vector<FitMeasurement> group_data;
+    for (int i : di) group_data.push_back(data[i]);
+    Problem pb;
+    pb.t = &t;
+    pb.parameters = parameters;
+    pb.base = base;
+    for (int k : ui) pb.unknowns.push_back(unknowns[k]);
+    pb.data = &group_data;
+    pb.forward = settings.forward;
+    pb.forward.only_channel = group;
+    fit_group(pb, ui, di, settings, &r);
+    r.evaluations += pb.evaluations;
+  }
+  for (std::size_t i = 0; i < data.size(); ++i) r.chi2 += r.residual[i] * r.residual[i];
+  r.dof = static_cast<int>(data.size()) - n;
+  r.parameter_values = base;
+  for (int k = 0; k < n; ++k) {
+    const FitUnknown& u = unknowns[k];
+    if (u.channel < 0) r.parameter_values[u.parameter] = Spectrum(r.value[k]);
+    else r.parameter_values[u.parameter][u.channel] = r.value[k];
+  }
+  apply_parameters(t, parameters, r.parameter_values.data(), &r.stack);
+  if (settings.check_discretisation) {
+    AddingDoublingSettings fine = settings.forward;
+    fine.quadrature_points *= 2;
+    fine.only_channel = -1;
+    for (int c = 0; c < kChannels; ++c)  // one channel measured: solve only it
+      if (std::all_of(data.begin(), data.end(), [c](const FitMeasurement& m) { return m.channel == c; })) fine.only_channel = c;
+    const std::vector<double> m2 = fit_model_values(r.stack, data, fine);
+    ++r.evaluations;
+    double worst = 0.0;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      const double z = std::abs(m2[i] - r.model[i]) / data[i].sigma;
+      if (z > worst) worst = z, at = i;
+    }
+    if (worst > 0.2)
+      r.warnings.push_back(data[at].where + ": the forward model at " + std::to_string(settings.forward.quadrature_points) +
+                           " quadrature points differs from " + std::to_string(fine.quadrature_points) + " by " +
+                           number_text(worst) + " sigma; raise the quadrature points");
+  }
+  return r;
+}
+
+void write_fitted_values(nlohmann::json& j, const StackTemplate& t, const std::vector<FitParameterSpec>& specs,
+                         const FitResult& result) {
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    const StackParameter p = parse_stack_parameter(t, specs[k].path);
+    const Spectrum& v = result.parameter_values[k];
+    nlohmann::json* node = find_stack_value(j, split_stack_path(specs[k].path), specs[k].path);
+    if (p.spectral()) *node = nlohmann::json::array({v[0], v[1], v[2]});
+    else *node = v[0];
+    if (p.kind != StackParameter::Kind::kFraction) continue;
+    // The other fractions of the layer, rescaled as apply_parameters does: by (1 - f) / rest,
+    // rest their total in the template, or an equal share of 1 - f if rest is 0.
+    const LayerDesc& d = t.layers[p.layer];
+    const int m = static_cast<int>(d.components.size());
+    double rest = 0.0;
+    for (int c = 0; c < m; ++c)
+      if (c != p.component) rest += d.components[c].fraction;
+    nlohmann::json& components = j["layers"][p.layer]["components"];
+    for (int c = 0; c < m; ++c)
+      if (c != p.component)
+        components[c]["fraction"] = rest > 0.0 ? d.components[c].fraction * (1.0 - v[0]) / rest : (1.0 - v[0]) / (m - 1);
+  }
+}
+
+}  // namespace lamina

@@ -1,0 +1,169 @@
+// lamina fit: the parameters of a material file from measured totals (docs/contracts.md,
+// "lamina fit"). Parses, calls materials/stack_fit, prints; the physics and the statistics live
+// in materials/.
+//
+// Outputs:
+//   --out FITTED.json    the material file with the fitted values at their paths (same format)
+//   --summary FIT.json   the unknowns (value, sigma, bounds, at_bound), chi2, dof, the
+//                        measurements with the model's values and residuals, the warnings;
+//                        printed to stdout if omitted
+// Identifiability and bound warnings also go to stderr, one line each ("lamina fit: warning: ").
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "materials/stack_file.h"
+#include "materials/stack_fit.h"
+#include "renderer/cli/commands.h"
+#include "renderer/cli/options.h"
+#include "renderer/cli/outputs.h"
+#include "renderer/util/atomic_file.h"
+
+namespace {
+
+namespace cli = lamina::cli;
+
+// "PATH=LO:HI" -> spec; the path itself is checked by the resolver (materials/stack_parameters).
+lamina::FitParameterSpec parse_param(const std::string& text) {
+  const std::size_t eq = text.rfind('=');
+  const std::size_t colon = eq == std::string::npos ? std::string::npos : text.find(':', eq);
+  if (eq == std::string::npos || colon == std::string::npos || eq == 0)
+    throw cli::UsageError("--param " + cli::in_quotes(text) + ": expected PATH=LO:HI, e.g. layers[0].sigma_s=0:100");
+  lamina::FitParameterSpec s;
+  s.path = text.substr(0, eq);
+  const std::string lo = text.substr(eq + 1, colon - eq - 1), hi = text.substr(colon + 1);
+  std::string why = cli::parse_real(lo, &s.lower);
+  if (why.empty()) why = cli::parse_real(hi, &s.upper);
+  if (!why.empty()) throw cli::UsageError("--param " + cli::in_quotes(text) + ": " + why);
+  return s;
+}
+
+const char* quantity_name(lamina::FitQuantity q) {
+  switch (q) {
+    case lamina::FitQuantity::kR: return "R";
+    case lamina::FitQuantity::kRDiffuse: return "R_diffuse";
+    case lamina::FitQuantity::kT: return "T";
+    case lamina::FitQuantity::kTDiffuse: return "T_diffuse";
+    case lamina::FitQuantity::kTUnscattered: return "T_unscattered";
+  }
+  return "?";
+}
+
+nlohmann::ordered_json number_or_null(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
+
+std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::FitMeasurement>& data, int quadrature_points) {
+  static const char* kChannels[] = {"r", "g", "b"};
+  nlohmann::ordered_json j;
+  j["method"] = "adding-doubling";
+  j["quadrature_points"] = quadrature_points;
+  j["chi2"] = r.chi2;
+  j["dof"] = r.dof;
+  j["evaluations"] = r.evaluations;
+  nlohmann::ordered_json ps = nlohmann::ordered_json::array();
+  for (std::size_t k = 0; k < r.unknowns.size(); ++k) {
+    const lamina::FitUnknown& u = r.unknowns[k];
+    nlohmann::ordered_json p;
+    p["name"] = u.name;
+    p["value"] = r.value[k];
+    p["sigma"] = number_or_null(r.sigma[k]);  // null: not identified
+    p["lower"] = u.lower;
+    p["upper"] = u.upper;
+    p["start"] = u.start;
+    p["at_bound"] = static_cast<bool>(r.at_bound[k]);
+    ps.push_back(p);
+  }
+  j["parameters"] = ps;
+  nlohmann::ordered_json ms = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    const lamina::FitMeasurement& m = data[i];
+    nlohmann::ordered_json e;
+    e["quantity"] = quantity_name(m.quantity);
+    e["channel"] = kChannels[m.channel];
+    if (m.diffuse) e["theta_i_deg"] = "diffuse";
+    else e["theta_i_deg"] = m.theta_i_deg;
+    e["value"] = m.value;
+    e["sigma"] = m.sigma;
+    e["model"] = r.model[i];
+    e["residual"] = r.residual[i];
+    ms.push_back(e);
+  }
+  j["measurements"] = ms;
+  j["warnings"] = r.warnings;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+int run_fit(int argc, char** argv) {
+  CLI::App app{
+      "Fit parameters of a material file to measured totals (R, T, unscattered T; per channel; per\n"
+      "incidence angle or diffuse) by weighted least squares on the adding-doubling solution.\n"
+      "A colour parameter is fitted per channel (PATH[r], PATH[g], PATH[b]) from that channel's\n"
+      "measurements; sigmas come from (J^T W J)^-1.",
+      "lamina fit"};
+  std::string stack_path, data_path, out_path, summary_path;
+  std::vector<std::string> params;
+  int quadrature_points = lamina::FitSettings{}.forward.quadrature_points;
+  app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md): the start and the fixed values")->required();
+  app.add_option("--data", data_path, "measurements CSV: quantity,channel,theta_i_deg,value,sigma")->required();
+  app.add_option("--param", params, "PATH=LO:HI, a parameter to fit (a texture-binding path) and its bounds; repeat")
+      ->required();
+  app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
+      ->check(cli::integer(4, 64));
+  app.add_option("--out", out_path, "write the fitted material file here");
+  app.add_option("--summary", summary_path, "write the fit's report as JSON here (default: stdout)");
+  std::vector<lamina::FitParameterSpec> specs;
+  try {
+    app.parse(argc, argv);
+    for (const std::string& p : params) specs.push_back(parse_param(p));
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "lamina fit: %s (try 'lamina fit --help')\n", cli::parse_error_line(e).c_str());
+    return 2;
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "lamina fit: %s\n", e.what());
+    return 2;
+  }
+
+  try {
+    std::ifstream in(stack_path, std::ios::binary);
+    if (!in) throw lamina::StackFileError(stack_path + ": cannot open");
+    std::stringstream text;
+    text << in.rdbuf();
+    const lamina::StackTemplate t = lamina::parse_stack_template_json(text.str(), stack_path);
+    const std::vector<lamina::FitMeasurement> data = lamina::load_fit_measurements(data_path);
+    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
+    lamina::FitSettings settings;
+    settings.forward.quadrature_points = quadrature_points;
+    lamina::FitResult r;
+    try {
+      r = lamina::fit_stack(t, specs, data, settings);
+    } catch (const lamina::FitError& e) {  // a parameter's problem: name the file it is in
+      throw lamina::FitError(stack_path + ": " + e.what());
+    }
+    for (const std::string& w : r.warnings) std::fprintf(stderr, "lamina fit: warning: %s\n", cli::one_line(w).c_str());
+    const std::string json = summary_json(r, data, quadrature_points);
+    std::string fitted;
+    if (!out_path.empty()) {
+      nlohmann::json j = nlohmann::json::parse(text.str());
+      lamina::write_fitted_values(j, t, specs, r);
+      fitted = j.dump(2) + "\n";
+    }
+    cli::StagedOutputs outputs;  // both files or neither
+    if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, fitted); });
+    if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
+    outputs.commit();
+    if (summary_path.empty()) std::fputs(json.c_str(), stdout);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina fit: %s\n", cli::one_line(e.what()).c_str());
+    return 1;
+  }
+  return 0;
+}

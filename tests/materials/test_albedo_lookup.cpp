@@ -1,0 +1,77 @@
+// The albedo lookup (materials/albedo_lookup): L*a*b* against published values, and the round
+// trip colour -> parameters on the skin preset: the albedo of random (melanin, blood) fractions,
+// solved directly (not from the table), is matched back to fractions near the truth.
+#include "materials/albedo_lookup.h"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "materials/stack_file.h"
+
+namespace lamina {
+namespace {
+
+// Bruce Lindbloom's calculator (sRGB, D65, reference white Y = 100), which implements CIE 15:
+// sRGB (1, 0, 0) is L*a*b* (53.2408, 80.0925, 67.2032); (0, 0, 1): (32.2970, 79.1875, -107.8602).
+// IEC 61966-2-1's 4-digit matrix moves them by up to ~0.05.
+TEST(AlbedoLookup, LabMatchesPublishedValues) {
+  const Spectrum w = linear_rgb_to_lab(Spectrum(1.0));
+  EXPECT_NEAR(w[0], 100.0, 1e-9);
+  EXPECT_NEAR(w[1], 0.0, 1e-9);
+  EXPECT_NEAR(w[2], 0.0, 1e-9);
+  const Spectrum r = linear_rgb_to_lab({1.0, 0.0, 0.0});
+  EXPECT_NEAR(r[0], 53.2408, 0.05);
+  EXPECT_NEAR(r[1], 80.0925, 0.1);
+  EXPECT_NEAR(r[2], 67.2032, 0.1);
+  const Spectrum b = linear_rgb_to_lab({0.0, 0.0, 1.0});
+  EXPECT_NEAR(b[0], 32.2970, 0.05);
+  EXPECT_NEAR(b[1], 79.1875, 0.1);
+  EXPECT_NEAR(b[2], -107.8602, 0.1);
+}
+
+// The match is the minimum of Delta E over the table's bilinear surface, so it is at least as close
+// as the table at the true fractions; its error is the table's interpolation error, which falls
+// as the square of the spacing (bilinear interpolation): halving the spacing must at least halve
+// the worst parameter error.
+TEST(AlbedoLookup, SkinColoursMapBackToTheirFractions) {
+  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  const std::vector<FitParameterSpec> axes = {{"layers[0].components[0].fraction", 0.0, 0.3},
+                                              {"layers[1].components[0].fraction", 0.0, 0.2}};
+  const AddingDoublingSettings settings{8};
+  std::vector<StackParameter> ps = {parse_stack_parameter(t, axes[0].path), parse_stack_parameter(t, axes[1].path)};
+  double previous = 0.0;
+  for (int nodes : {9, 17, 33}) {
+    const AlbedoLookup table = build_albedo_lookup(t, axes, nodes, settings);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.05, 0.95);
+    double worst_e = 0.0, worst = 0.0;
+    for (int k = 0; k < 20; ++k) {
+      const double u0 = u(rng), u1 = u(rng);
+      const Spectrum v[2] = {Spectrum(0.3 * u0), Spectrum(0.2 * u1)};
+      LayerStack s;
+      apply_parameters(t, ps, v, &s);
+      const Spectrum albedo = adding_doubling_totals(s, 1.0, settings).R_hemispherical;
+      const AlbedoMatch m = match_albedo(table, albedo);
+      EXPECT_LE(m.delta_e, delta_e76(linear_rgb_to_lab(table.at(u0, u1)), linear_rgb_to_lab(albedo)) + 1e-6);
+      worst_e = std::max(worst_e, m.delta_e);
+      worst = std::max({worst, std::abs(m.value[0] / 0.3 - u0), std::abs(m.value[1] / 0.2 - u1)});
+    }
+    std::printf("%d nodes: worst Delta E %.4f, worst parameter error %.5f of the range\n", nodes, worst_e, worst);
+    if (previous > 0.0) EXPECT_LT(worst, 0.5 * previous) << nodes << " nodes";
+    previous = worst;
+  }
+}
+
+TEST(AlbedoLookup, BadAxesAreOneLineErrors) {
+  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].sigma_a", 0.0, 1.0}, {"layers[1].thickness", 0.1, 1.0}}, 4), FitError);
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 1.0, 0.1}, {"layers[1].thickness", 0.1, 1.0}}, 4), FitError);
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 0.1, 1.0}}, 4), FitError);
+}
+
+}  // namespace
+}  // namespace lamina
