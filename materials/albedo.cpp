@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
+#include "materials/adding_doubling.h"
+#include "materials/first_order.h"
 #include "materials/random_walk.h"
 #include "materials/sampling.h"
+#include "materials/zeroth_order.h"
 
 namespace lamina {
 
@@ -62,6 +66,32 @@ Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkSettings& approx
   if (standard_error) *standard_error = diff.standard_error(walks);
   if (exact) *exact = base.mean(walks);
   return diff.mean(walks);
+}
+
+Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack) {
+  // R_h: one adding-doubling solution (its diffuse-incidence totals do not depend on cos_theta_i).
+  const Spectrum r_h = adding_doubling_totals(stack, 1.0).R_hemispherical;
+  // R_hs = 2 int_0^1 R_specular(mu) mu dmu. R_specular has a kink where an interface below starts
+  // to reflect totally: at Snell's invariant n_above sin(theta) = n_k of a medium k with
+  // n_k < n_above, i.e. mu = sqrt(1 - (n_k / n_above)^2). Gauss-Legendre on each segment.
+  std::vector<double> cuts = {0.0, 1.0};
+  auto cut_at = [&](double n) {
+    if (n < stack.above_ior) cuts.push_back(std::sqrt(1.0 - (n / stack.above_ior) * (n / stack.above_ior)));
+  };
+  for (const Layer& l : stack.layers) cut_at(l.ior);
+  if (stack.below.kind == Below::Kind::Dielectric) cut_at(stack.below.ior);
+  std::sort(cuts.begin(), cuts.end());
+  constexpr int kPoints = 48;
+  double mu[kPoints], w[kPoints];
+  Spectrum r_hs(0.0);
+  for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+    if (!(cuts[k + 1] > cuts[k])) continue;
+    gauss_legendre(kPoints, cuts[k], cuts[k + 1], mu, w);
+    for (int i = 0; i < kPoints; ++i) r_hs += zeroth_order(stack, mu[i]).R_specular * (2.0 * mu[i] * w[i]);
+  }
+  Spectrum a = r_h - r_hs;
+  for (int c = 0; c < kChannels; ++c) a[c] = std::max(a[c], 0.0);
+  return a;
 }
 
 }  // namespace lamina

@@ -17,6 +17,14 @@ namespace lamina {
 Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
                                         Spectrum* standard_error = nullptr, const WalkSettings& settings = {});
 
+// The same albedo without noise, by adding-doubling: 2 int_0^1 R_diffuse(mu) mu dmu = R_h - R_hs,
+// with R_h the total reflectance for uniform diffuse incidence (adding_doubling_totals, one
+// solution; it includes the unscattered light) and R_hs = 2 int R_specular(mu) mu dmu the
+// unscattered part (materials/zeroth_order, exact, by Gauss-Legendre quadrature in mu on the
+// segments between the critical cosines, where R_specular has kinks). Smooth tops only (a rough
+// top's facets are not in adding-doubling): the caller keeps the walk for those.
+Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack);
+
 // The bias of an approximate walk (settings, e.g. similarity_after) on that albedo: the mean and
 // standard error of (approximate - exact) over paired walks that share their random numbers
 // (walk i of both from Rng(seed, i): identical until the approximation starts, so the pairs'

@@ -8,6 +8,20 @@
 #include "renderer/layered/stack_bindings.h"
 
 namespace lamina {
+namespace {
+
+// The lambert mode's albedo of a stack: by adding-doubling for a smooth top (no noise: standard
+// error 0; materials/albedo.h), by `walks` walks for a rough one (its facets are not in
+// adding-doubling).
+Spectrum albedo_of(const LayerStack& stack, int walks, Spectrum* standard_error = nullptr) {
+  if (!stack.rough_top()) {
+    if (standard_error) *standard_error = Spectrum(0.0);
+    return diffuse_bihemispherical_albedo_adding_doubling(stack);
+  }
+  return diffuse_bihemispherical_albedo(stack, walks, LayeredMaterial::kAlbedoSeed, standard_error);
+}
+
+}  // namespace
 
 LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, int albedo_walks)
     : stack_(std::move(stack)), source_(std::move(source)), albedo_walks_(albedo_walks) {
@@ -17,7 +31,7 @@ LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, int albed
 const Spectrum& LayeredMaterial::lambert_albedo() const {
   // Computed once per material, on first use.
   std::call_once(albedo_once_, [this] {
-    lambert_albedo_ = diffuse_bihemispherical_albedo(stack_, albedo_walks_, kAlbedoSeed, &lambert_albedo_stderr_);
+    lambert_albedo_ = albedo_of(stack_, albedo_walks_, &lambert_albedo_stderr_);
     albedo_state_ = 1;
   });
   return lambert_albedo_;
@@ -54,7 +68,7 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
     for (std::size_t k = 0; k < ps.size(); ++k) values[k] = ps[k].template_value(t);
     LayerStack stack;
     apply_parameters(t, ps, values.data(), &stack);
-    const Spectrum a0 = diffuse_bihemispherical_albedo(stack, kLambertNodeWalks, kAlbedoSeed);
+    const Spectrum a0 = albedo_of(stack, kLambertNodeWalks);
     factors_.resize(ps.size());
     for (std::size_t k = 0; k < ps.size(); ++k) {
       AlbedoFactor& f = factors_[k];
@@ -68,7 +82,7 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
         const double s = nodes > 1 ? static_cast<double>(j) / (nodes - 1) : 0.0;
         v[k] = lo + (hi - lo) * s;
         apply_parameters(t, ps, v.data(), &stack);
-        const Spectrum a = diffuse_bihemispherical_albedo(stack, kLambertNodeWalks, kAlbedoSeed);
+        const Spectrum a = albedo_of(stack, kLambertNodeWalks);
         Spectrum r;
         for (int c = 0; c < kChannels; ++c) r[c] = a0[c] > 0.0 ? a[c] / a0[c] : 1.0;
         f.nodes.push_back(v[k][f.channel]);

@@ -161,7 +161,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       }
     int from_cache = 0;
     for (const auto& m : bindings.by_material) from_cache += m && !m->lambert_albedo_computed() ? 1 : 0;
-    say(log.info, string_printf("lambert mode: albedos by the walk in %.2f s (%d from the cache)",
+    say(log.info, string_printf("lambert mode: albedos by adding-doubling (the walk for a rough top) in %.2f s (%d from the cache)",
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), from_cache));
   }
   // What each material's mode leaves out (texture maps, a rough top): a warning and a header key.
