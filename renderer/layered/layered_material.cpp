@@ -72,20 +72,14 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
     factors_.resize(ps.size());
     for (std::size_t k = 0; k < ps.size(); ++k) {
       AlbedoFactor& f = factors_[k];
-      Spectrum lo, hi;
-      bindings_->value_range(k, &lo, &hi);
-      for (int c = 1; c < kChannels; ++c)
-        if (hi[c] - lo[c] > hi[f.channel] - lo[f.channel]) f.channel = c;
-      const int nodes = hi[f.channel] > lo[f.channel] ? kLambertNodes : 1;
+      f.nodes = bindings_->nodes(k, kLambertNodes);
       std::vector<Spectrum> v = values;
-      for (int j = 0; j < nodes; ++j) {
-        const double s = nodes > 1 ? static_cast<double>(j) / (nodes - 1) : 0.0;
-        v[k] = lo + (hi - lo) * s;
+      for (const Spectrum& node : f.nodes.values) {
+        v[k] = node;
         apply_parameters(t, ps, v.data(), &stack);
         const Spectrum a = albedo_of(stack, kLambertNodeWalks);
         Spectrum r;
         for (int c = 0; c < kChannels; ++c) r[c] = a0[c] > 0.0 ? a[c] / a0[c] : 1.0;
-        f.nodes.push_back(v[k][f.channel]);
         f.ratio.push_back(r);
       }
     }
@@ -96,12 +90,10 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
   Spectrum albedo = base;
   for (std::size_t k = 0; k < factors_.size(); ++k) {
     const AlbedoFactor& f = factors_[k];
-    if (f.nodes.size() < 2) continue;
-    // Linear interpolation in the node values, clamped at the ends.
-    const double x = v[k][f.channel];
-    const double pos = std::clamp((x - f.nodes.front()) / (f.nodes.back() - f.nodes.front()), 0.0, 1.0) * (f.nodes.size() - 1);
-    const std::size_t j = std::min(static_cast<std::size_t>(pos), f.nodes.size() - 2);
-    const double w = pos - j;
+    if (f.nodes.values.size() < 2) continue;
+    std::size_t j = 0;
+    double w = 0.0;
+    f.nodes.bracket(v[k][f.nodes.channel], &j, &w);
     albedo *= f.ratio[j] * (1.0 - w) + f.ratio[j + 1] * w;
   }
   for (int c = 0; c < kChannels; ++c) albedo[c] = std::clamp(albedo[c], 0.0, 1.0);

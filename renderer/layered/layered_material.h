@@ -18,12 +18,12 @@
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 
 struct SceneDesc;
-class StackBindings;
 
 // What stack_at() may look at: the hit as the integrator sees it.
 struct ShadingPoint {
@@ -106,9 +106,8 @@ class LayeredMaterial {
   // lambert_albedo_at's model: per parameter, its node values (channel of the widest range) and
   // the albedo ratios A(t with node) / A(t).
   struct AlbedoFactor {
-    int channel = 0;
-    std::vector<double> nodes;
-    std::vector<Spectrum> ratio;
+    StackBindings::Nodes nodes;
+    std::vector<Spectrum> ratio;  // per node
   };
   mutable std::once_flag factors_once_;
   mutable std::vector<AlbedoFactor> factors_;

@@ -37,8 +37,8 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     // with the warning of render_job (ignored_by_mode). Tables point to their stack: kept here.
     const LayerStack* stack = &m->base_stack();
     if (stack->rough_top()) {
-      smooth_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
-      stack = smooth_stacks_.back().get();
+      owned_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
+      stack = owned_stacks_.back().get();
     }
     const StackBindings* b = m->bindings();
     if (!b || b->empty()) {
@@ -61,36 +61,31 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       if (up->rough_top()) *up = with_smooth_top(*up);
       pair[0] = up.get();
       if (sides == 2) {
-        node_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));
-        pair[1] = node_stacks_.back().get();
+        owned_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));
+        pair[1] = owned_stacks_.back().get();
       }
-      node_stacks_.push_back(std::move(up));
+      owned_stacks_.push_back(std::move(up));
       return pair;
     };
     const auto base = stacks_for(values);
     for (int side = 0; side < sides; ++side) tables_[{m.get(), side == 1}] = obtain(*base[side]);
     for (std::size_t k = 0; k < ps.size(); ++k) {
       if (ps[k].kind == StackParameter::Kind::kRoughness) continue;
-      Spectrum lo, hi;
-      b->value_range(k, &lo, &hi);
-      int channel = 0;
-      for (int c = 1; c < kChannels; ++c)
-        if (hi[c] - lo[c] > hi[channel] - lo[channel]) channel = c;
-      if (!(hi[channel] > lo[channel])) continue;  // a constant parameter: nothing to interpolate
       ParameterAxis axis[2];
+      axis[0].nodes = b->nodes(k, kParameterNodes);
+      if (axis[0].nodes.values.size() < 2) continue;  // a constant parameter: nothing to interpolate
       std::vector<Spectrum> v = values;
-      for (int j = 0; j < kParameterNodes; ++j) {
-        v[k] = lo + (hi - lo) * (static_cast<double>(j) / (kParameterNodes - 1));
+      for (const Spectrum& node_value : axis[0].nodes.values) {
+        v[k] = node_value;
         const auto node = stacks_for(v);
         for (int side = 0; side < sides; ++side) {
-          axis[side].nodes.push_back(v[k][channel]);
           axis[side].tables.push_back(obtain(*node[side]));
           ++parameter_tables_count_;
         }
       }
       for (int side = 0; side < sides; ++side) {
         axis[side].parameter = k;
-        axis[side].channel = channel;
+        axis[side].nodes = axis[0].nodes;
         axes_[{m.get(), side == 1}].push_back(std::move(axis[side]));
       }
     }
@@ -103,12 +98,9 @@ int LayeredTables::factors(const LayeredMaterial* m, bool from_below, const Spec
   int n = 0;
   for (const ParameterAxis& a : it->second) {
     if (n == kMaxFactors) break;
-    // Linear interpolation in the node values, clamped at the ends.
-    const double x = values[a.parameter][a.channel];
-    const std::size_t last = a.nodes.size() - 1;
     std::size_t j = 0;
-    while (j + 1 < last && x > a.nodes[j + 1]) ++j;
-    const double t = std::clamp((x - a.nodes[j]) / (a.nodes[j + 1] - a.nodes[j]), 0.0, 1.0);
+    double t = 0.0;
+    a.nodes.bracket(values[a.parameter][a.nodes.channel], &j, &t);
     out[n++] = TableFactor{a.tables[j].get(), a.tables[j + 1].get(), t};
   }
   return n;

@@ -23,6 +23,7 @@
 
 #include "materials/layered_table.h"
 #include "renderer/layered/layered_material.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/surfaces/table_surface.h"
 
 namespace lamina {
@@ -58,16 +59,15 @@ class LayeredTables {
   // One axis per texture-driven parameter that changes the table.
   struct ParameterAxis {
     std::size_t parameter = 0;  // index into the material's StackBindings::parameters()
-    int channel = 0;            // the channel whose value places the hit between the nodes
-    std::vector<double> nodes;  // that channel's value at each node, increasing
-    std::vector<std::unique_ptr<LayeredTable>> tables;
+    StackBindings::Nodes nodes;
+    std::vector<std::unique_ptr<LayeredTable>> tables;  // per node
   };
   std::map<std::pair<const LayeredMaterial*, bool>, std::vector<ParameterAxis>> axes_;
-  // The stacks that the parameter tables refer to (LayeredTable::stack).
-  std::vector<std::unique_ptr<LayerStack>> node_stacks_;
+
   int parameter_tables_count_ = 0;
-  // The smooth-top copies of rough stacks that tables refer to (LayeredTable::stack).
-  std::vector<std::unique_ptr<LayerStack>> smooth_stacks_;
+  // The stacks tables refer to (LayeredTable::stack) that no material holds: smooth-top copies
+  // of rough stacks, and the parameter tables' stacks.
+  std::vector<std::unique_ptr<LayerStack>> owned_stacks_;
   double seconds_ = 0.0;
   int built_ = 0, built_by_walk_ = 0, loaded_ = 0;
 };

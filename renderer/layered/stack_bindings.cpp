@@ -320,6 +320,25 @@ void StackBindings::value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const
   if (has_freckles_ && static_cast<int>(k) == freckle_parameter_) *hi += Spectrum(std::max(0.0, freckles_.amplitude));
 }
 
+StackBindings::Nodes StackBindings::nodes(std::size_t k, int count) const {
+  Spectrum lo, hi;
+  value_range(k, &lo, &hi);
+  Nodes n;
+  for (int c = 1; c < kChannels; ++c)
+    if (hi[c] - lo[c] > hi[n.channel] - lo[n.channel]) n.channel = c;
+  const int m = hi[n.channel] > lo[n.channel] ? count : 1;
+  for (int j = 0; j < m; ++j) n.values.push_back(lo + (hi - lo) * (m > 1 ? static_cast<double>(j) / (m - 1) : 0.0));
+  return n;
+}
+
+void StackBindings::Nodes::bracket(double x, std::size_t* j, double* t) const {
+  // Evenly spaced: the position in node units, clamped to the range.
+  const double first = values.front()[channel], last = values.back()[channel];
+  const double pos = std::clamp((x - first) / (last - first), 0.0, 1.0) * static_cast<double>(values.size() - 1);
+  *j = std::min(static_cast<std::size_t>(pos), values.size() - 2);
+  *t = pos - static_cast<double>(*j);
+}
+
 void StackBindings::evaluate(glm::dvec2 uv, LayerStack* out) const {
   ParameterValues v(parameters_.size());
   values(uv, v.data());

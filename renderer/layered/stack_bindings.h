@@ -118,6 +118,18 @@ class StackBindings {
   // widened by the freckles' amplitude for the freckle parameter; the template's value for a
   // parameter only the freckles drive, plus [0, amplitude].
   void value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const;
+  // The nodes of the separable models along parameter k (the lambert mode's albedo factors,
+  // LayeredMaterial::lambert_albedo_at; the table mode's parameter tables, LayeredTables):
+  // `count` values evenly over value_range, and the channel of the widest range, whose value
+  // places a hit between them. One node if the parameter is constant over the surface.
+  struct Nodes {
+    int channel = 0;
+    std::vector<Spectrum> values;
+    // Where a hit's value x (of `channel`) falls: between node j and j + 1 with weight t on
+    // j + 1, clamped at the ends (at least two nodes).
+    void bracket(double x, std::size_t* j, double* t) const;
+  };
+  Nodes nodes(std::size_t k, int count) const;
   const StackTemplate& stack_template() const { return *template_; }
   // The bound maps, for checks (their paths, resolved; empty for glTF textures).
   const std::vector<std::string>& map_files() const { return map_files_; }
