@@ -9,17 +9,21 @@
 //   grey <c>       : every channel given channel c's coefficients (no spectral weights at all)
 //   similarity     : g -> 0 with sigma_s (1 - g) in every layer (the phase-function factor gone;
 //                    a different, approximate medium: its mean is shown for comparison)
+//   next-flight MIS: the connections of materials/next_flight_connection.h (the renderer's default
+//                    for delta lights)
 //   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
 //   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
 //   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
 // and the share of the mean and of the second moment by event order.
-//   walk_variance STACK.json [walks] [wo_deg] [wl_deg]
+//   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first two rows only;
+//   env NB=N: N technique-B samples per event)
 // Not run by the test suite.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
+#include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
 #include "materials/stack_file.h"
 
@@ -40,16 +44,23 @@ struct Stats {
 int bucket(int order) { return order <= 1 ? 0 : order < 10 ? 1 : order < 50 ? 2 : 3; }
 
 Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, long walks, int hero,
-          const WalkSettings& settings = {}) {
+          const WalkSettings& settings = {}, bool next_flight = false) {
   Stats st;
+  const ExitDirection exit = prepare_exit(stack, wl, settings.guiding);
   for (long i = 0; i < walks; ++i) {
     Rng rng(1234, static_cast<std::uint64_t>(i), 7);
+    Rng rng_b(4321, static_cast<std::uint64_t>(i), 9);
     Spectrum x(0.0);
     double by_bucket[4] = {0, 0, 0, 0};
     long events = 0;
+    ScatterEvent previous;
     random_walk(stack, wo, rng, [&](const ScatterEvent& e) {
       ++events;
-      const Spectrum c = e.throughput * connection_weight(e.similar ? *settings.similar : stack, e, wl);
+      const LayerStack& s = e.similar ? *settings.similar : stack;
+      const double u1 = rng_b.uniform(), u2 = rng_b.uniform();
+      const Spectrum c = next_flight && !e.similar ? next_flight_event_connection(s, previous, e, exit, u1, u2)
+                                                   : e.throughput * connection_weight(s, e, wl);
+      previous = e;
       x += c;
       by_bucket[bucket(e.order)] += luminance(c);
     }, settings, hero);
@@ -122,6 +133,8 @@ int main(int argc, char** argv) {
   const double b = (argc > 4 ? std::atof(argv[4]) : 40.0) * M_PI / 180.0;
   const glm::dvec3 wo{std::sin(a), 0.0, std::cos(a)}, wl{-std::sin(b), 0.0, std::cos(b)};
   print("as given", run(stack, wo, wl, walks, kRandomHero));
+  print("next-flight MIS", run(stack, wo, wl, walks, kRandomHero, {}, true));
+  if (argc > 5) return 0;  // quick: the two above only
   for (int k = 0; k < 3; ++k) {
     char label[32];
     std::snprintf(label, sizeof label, "hero fixed %d", k);

@@ -579,6 +579,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   double z = 0.0;     // depth below the top of layer l, mm
   ScatterEvent last_event;
   bool reflected_since_event = false;
+  int interactions_at_event = -1;  // result.interactions when the last volume event was emitted
+  bool last_flight_guided = false;  // the current flight's direction came from a guided mixture
   Spectrum weight = pw.value();
 
   // Russian roulette (unbiased: survivors divide by the survival probability). Returns false if
@@ -642,6 +644,12 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     event.throughput = throughput;
     event.hero = hero;
     event.similar = similar;
+    // Volume events count one interaction each (the collision); any more since the previous
+    // volume event were interfaces. A guided flight has another direction density.
+    event.flight_from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
+                                 result.interactions == interactions_at_event + 1 &&
+                                 last_event.layer == l && last_event.similar == similar && !last_flight_guided;
+    interactions_at_event = kind == ScatterEvent::Kind::Volume ? result.interactions : -1;
     if (on_event) on_event(event);
     last_event = event;
     reflected_since_event = false;
@@ -859,6 +867,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     // densities for every channel, to be combined when the flight ends (guided_flight_end).
     const double q = cache[l].guiding;
     flight_guided = q > 0.0 && rng.uniform() < q;
+    last_flight_guided = q > 0.0;
     if (flight_guided && cache[l].v0[hero] > 0.0) {
       const double mu = sample_dwivedi_cos(cache[l].v0[hero], u1);
       const double sin_theta = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));

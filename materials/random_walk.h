@@ -51,6 +51,11 @@ struct ScatterEvent {
   // The walk had switched to WalkSettings::similar when this event happened: its phase function
   // and the attenuation of its way out are those of the similar stack.
   bool similar = false;
+  // The flight that ended here started at the walk's previous event, a volume event in the same
+  // layer (and the same stack), along a direction sampled classically from its phase function
+  // (not guided), with no interface met on the way: `direction` then has the density
+  // phase(previous.direction . direction). The renderer's direction-MIS connections use it.
+  bool flight_from_previous = false;
 };
 
 struct WalkResult {

@@ -198,6 +198,11 @@ int run_render(int argc, char** argv) {
                  "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
       ->capture_default_str()
       ->check(CLI::IsMember({"per-event", "shared"}));
+  std::string next_flight = "on";
+  app.add_option("--next-flight", next_flight,
+                 "random-walk: next-flight connections to delta lights (MIS over each flight's direction; unbiased)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
   app.add_option("--noise-threshold", settings.noise_threshold,
                  "adaptive sampling: target relative standard error of each pixel's luminance, in (0, 1) "
                  "(--spp is then the most samples a pixel gets)")
@@ -319,6 +324,7 @@ int run_render(int argc, char** argv) {
   request.cache_dir = cache_dir;
   request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
   request.walk.per_event_pool_samples = pool_samples == "per-event";
+  request.walk.next_flight = next_flight == "on";
   request.walk.similarity_after = similarity_after;
   request.walk.guiding = guiding;
   request.settings = settings;

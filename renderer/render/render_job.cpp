@@ -269,6 +269,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
       {"lamina:pool_samples", request.walk.per_event_pool_samples ? "per-event" : "shared"},
       {"lamina:similarity_after", std::to_string(request.walk.similarity_after)},
       {"lamina:guiding", string_printf("%.17g", request.walk.guiding)},
+      {"lamina:next_flight", request.walk.next_flight ? "on" : "off"},
       {"lamina:noise_threshold", string_printf("%.17g", settings.noise_threshold)},
       {"lamina:pilot_spp", std::to_string(settings.noise_threshold > 0.0 ? settings.pilot_spp : 0)},
       {"lamina:time_limit", string_printf("%.17g", settings.time_limit)},

@@ -5,6 +5,7 @@
 
 #include "materials/fresnel.h"
 #include "materials/microfacet.h"
+#include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
 #include "materials/walk_estimator.h"
 
@@ -102,6 +103,24 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     scale[k] = light_scale(lights[k], exits[k]);
   }
   thread_local ExitDirection own_exit;
+  // Next-flight connections: per delta light and layer, whether the layer qualifies (exact and
+  // similar stack), decided once per walk.
+  const int n_layers = static_cast<int>(stack_.layers.size());
+  thread_local std::vector<char> next_flight, similar_next_flight;
+  next_flight.assign(static_cast<std::size_t>(light_count) * n_layers, 0);
+  similar_next_flight.assign(next_flight.size(), 0);
+  if (options_.next_flight && !options_.naive && !options_.connections_only) {
+    for (int k = 0; k < light_count; ++k) {
+      if (!lights[k].delta || scale[k] == 0.0) continue;
+      for (int l = 0; l < n_layers; ++l) {
+        next_flight[k * n_layers + l] = next_flight_layer(stack_, l, exits[k]);
+        if (settings.similar) similar_next_flight[k * n_layers + l] = next_flight_layer(similar, l, similar_exits[k]);
+      }
+    }
+  }
+  auto uses_next_flight = [&](const ScatterEvent& e, int k) {
+    return (e.similar ? similar_next_flight : next_flight)[k * n_layers + e.layer] != 0;
+  };
 
   // Connection roulette. Most events of a walk in a thick medium are deep (skin: 3/4 of them
   // below 0.3 mm, carrying 0.5 % of the light): an event whose way out is attenuated by more
@@ -118,13 +137,33 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   std::uint64_t events = 0;
   const EventCallback on_event = [&](const ScatterEvent& e) {
     ++events;
+    const ScatterEvent previous = last;
     last = e;
     for (int k = 0; k < light_count; ++k) {
       if (scale[k] == 0.0) continue;
       const ExitDirection& exit = e.similar ? similar_exits[k] : exits[k];
+      const bool split = uses_next_flight(e, k);
+      // Technique B from this event: the next flight's connection along a direction drawn
+      // around the light's inside direction, with its own roulette on depth.
+      // (Not from the event after which the walk switches to the similar stack: its next
+      // flight is not the exact stack's.)
+      const bool switches_after = settings.similar && !e.similar && e.order >= settings.similarity_after;
+      if (split && e.kind == ScatterEvent::Kind::Volume && !switches_after) {
+        const double bound = next_flight_depth_bound(stack_of(e), e, exit);
+        const double depth = options_.next_flight_roulette_depth;
+        const double p = bound <= depth ? 1.0 : std::exp(depth - bound);
+        if (p >= 1.0 || rng.uniform() < p) {
+          const double u1 = rng.uniform(), u2 = rng.uniform();
+          lights[k].f_cos += e.throughput * next_flight_connection(stack_of(e), e, exit, u1, u2) * (scale[k] / p);
+        }
+      }
       const double p = connect_probability(e, exit);
       if (p < 1.0 && !(rng.uniform() < p)) continue;
-      lights[k].f_cos += contribution(e, exit, lights[k], scale[k] / p);
+      // Technique A: this event's own connection, weighted against B when its flight came
+      // straight from the previous event.
+      const double mis = split && e.flight_from_previous ? next_flight_weight_of_event(previous, e, exit) : 1.0;
+      if (mis == 0.0) continue;
+      lights[k].f_cos += contribution(e, exit, lights[k], scale[k] * mis / p);
     }
     LightDirection own;
     if (per_event && per_event->draw(rng, &own)) {

@@ -19,6 +19,11 @@
 //    With a LightSampler (RandomWalkOptions::per_event_pool_samples, off by default), every event
 //    also connects to a light sample of its own, with its own shadow ray: independent samples of
 //    an environment or area light average over the light where a shared one cannot.
+//  * Next-flight connections (delta lights, RandomWalkOptions::next_flight): in a layer with one
+//    grey HG lobe, each event's connection to a delta light is split by MIS over the direction
+//    of the flight that led to it: the event's own connection keeps the weight p_A / (p_A + p_B)
+//    and the previous event adds the same expectation estimated along a direction drawn around
+//    the light's inside direction (materials/next_flight_connection.h).
 //  * The continuation is the walk's exit, weight W_exit / (1 - R) [n factor]. An exit straight
 //    from the last event competes with that event's light connection: MIS with pdf
 //    exit_pdf_for_mis; any other exit (unscattered, or reflected inside since) cannot be found
@@ -59,6 +64,15 @@ struct RandomWalkOptions {
   // stacks; an exact skin stack has none). Unbiased; off by default: it wins for long walks in
   // bright isotropic media and loses where walks are already short (docs/random_walk.md).
   double guiding = 0.0;
+  // Next-flight connections for delta lights (materials/next_flight_connection.h, `--next-flight
+  // off` to disable): each flight's direction by two techniques, the walk's phase sampling and
+  // the phase function around the light's inside direction, combined by MIS. Unbiased; it
+  // removes the spikes of forward-peaked connections.
+  bool next_flight = true;
+  // Their roulette: a technique-B connection attenuated by more than exp(-depth) in every channel
+  // (next_flight_depth_bound) is made with probability exp(depth - bound). 1 measured best on
+  // head_skin (README, "Clean skin"): B's connections from below one mean free path are small.
+  double next_flight_roulette_depth = 1.0;
 };
 
 class RandomWalkSurface final : public Surface {

@@ -737,18 +737,21 @@ SceneDesc slab_under_every_light() {
   return d;
 }
 
-// Renders `stack` in slab_under_every_light at 32x32, 8 spp, with setups a and b, two unbiased
+// Renders `stack` in slab_under_every_light at 32x32, 8 spp (by default), with setups a and b, two unbiased
 // estimators of the same image, and expects the same mean within 3 standard errors of the
 // difference in every channel. LAMINA_TEST_VERBOSE prints the means and per-pixel deviations.
-void expect_same_mean(const LayerStack& stack, RenderSetup a, RenderSetup b, const char* name_a, const char* name_b) {
-  const SceneDesc d = slab_under_every_light();
+// point_light_only: the slab under the point light alone (no environment, no emitter), at `spp`.
+void expect_same_mean(const LayerStack& stack, RenderSetup a, RenderSetup b, const char* name_a, const char* name_b,
+                      bool point_light_only = false, int spp = 8) {
+  SceneDesc d = slab_under_every_light();
+  if (point_light_only) d = make_scene({slab_plane(0)}, {Material{}}), d.lights = slab_under_every_light().lights;
   const LayeredBindings bindings = bind(stack);
   ImageStats st[2];
   RenderSetup* setups[2] = {&a, &b};
   for (int k = 0; k < 2; ++k) {
     setups[k]->width = setups[k]->height = 32;
-    setups[k]->spp = 8;
-    st[k] = stats_of(render_layered(d, bindings, EnvironmentMap::constant(Spectrum(0.5)),
+    setups[k]->spp = spp;
+    st[k] = stats_of(render_layered(d, bindings, EnvironmentMap::constant(Spectrum(point_light_only ? 0.0 : 0.5)),
                                     camera_towards(world_dir(30, 0)), *setups[k]));
   }
   const double n = 32.0 * 32.0;
@@ -785,6 +788,33 @@ TEST(LayeredLights, GuidedWalksSameMean) {
   RenderSetup classic, guided;
   guided.walk.guiding = 0.5;
   expect_same_mean(iso, classic, guided, "classic", "guided");
+}
+
+// Next-flight connections (materials/next_flight_connection.h; the default) against the plain
+// per-event connections, on forward-scattering skin-like layers (g = 0.8 in both) under every
+// kind of light: the point light's connections take the MIS, the others not.
+LayerStack forward_skin_like() {
+  LayerStack s = test::skin_like_stack("forward");
+  s.layers[1].lobes[0].g = Spectrum(0.8);
+  return s;
+}
+
+TEST(LayeredLights, NextFlightSameMean) {
+  RenderSetup plain, next_flight;
+  plain.walk.next_flight = false;
+  expect_same_mean(forward_skin_like(), plain, next_flight, "plain", "next-flight");
+  // The point light alone at 64 spp: 4x smaller standard errors on the part that changed.
+  expect_same_mean(forward_skin_like(), plain, next_flight, "plain", "next-flight", true, 64);
+}
+
+// With the approximate similarity switch after 2 events, the event after which the walk switches
+// must not start a next flight through the exact stack (its flight is the similar stack's):
+// with and without next-flight connections the same (biased) mean.
+TEST(LayeredLights, NextFlightSameMeanAcrossTheSimilaritySwitch) {
+  RenderSetup plain, next_flight;
+  plain.walk.next_flight = false;
+  plain.walk.similarity_after = next_flight.walk.similarity_after = 2;
+  expect_same_mean(forward_skin_like(), plain, next_flight, "plain", "next-flight", true, 64);
 }
 
 // ---- stratified hero channel (integrator.cpp, HeroStrata) ----
