@@ -25,10 +25,10 @@ double attenuated_path_integral(double c, double len, double offset) {
 
 }  // namespace
 
-bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& exit) {
+bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& exit, double min_g) {
   if (exit.layers.empty()) return false;
   const ExitDirection::LayerExit& path = exit.layers[layer];
-  if (!path.exists || !path.single_lobe) return false;
+  if (!path.exists || !path.single_lobe || path.single_g < min_g) return false;
   if (!exit.guided.empty() && exit.guided[layer].guiding > 0.0) return false;
   const Spectrum sigma_s = stack.layers[layer].sigma_s();
   for (int c = 0; c < kChannels; ++c)
