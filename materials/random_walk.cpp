@@ -136,18 +136,32 @@ struct PathWeight {
   double scale = 1.0; // entry transmission and Russian roulette factors (common to all channels)
 
   Spectrum value() const {
+    Spectrum w;
+    values(a, &w, nullptr, nullptr);
+    return w;
+  }
+  // value() of this path and of the same path with the scalar weights `other` (the collision's
+  // absorbed part: the same densities), sharing the exponentials.
+  void values(const Spectrum& a_first, Spectrum* first, const Spectrum* a_second, Spectrum* second) const {
     // Grey path (all densities equal): sum_k p_k/p_c = 3 exactly, W = a.
-    if (lr[0] == 0.0 && lr[1] == 0.0 && lr[2] == 0.0) return a * scale;
+    if (lr[0] == 0.0 && lr[1] == 0.0 && lr[2] == 0.0) {
+      *first = a_first * scale;
+      if (second) *second = *a_second * scale;
+      return;
+    }
     // kChannels / sum_k exp(lr_k - lr_c) = kChannels e_c / sum_k e_k with e_k = exp(lr_k - max lr):
     // three exponentials instead of nine, and none overflows (the largest is 1).
     const double top = std::max(lr[0], std::max(lr[1], lr[2]));
     Spectrum e;
     for (int k = 0; k < kChannels; ++k) e[k] = std::exp(lr[k] - top);
     const double sum = e[0] + e[1] + e[2];
-    Spectrum w;
-    for (int c = 0; c < kChannels; ++c)
-      if (a[c] != 0.0 && e[c] > 0.0) w[c] = scale * a[c] * kChannels * e[c] / sum;  // else c cannot produce this path
-    return w;
+    auto weigh = [&](const Spectrum& weights, Spectrum* w) {
+      *w = Spectrum(0.0);
+      for (int c = 0; c < kChannels; ++c)
+        if (weights[c] != 0.0 && e[c] > 0.0) (*w)[c] = scale * weights[c] * kChannels * e[c] / sum;  // else c cannot produce this path
+    };
+    weigh(a_first, first);
+    if (second) weigh(*a_second, second);
   }
 };
 
@@ -834,6 +848,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     const Spectrum& sigma_s = cache[l].sigma_s;
     if (flight_q > 0.0) {
       guided_flight_end(tau, tau_g, true);
+      weight = pw.value();
     } else {
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
     const Spectrum& log_sigma_t = cache[l].log_sigma_t;
@@ -841,19 +856,19 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       if (k == hero) continue;
       pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
     }
-    // What the collision absorbs (direct tally) and scatters: the albedo splits the weight.
-    {
-      PathWeight absorbed = pw;
-      for (int c = 0; c < kChannels; ++c) {
-        absorbed.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (layer.sigma_a[c] / sigma_t[c]) : 0.0;
-        pw.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (sigma_s[c] / sigma_t[c]) : 0.0;
-      }
-      result.absorbed += absorbed.value();
+    // What the collision absorbs (direct tally) and scatters: the albedo splits the weight (one
+    // set of spectral MIS factors for both).
+    Spectrum absorbed_a;
+    for (int c = 0; c < kChannels; ++c) {
+      absorbed_a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (layer.sigma_a[c] / sigma_t[c]) : 0.0;
+      pw.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (sigma_s[c] / sigma_t[c]) : 0.0;
     }
+    Spectrum absorbed;
+    pw.values(pw.a, &weight, &absorbed_a, &absorbed);
+    result.absorbed += absorbed;
     }
     ++result.scatter_count;
     ++result.interactions;
-    weight = pw.value();
     if (weight.is_black()) {
       result.end = WalkResult::End::Absorbed;
       return result;
