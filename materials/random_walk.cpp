@@ -350,6 +350,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
       const double p = path.single_lobe ? henyey_greenstein(cos_theta, path.single_g) : layer.phase(0, cos_theta);
       emission = Spectrum(p / path.mu_inside);
       sampling = Spectrum(p);
+      if (path.single_lobe) out.phase = p;
     } else {
       const Spectrum sigma_s = layer.sigma_s();
       for (int c = 0; c < kChannels; ++c) {

@@ -222,6 +222,8 @@ struct DirectExit {
   Spectrum weight;            // connection_weight
   double pdf_for_mis = 0.0;   // exit_pdf_for_mis: the walk's exit density, mean over the heroes
   double pdf_hero = 0.0;      // connection_pdf: the same in the event's own hero channel
+  double phase = 0.0;         // a volume event in a layer of one grey lobe: its phase function
+                              // value towards the inside direction (else 0)
 };
 DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
 

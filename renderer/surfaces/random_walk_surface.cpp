@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "materials/fresnel.h"
+#include "materials/henyey_greenstein.h"
 #include "materials/microfacet.h"
 #include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
@@ -72,11 +73,14 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   scale.assign(light_count, 0.0);
 
   // An event's contribution towards light direction `light` through its prepared exit.
+  // p_a >= 0: a next-flight technique-A connection, weighted p_a / (p_a + p_b) with p_b the
+  // event's phase function towards the light (next_flight_weight_of_event, from connect_direct's).
   auto contribution = [&](const ScatterEvent& e, const ExitDirection& exit, const LightDirection& light,
-                          double light_scale) {
+                          double light_scale, double p_a = -1.0) {
     const DirectExit direct = connect_direct(stack_of(e), e, exit);
     if (direct.weight.is_black()) return Spectrum(0.0);
     double weight = light_scale;
+    if (p_a >= 0.0) weight *= p_a + direct.phase > 0.0 ? p_a / (p_a + direct.phase) : 0.0;
     if (options_.naive) {
       // The naive estimator drops the Fresnel transmission of the way out.
       const double ft = exit.layers[e.layer].fresnel_t;
@@ -140,6 +144,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     ++events;
     const ScatterEvent previous = last;
     last = e;
+    double p_a_event = -1.0;  // next-flight technique A's p_A, computed once per event
     for (int k = 0; k < light_count; ++k) {
       if (scale[k] == 0.0) continue;
       const ExitDirection& exit = e.similar ? similar_exits[k] : exits[k];
@@ -161,10 +166,15 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       const double p = connect_probability(e, exit);
       if (p < 1.0 && !(rng.uniform() < p)) continue;
       // Technique A: this event's own connection, weighted against B when its flight came
-      // straight from the previous event.
-      const double mis = split && e.flight_from_previous ? next_flight_weight_of_event(previous, e, exit) : 1.0;
-      if (mis == 0.0) continue;
-      lights[k].f_cos += contribution(e, exit, lights[k], scale[k] * mis / p);
+      // straight from the previous event (p_A, the density of its direction, is the same for
+      // every light).
+      double p_a = -1.0;
+      if (split && e.flight_from_previous) {
+        if (!(p_a_event >= 0.0))
+          p_a_event = henyey_greenstein(glm::dot(previous.direction, e.direction), exit.layers[e.layer].single_g);
+        p_a = p_a_event;
+      }
+      lights[k].f_cos += contribution(e, exit, lights[k], scale[k] / p, p_a);
     }
     LightDirection own;
     if (per_event && per_event->draw(rng, &own)) {
