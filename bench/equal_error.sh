@@ -9,7 +9,7 @@
 #
 # OLD_LAMINA: default, the parent commit of HEAD built into $EQ_OUT/baseline-<sha> (a git
 # worktree; built once and kept). NEW_LAMINA: default build/renderer/lamina.
-# Environment: EQ_SCENES (default "head_skin spheres_45 leaves_back"), EQ_SIZE (WxH, default
+# Environment: EQ_SCENES (default "head_skin spheres_45 leaves_back"; or paths of .gltf files), EQ_SIZE (WxH, default
 # 64x80), EQ_SPP (default "4 16 64"), EQ_REF_SPP (default 1024), EQ_TARGET (default 0.05),
 # EQ_OUT (default out/equal_error), EQ_ARGS (extra arguments for the NEW build only, e.g.
 # "--similarity-after 0" to measure an approximate option against the exact old one).
@@ -48,12 +48,14 @@ scene_path() {
     head_skin) echo scenes/head_skin/head_skin.gltf ;;
     spheres_0|spheres_45) echo "scenes/spheres/$1.gltf" ;;
     leaves_front|leaves_back) echo "scenes/leaves/$1.gltf" ;;
+    *.gltf|*.glb) [ -f "$1" ] && echo "$1" || { echo "equal_error: no scene $1" >&2; exit 2; } ;;
     *) echo "equal_error: unknown scene $1" >&2; exit 2 ;;
   esac
 }
 
 for scene in $SCENES; do
   path=$(scene_path "$scene")
+  scene=$(basename "${scene%.*}")  # a glTF path: its file name names the outputs
   ref="$OUT/ref_${scene}_${W}x${H}_${REF_SPP}.exr"
   if [ ! -f "$ref" ]; then
     echo "equal_error: reference $ref ($REF_SPP spp, new build)" >&2
