@@ -83,11 +83,12 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
           ++parameter_tables_count_;
         }
       }
+      // Both sides' nodes before either axis is moved away.
       for (int side = 0; side < sides; ++side) {
         axis[side].parameter = k;
         axis[side].nodes = axis[0].nodes;
-        axes_[{m.get(), side == 1}].push_back(std::move(axis[side]));
       }
+      for (int side = 0; side < sides; ++side) axes_[{m.get(), side == 1}].push_back(std::move(axis[side]));
     }
   }
 }

@@ -280,6 +280,44 @@ TEST(StackBindings, TableFollowsTheBoundParameters) {
   }
 }
 
+// A transmitting stack (the leaf, pigment bound): the tables along the parameter exist for both
+// sides, and seen from below at a node the model is the table of the hit's flipped stack.
+// (Regression: the second side's nodes were copied from the first after it had been moved.)
+TEST(StackBindings, TableFollowsTheBoundParametersFromBothSides) {
+  const fs::path dir = temp_dir("table-both-sides");
+  write_ramp_png(dir, 2);
+  auto t = std::make_shared<const StackTemplate>(load_stack_template(source("scenes/materials/leaf.json")));
+  const SceneDesc scene = empty_scene();
+  const json spec = json::parse(R"({"bind": [
+      {"parameter": "layers[1].components[0].fraction", "texture": "ramp.png", "channel": "r", "range": [0.1, 0.5]}]})");
+  auto b = std::make_shared<const StackBindings>(spec, t, scene, (dir / "map.json").string(), "leaf", (dir / "map.json").string());
+  LayeredBindings bindings;
+  bindings.by_material.push_back(std::make_shared<const LayeredMaterial>(t->stack, "leaf.json", b));
+  const LayeredMaterial* m = bindings.by_material[0].get();
+  ASSERT_TRUE(m->transmits());
+  const LayeredTables tables(bindings, TableSettings{});
+  EXPECT_EQ(tables.parameter_tables(), 2 * LayeredTables::kParameterNodes);
+  const glm::dvec3 wo = glm::normalize(glm::dvec3(0.2, -0.1, 0.9));
+  const glm::dvec3 wi = glm::normalize(glm::dvec3(-0.3, 0.2, 0.7));
+  for (double u : {0.125, 0.875}) {  // the ramp's ends: nodes 0 and 4
+    StackScratch scratch;
+    ShadingPoint sp;
+    sp.uv = {u, 0.5};
+    const LayerStack below = flipped(m->stack_at(sp, scratch));
+    Spectrum values[1];
+    b->values(sp.uv, values);
+    TableFactor factors[LayeredTables::kMaxFactors];
+    for (bool from_below : {false, true}) {
+      const int n = tables.factors(m, from_below, values, factors);
+      ASSERT_EQ(n, 1) << "from below " << from_below;
+      ASSERT_TRUE(factors[0].lo && factors[0].hi);
+    }
+    const Spectrum model = TableSurface(tables.get(m, true), below, wo, factors, 1).eval(wo, wi);
+    const Spectrum truth = TableSurface(build_layered_table(below, TableSettings{}), below, wo, nullptr, 0).eval(wo, wi);
+    for (int c = 0; c < kChannels; ++c) EXPECT_NEAR(model[c], truth[c], 1e-9 * truth[c] + 1e-15) << "u " << u << " channel " << c;
+  }
+}
+
 TEST(StackBindings, GltfTexturesAreReencodedToTheirStoredValues) {
   SceneDesc scene = empty_scene();
   Texture tex;
