@@ -85,13 +85,23 @@ struct FitUnknown {
 };
 
 struct FitSettings {
-  // The forward model's quadrature: 16 points (adding-doubling's default). 8 points are ~5x
-  // faster (README "lamina fit": 7-12 ms against ~50 ms for a slab from R and T) but their totals
-  // can be off by 1e-4 to 4e-4 for g >= 0.85 (delta-M at order 8), a third of a typical sphere's
-  // sigma of 1e-3; the check below says when that matters.
+  // The forward model's quadrature: 16 points (adding-doubling's default). At 8 points the
+  // totals can be off by 1e-4 to 4e-4 for g >= 0.85 (delta-M at order 8), a third of a typical
+  // sphere's sigma of 1e-3; the check below says when that matters.
   AddingDoublingSettings forward{16};
+  // The optimiser's search runs on a coarse forward model of this many points, corrected towards
+  // `forward` by a few accurate solutions (defect correction, stack_fit.cpp fit_group), which
+  // reaches the accurate model's optimum (the result agrees with a search on `forward` alone to
+  // ~3e-3 sigma, tests/materials/test_stack_fit.cpp) at a fraction of the cost (README "lamina
+  // fit": a slab from R and T in ~5 ms instead of ~27 ms at 16 points). 0, or not below
+  // forward.quadrature_points: the search uses `forward` itself.
+  int coarse_quadrature_points = 4;
+  // At most this many corrections (each one accurate solution and a short coarse search).
+  int max_corrections = 8;
   // After the fit, compare the model at twice the points: a measurement whose value moves by
-  // more than 0.2 of its sigma gets a warning (the discretisation biases the fit).
+  // more than 0.2 of its sigma gets a warning (the discretisation biases the fit). Twice the
+  // points are solved only if half the points move a value by more than 0.2 sigma (a screen:
+  // stack_fit.cpp).
   bool check_discretisation = true;
   // Stopping rules (NLopt): the scaled unknowns move by less than relative_tolerance, or chi^2
   // by less than chi2_tolerance between steps. chi^2 - min chi^2 = d^2 for an unknown d sigmas
@@ -115,6 +125,7 @@ struct FitResult {
   double chi2 = 0.0;
   int dof = 0;                             // measurements - unknowns
   int evaluations = 0;                     // forward-model solutions (optimiser and Jacobian)
+  int coarse_evaluations = 0;              // of which on the coarse model (FitSettings)
   std::vector<std::string> warnings;       // one line each: identifiability, bounds
   std::vector<Spectrum> parameter_values;  // per parameter spec: the fitted value (colours whole)
   LayerStack stack;                        // the template's stack with the fitted values

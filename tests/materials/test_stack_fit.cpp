@@ -284,6 +284,63 @@ TEST(StackFit, AgreesWithIadpythonInversion) {
   EXPECT_EQ(cases, 4);
 }
 
+// The default search runs on a coarse model (4 points) corrected towards the accurate one
+// (FitSettings::coarse_quadrature_points, stack_fit.cpp fit_group); it must land where a search
+// on the accurate model alone lands. Both stop by the same rules (chi^2 within ~1e-6 of its
+// minimum between steps, i.e. ~1e-3 sigma along each direction), and the correction's last
+// Gauss-Newton step leaves an error of second order in its size (~1e-2 sigma): so the two fits
+// must agree to 0.02 sigma (without that step they differ by up to 0.03 sigma on these cases;
+// with it by 3e-3), their sigmas to 1% and their chi^2 to 1e-3. Data from the 16-point model
+// with noise (dof 6 per channel: residuals that the coarse model's Jacobian would weigh wrongly)
+// and, without noise, a forward-peaked thick slab from R and T (g = 0.9: the 4-point model is
+// off by several sigma there, so the correction has to carry the fit).
+TEST(StackFit, CoarseSearchWithCorrectionAgreesWithTheAccurateSearch) {
+  const StackTemplate slab = parse_stack_template_json(kSlab, "slab");
+  const StackTemplate thick = parse_stack_template_json(
+      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 1.0, "sigma_a": 0.25, "sigma_s": 42.0, "g": 0.9}]})", "thick");
+  struct Case {
+    const StackTemplate* t;
+    std::vector<FitParameterSpec> specs;
+    std::vector<FitMeasurement> data;
+    unsigned seed;
+  };
+  std::vector<Case> cases;
+  for (unsigned seed : {1u, 2u, 3u}) cases.push_back({&slab, kSlabSpecs, design(true, true), seed});
+  std::vector<FitMeasurement> rt = design(false, false);
+  rt.resize(2);  // R and T, red
+  cases.push_back({&thick, {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 100.0}}, rt, 0});
+  const AddingDoublingSettings accurate{16};
+  for (Case& c : cases) {
+    const std::vector<double> m = fit_model_values(c.t->stack, c.data, accurate);
+    std::mt19937_64 rng(c.seed);
+    std::normal_distribution<double> normal;
+    for (std::size_t i = 0; i < c.data.size(); ++i)
+      c.data[i].value = m[i] + (c.seed ? c.data[i].sigma * normal(rng) : 0.0);
+    // Start away from the truth (the template's values are the truth).
+    StackTemplate start = *c.t;
+    start.layers[0].components[0].sigma_a = Spectrum(1.5);
+    start.layers[0].components[0].sigma_s = Spectrum(20.0);
+    mix_layer(start.layers[0], &start.stack.layers[0]);
+    FitSettings full;
+    full.coarse_quadrature_points = 0;
+    const FitSettings fast;  // the default: coarse search, corrected
+    ASSERT_EQ(fast.forward.quadrature_points, 16);
+    ASSERT_GT(fast.coarse_quadrature_points, 0);
+    const FitResult a = fit_stack(start, c.specs, c.data, full), b = fit_stack(start, c.specs, c.data, fast);
+    EXPECT_EQ(a.coarse_evaluations, 0);
+    EXPECT_GT(b.coarse_evaluations, 0);
+    EXPECT_LT(b.evaluations - b.coarse_evaluations, a.evaluations / 3);  // the point of it
+    EXPECT_TRUE(b.warnings.empty()) << b.warnings.front();
+    ASSERT_EQ(a.value.size(), b.value.size());
+    for (std::size_t k = 0; k < a.value.size(); ++k) {
+      EXPECT_NEAR(b.value[k], a.value[k], 0.02 * a.sigma[k]) << "seed " << c.seed << " " << a.unknowns[k].name;
+      EXPECT_NEAR(b.sigma[k], a.sigma[k], 0.01 * a.sigma[k]) << "seed " << c.seed << " " << a.unknowns[k].name;
+    }
+    EXPECT_NEAR(b.chi2, a.chi2, 1e-3) << "seed " << c.seed;
+    for (std::size_t i = 0; i < c.data.size(); ++i) EXPECT_NEAR(b.residual[i], a.residual[i], 0.02);
+  }
+}
+
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
