@@ -108,6 +108,8 @@
 #include <string>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+
 #include "materials/first_order.h"  // gauss_legendre
 #include "materials/fresnel.h"
 #include "materials/sampling.h"  // kPi
@@ -788,7 +790,7 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
   for (int q = 0; q < n_inc; ++q) {
     // The single-scattering part and the table's layout from the analytic first order.
     if (settings.single_scattering_bins) {
-      tables[q] = brdf_table_first_order(stack, opts[q]);
+      tables[q] = brdf_table_first_order(stack, opts[q], 6, false);  // its totals are replaced below
     } else {
       tables[q].options = opts[q];
       tables[q].value.assign(2u * K * Mphi, Spectrum(0.0));
@@ -821,11 +823,31 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
     return size;
   };
   int doublings = 0;
-  for (int c = 0; c < kChannels; ++c) {
-    double size0 = 0.0;
-    int small = 0;
-    for (int mode = 0; mode < modes; ++mode) {
-      const Element acc = solve_stack(p, c, mode, &doublings);
+  // The (channel, mode) solutions are independent: they are solved in parallel, a batch of
+  // kModeBatch modes of every channel still going at a time, and then taken in order of the mode
+  // exactly as a sequential loop would (the stopping rule below, the sums into the bins), so the
+  // result does not depend on the threads; a batch's modes past a channel's stop are discarded.
+  constexpr int kModeBatch = 4;
+  double size0[kChannels] = {0.0, 0.0, 0.0};
+  int small[kChannels] = {0, 0, 0};
+  bool going[kChannels] = {true, true, true};
+  for (int first = 0; first < modes; first += kModeBatch) {
+    const int batch = std::min(kModeBatch, modes - first);
+    std::vector<std::pair<int, int>> tasks;  // (channel, mode)
+    for (int c = 0; c < kChannels; ++c)
+      if (going[c])
+        for (int mode = first; mode < first + batch; ++mode) tasks.push_back({c, mode});
+    if (tasks.empty()) break;
+    std::vector<Element> solved(tasks.size());
+    std::vector<int> task_doublings(tasks.size(), 0);
+    tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t i) {
+      solved[i] = solve_stack(p, tasks[i].first, tasks[i].second, &task_doublings[i]);
+    });
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+      const auto [c, mode] = tasks[i];
+      if (!going[c]) continue;
+      const Element& acc = solved[i];
+      doublings += task_doublings[i];
       if (mode == 0)
         for (int q = 0; q < n_inc; ++q) fill_totals(p, acc, z[q], c, p.nodes.incidences[q], &t[q]);
       // The modes fall off with m (multiple scattering smooths the azimuthal dependence, and the
@@ -833,8 +855,8 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
       // cannot change a bin by more than about that fraction of the largest value, so they are
       // not solved.
       const double size = mode_size(acc);
-      if (mode == 0) size0 = size;
-      small = size <= 1e-7 * size0 ? small + 1 : 0;
+      if (mode == 0) size0[c] = size;
+      small[c] = size <= 1e-7 * size0[c] ? small[c] + 1 : 0;
       const double weight = mode == 0 ? 1.0 : 2.0;
       for (int q = 0; q < n_inc; ++q)
         for (int side = 0; side < (acc.Td.n > 0 ? 2 : 1); ++side) {
@@ -846,7 +868,7 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
                   weight * mu_part * phi_integral(mode, b) / layout.projected_solid_angle(k);
           }
         }
-      if (small >= 2) break;
+      if (small[c] >= 2) going[c] = false;
     }
   }
 
