@@ -895,6 +895,7 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
   double size0[kChannels] = {0.0, 0.0, 0.0};
   int small[kChannels] = {0, 0, 0};
   bool going[kChannels] = {true, true, true};
+  for (int c = 0; c < kChannels; ++c) going[c] = settings.only_channel < 0 || settings.only_channel == c;
   for (int first = 0; first < modes; first += kModeBatch) {
     const int batch = std::min(kModeBatch, modes - first);
     std::vector<std::pair<int, int>> tasks;  // (channel, mode)

@@ -60,6 +60,7 @@ double model_value(const FitMeasurement& m, const AddingDoublingTotals& t) {
     case FitQuantity::kT: return t.T_ballistic[c] + t.T_diffuse[c];
     case FitQuantity::kTDiffuse: return t.T_diffuse[c];
     case FitQuantity::kTUnscattered: return t.T_ballistic[c];
+    case FitQuantity::kBin: break;  // from a table (fit_model_values)
   }
   return 0.0;
 }
@@ -224,6 +225,100 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
   return out;
 }
 
+std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::string& source, double theta_i_deg,
+                                            double sigma_floor) {
+  if (!(theta_i_deg >= 0.0 && theta_i_deg < 90.0))
+    throw FitError(source + ": the table's incidence " + number_text(theta_i_deg) + " is not in [0, 90)");
+  if (!(sigma_floor >= 0.0) || !std::isfinite(sigma_floor))
+    throw FitError(source + ": the sigma floor " + number_text(sigma_floor) + " must be finite and >= 0");
+  static const char* const kRequired[] = {"side", "channel", "theta_o_deg", "phi_o_deg", "value", "stderr"};
+  static const char* const kIgnored[] = {"single", "multiple"};
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  std::map<std::string, int> column;
+  struct Row {
+    FitMeasurement m;
+    double theta_o, phi_o;
+  };
+  std::vector<Row> rows;
+  std::vector<double> thetas, phis;  // distinct values
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    for (unsigned char ch : line)
+      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
+        throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
+                       "): expected CSV");
+    const std::vector<std::string> f = split_csv_line(line);
+    const std::string where = source + ": line " + std::to_string(line_no);
+    if (column.empty()) {  // the header
+      for (std::size_t k = 0; k < f.size(); ++k) {
+        if (std::find(std::begin(kRequired), std::end(kRequired), f[k]) == std::end(kRequired) &&
+            std::find(std::begin(kIgnored), std::end(kIgnored), f[k]) == std::end(kIgnored))
+          throw FitError(where + ": unknown column '" + f[k] + "' (expected lamina brdf's side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple)");
+        if (!column.emplace(f[k], static_cast<int>(k)).second) throw FitError(where + ": column '" + f[k] + "' twice");
+      }
+      for (const char* c : kRequired)
+        if (!column.count(c)) throw FitError(where + ": missing column '" + std::string(c) + "' (a lamina brdf table)");
+      continue;
+    }
+    if (f.size() != column.size())
+      throw FitError(where + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(column.size()));
+    Row r;
+    r.m.where = where;
+    r.m.quantity = FitQuantity::kBin;
+    r.m.theta_i_deg = theta_i_deg;
+    const std::string& side = f[column["side"]];
+    if (side == "reflect") r.m.side = 0;
+    else if (side == "transmit") r.m.side = 1;
+    else throw FitError(where + ": side '" + side + "' is not reflect or transmit");
+    const std::string& ch = f[column["channel"]];
+    r.m.channel = ch == "r" ? 0 : ch == "g" ? 1 : ch == "b" ? 2 : -1;
+    if (r.m.channel < 0) throw FitError(where + ": channel '" + ch + "' is not r, g or b");
+    r.theta_o = parse_number(f[column["theta_o_deg"]], where, "theta_o_deg");
+    r.phi_o = parse_number(f[column["phi_o_deg"]], where, "phi_o_deg");
+    if (r.theta_o < 0.0 || r.theta_o > 90.0) throw FitError(where + ": theta_o_deg " + f[column["theta_o_deg"]] + " is not in [0, 90]");
+    if (r.phi_o < 0.0 || r.phi_o >= 360.0) throw FitError(where + ": phi_o_deg " + f[column["phi_o_deg"]] + " is not in [0, 360)");
+    r.m.value = parse_number(f[column["value"]], where, "value");
+    const double stderr_ = parse_number(f[column["stderr"]], where, "stderr");
+    if (stderr_ < 0.0) throw FitError(where + ": stderr " + f[column["stderr"]] + " is negative");
+    r.m.sigma = std::sqrt(stderr_ * stderr_ + sigma_floor * sigma_floor);
+    if (!(r.m.sigma > 0.0))
+      throw FitError(where + ": stderr is 0 and no sigma floor is given: the bin has no uncertainty to weigh it by");
+    // Distinct values: equal to the format's 9 digits.
+    auto add_distinct = [](std::vector<double>& v, double x) {
+      for (double y : v)
+        if (std::abs(x - y) <= 1e-7 * std::max(1.0, std::abs(x))) return;
+      v.push_back(x);
+    };
+    add_distinct(thetas, r.theta_o);
+    add_distinct(phis, r.phi_o);
+    rows.push_back(r);
+  }
+  if (column.empty()) throw FitError(source + ": empty (expected lamina brdf's table header)");
+  if (rows.empty()) throw FitError(source + ": no bins after the header");
+  const int K = static_cast<int>(thetas.size()), M = static_cast<int>(phis.size());
+  std::vector<FitMeasurement> out;
+  for (Row& r : rows) {
+    // The bin whose centre this is (materials/brdf_table.h: cos centre (k + 1/2) / K, phi
+    // centre (m + 1/2) 360 / M), checked to the format's precision.
+    const int k = std::clamp(static_cast<int>(std::floor(std::cos(r.theta_o * kPi / 180.0) * K)), 0, K - 1);
+    const int m = std::clamp(static_cast<int>(std::floor(r.phi_o / 360.0 * M)), 0, M - 1);
+    const double theta_c = std::acos((k + 0.5) / K) * 180.0 / kPi, phi_c = (m + 0.5) * 360.0 / M;
+    if (std::abs(theta_c - r.theta_o) > 1e-6 || std::abs(phi_c - r.phi_o) > 1e-6)
+      throw FitError(r.m.where + ": (theta_o, phi_o) = (" + number_text(r.theta_o) + ", " + number_text(r.phi_o) +
+                     ") is not a bin centre of the " + std::to_string(K) + " x " + std::to_string(M) +
+                     " grid the table's distinct angles give (every ring and azimuth must appear)");
+    r.m.bin_theta = k;
+    r.m.bin_phi = m;
+    r.m.bins_theta = K;
+    r.m.bins_phi = M;
+    out.push_back(r.m);
+  }
+  return out;
+}
+
 std::vector<FitMeasurement> load_fit_measurements(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FitError(path + ": cannot open");
@@ -234,16 +329,43 @@ std::vector<FitMeasurement> load_fit_measurements(const std::string& path) {
 
 std::vector<double> fit_model_values(const LayerStack& stack, const std::vector<FitMeasurement>& data,
                                      const AddingDoublingSettings& settings) {
-  // One solution per distinct collimated incidence; every solution also carries the
+  // Totals: one solution per distinct collimated incidence; every solution also carries the
   // diffuse-incidence totals (materials/adding_doubling.h), so diffuse data reuse the first.
+  // Bins: one table solution per grid (K, M) for all of its incidences at once (each incidence
+  // is one more node of the same solution).
   std::map<double, AddingDoublingTotals> by_angle;
-  for (const FitMeasurement& m : data)
+  std::map<std::pair<int, int>, std::vector<double>> grids;  // (K, M) -> incidences
+  bool totals = false;
+  for (const FitMeasurement& m : data) {
+    if (m.quantity == FitQuantity::kBin) {
+      std::vector<double>& angles = grids[{m.bins_theta, m.bins_phi}];
+      if (std::find(angles.begin(), angles.end(), m.theta_i_deg) == angles.end()) angles.push_back(m.theta_i_deg);
+      continue;
+    }
+    totals = true;
     if (!m.diffuse && !by_angle.count(m.theta_i_deg))
       by_angle.emplace(m.theta_i_deg, adding_doubling_totals(stack, std::cos(m.theta_i_deg * kPi / 180.0), settings));
-  if (by_angle.empty()) by_angle.emplace(0.0, adding_doubling_totals(stack, 1.0, settings));
+  }
+  if (totals && by_angle.empty()) by_angle.emplace(0.0, adding_doubling_totals(stack, 1.0, settings));
+  std::map<std::pair<int, int>, std::vector<BrdfTable>> tables;
+  for (const auto& [grid, angles] : grids) {
+    BrdfOptions o;
+    o.bins_theta = grid.first;
+    o.bins_phi = grid.second;
+    AddingDoublingSettings s = settings;
+    s.single_scattering_bins = false;  // the values only
+    tables[grid] = brdf_tables_adding_doubling(stack, o, angles, s);
+  }
   std::vector<double> out(data.size());
   for (std::size_t i = 0; i < data.size(); ++i) {
     const FitMeasurement& m = data[i];
+    if (m.quantity == FitQuantity::kBin) {
+      const std::pair<int, int> grid{m.bins_theta, m.bins_phi};
+      const std::vector<double>& angles = grids.at(grid);
+      const BrdfTable& t = tables.at(grid)[std::find(angles.begin(), angles.end(), m.theta_i_deg) - angles.begin()];
+      out[i] = t.value[t.bin_index(static_cast<BrdfSide>(m.side), m.bin_theta, m.bin_phi)][m.channel];
+      continue;
+    }
     out[i] = model_value(m, m.diffuse ? by_angle.begin()->second : by_angle.at(m.theta_i_deg));
   }
   return out;

@@ -21,6 +21,8 @@
 //   T               all transmitted light: T_ballistic + T_diffuse, or T_hemispherical
 //   T_diffuse       transmitted light without the unscattered beam (collimated only)
 //   T_unscattered   the unscattered beam T_ballistic (collimated only)
+// and the bins of a BRDF/BTDF table (parse_fit_table: `lamina brdf`'s CSV, the model being the
+// adding-doubling table on the same bins, which unlike R and T sees the phase function's shape),
 // each with its 1-sigma uncertainty (Gaussian errors, independent).
 //
 // Fit: minimise chi^2(x) = sum_i ((m_i(x) - y_i) / s_i)^2 over the box of the bounds (NLopt's
@@ -58,7 +60,9 @@ struct FitParameterSpec {
   double lower = 0.0, upper = 0.0;
 };
 
-enum class FitQuantity { kR, kRDiffuse, kT, kTDiffuse, kTUnscattered };
+// kBin: one bin of a BRDF/BTDF table (the `value` of `lamina brdf`'s table: the non-delta BRDF
+// or BTDF averaged over the bin weighted by projected solid angle, 1/sr), collimated incidence.
+enum class FitQuantity { kR, kRDiffuse, kT, kTDiffuse, kTUnscattered, kBin };
 
 struct FitMeasurement {
   FitQuantity quantity = FitQuantity::kR;
@@ -67,6 +71,9 @@ struct FitMeasurement {
   double theta_i_deg = 0.0;     // collimated incidence, in [0, 90)
   double value = 0.0, sigma = 0.0;
   std::string where;            // "FILE: line N", for messages
+  // kBin only: the bin (side 0 reflect, 1 transmit; k of bins_theta in |cos theta_o|, m of
+  // bins_phi in phi_o from the light's azimuth), as materials/brdf_table.h numbers them.
+  int side = 0, bin_theta = 0, bin_phi = 0, bins_theta = 0, bins_phi = 0;
 };
 
 // Reads the measurement CSV (docs/contracts.md "lamina fit"): a header with the columns
@@ -75,6 +82,18 @@ struct FitMeasurement {
 // > 0. Throws FitError("FILE: line N: reason") (or "FILE: reason" for the file as a whole).
 std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, const std::string& source_name);
 std::vector<FitMeasurement> load_fit_measurements(const std::string& path);
+
+// Reads a BRDF/BTDF table in `lamina brdf`'s CSV format (docs/contracts.md "lamina brdf": the
+// header side,channel,theta_o_deg,phi_o_deg,value,stderr[,single,multiple] in any order, one row
+// per bin and channel) as kBin measurements for light at theta_i_deg (phi_o from the light's
+// azimuth, as lamina brdf writes it). The grid, K x M, is that of the distinct theta_o and phi_o
+// values, each of which must be a bin centre of it (acos((k + 1/2) / K), (m + 1/2) 360 / M
+// degrees, to 1e-6 degree); a subset of the bins may be given as long as every ring and every
+// azimuth appears. Each bin's sigma is sqrt(stderr^2 + sigma_floor^2) (the table's own
+// standard error, and a floor for what it leaves out, e.g. a measurement's calibration); it
+// must be > 0. Throws FitError("FILE: line N: reason").
+std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::string& source_name, double theta_i_deg,
+                                            double sigma_floor);
 
 // One unknown of the fit: a parameter, or one channel of a colour parameter.
 struct FitUnknown {
