@@ -115,7 +115,9 @@ struct FitSettings {
   // fit": a slab from R and T in ~5 ms instead of ~27 ms at 16 points). 0, or not below
   // forward.quadrature_points: the search uses `forward` itself.
   int coarse_quadrature_points = 4;
-  // At most this many corrections (each one accurate solution and a short coarse search).
+  // At most this many corrections (each one accurate solution and a short coarse search); a
+  // correction that has not settled by then (the accurate model still moving by 0.01 sigma) is
+  // a warning.
   int max_corrections = 8;
   // After the fit, compare the model at twice the points: a measurement whose value moves by
   // more than 0.2 of its sigma gets a warning (the discretisation biases the fit). Twice the

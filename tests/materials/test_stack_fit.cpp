@@ -446,6 +446,25 @@ TEST(StackFit, BadTablesAreOneLineErrors) {
   EXPECT_EQ(error(header, 0.0), "t.csv: no bins after the header");
 }
 
+// A correction cut short is said: the g = 0.9 slab, whose 4-point model is several sigma off,
+// with no correction allowed.
+TEST(StackFit, UnsettledCorrectionIsReported) {
+  const StackTemplate thick = parse_stack_template_json(
+      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 1.0, "sigma_a": 0.25, "sigma_s": 42.0, "g": 0.9}]})", "thick");
+  std::vector<FitMeasurement> d = design(false, false);
+  d.resize(2);
+  const std::vector<double> m = fit_model_values(thick.stack, d, AddingDoublingSettings{16});
+  for (std::size_t i = 0; i < d.size(); ++i) d[i].value = m[i];
+  FitSettings s;
+  s.max_corrections = 0;
+  const FitResult r = fit_stack(thick, {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 100.0}}, d, s);
+  bool found = false;
+  for (const std::string& w : r.warnings) found |= w.find("the coarse model's correction did not settle in 0 steps") == 0;
+  EXPECT_TRUE(found) << (r.warnings.empty() ? "no warning" : r.warnings.front());
+  s.max_corrections = FitSettings{}.max_corrections;
+  EXPECT_TRUE(fit_stack(thick, {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 100.0}}, d, s).warnings.empty());
+}
+
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
