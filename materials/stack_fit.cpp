@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 #include <nlopt.h>
+#include <tbb/parallel_for.h>
 
 namespace lamina {
 
@@ -405,7 +406,7 @@ void minimise_chi2(Problem& pb, std::vector<double>* x, double step, const FitSe
   if (status < 0 && status != NLOPT_ROUNDOFF_LIMITED)
     throw FitError("the optimiser failed (NLopt status " + std::to_string(static_cast<int>(status)) + ")");
   if (status == NLOPT_MAXEVAL_REACHED &&
-      (r->warnings.empty() || r->warnings.back().rfind("the optimiser stopped after", 0) != 0))  // once per fit
+      (r->warnings.empty() || r->warnings.back().rfind("the optimiser stopped after", 0) != 0))  // once per group
     r->warnings.push_back("the optimiser stopped after " + std::to_string(settings.max_evaluations) +
                           " solutions without converging: the values may not be the minimum");
   for (int k = 0; k < n; ++k) (*x)[k] = pb.unknowns[k].lower + u[k] * (pb.unknowns[k].upper - pb.unknowns[k].lower);
@@ -663,33 +664,65 @@ FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>&
   r.covariance.assign(n, std::vector<double>(n, 0.0));
   r.model.assign(data.size(), 0.0);
   r.residual.assign(data.size(), 0.0);
+  struct Group {
+    int channel;                 // -1: all (a scalar unknown ties the channels)
+    std::vector<int> ui, di;     // its unknowns and measurements
+    FitResult partial;           // fit_group's output, at the global indices
+    int evaluations = 0;
+  };
+  std::vector<Group> groups;
   for (int group = joint ? -1 : 0; group < (joint ? 0 : kChannels); ++group) {
-    std::vector<int> ui, di;
+    Group g{group, {}, {}, {}, 0};
     for (int k = 0; k < n; ++k)
-      if (group < 0 || unknowns[k].channel == group) ui.push_back(k);
+      if (group < 0 || unknowns[k].channel == group) g.ui.push_back(k);
     for (std::size_t i = 0; i < data.size(); ++i)
-      if (group < 0 || data[i].channel == group) di.push_back(static_cast<int>(i));
-    if (di.empty()) continue;
-    if (ui.empty()) {  // measurements of a channel with no unknown: the model's values, unfitted
+      if (group < 0 || data[i].channel == group) g.di.push_back(static_cast<int>(i));
+    if (g.di.empty()) continue;
+    if (g.ui.empty()) {  // measurements of a channel with no unknown: the model's values, unfitted
       const std::vector<double> m = fit_model_values(t.stack, data, settings.forward);
-      for (int i : di) {
+      for (int i : g.di) {
         r.model[i] = m[i];
         r.residual[i] = (m[i] - data[i].value) / data[i].sigma;
       }
       continue;
     }
+    groups.push_back(std::move(g));
+  }
+  // The channels' problems are independent: solved in parallel, each into its own partial
+  // result, merged in channel order (the same result and warnings for any number of threads).
+  tbb::parallel_for(std::size_t(0), groups.size(), [&](std::size_t gi) {
+    Group& g = groups[gi];
     std::vector<FitMeasurement> group_data;
-    for (int i : di) group_data.push_back(data[i]);
+    for (int i : g.di) group_data.push_back(data[i]);
     Problem pb;
     pb.t = &t;
     pb.parameters = parameters;
     pb.base = base;
-    for (int k : ui) pb.unknowns.push_back(unknowns[k]);
+    for (int k : g.ui) pb.unknowns.push_back(unknowns[k]);
     pb.data = &group_data;
     pb.forward = settings.forward;
-    pb.forward.only_channel = group;
-    fit_group(pb, ui, di, settings, &r);
-    r.evaluations += pb.evaluations;
+    pb.forward.only_channel = g.channel;
+    g.partial = r;
+    g.partial.warnings.clear();
+    g.partial.evaluations = g.partial.coarse_evaluations = 0;
+    fit_group(pb, g.ui, g.di, settings, &g.partial);
+    g.evaluations = pb.evaluations;
+  });
+  for (const Group& g : groups) {
+    for (int i : g.di) {
+      r.model[i] = g.partial.model[i];
+      r.residual[i] = g.partial.residual[i];
+    }
+    for (int a : g.ui) {
+      r.value[a] = g.partial.value[a];
+      r.sigma[a] = g.partial.sigma[a];
+      r.at_bound[a] = g.partial.at_bound[a];
+      for (int b : g.ui) r.covariance[a][b] = g.partial.covariance[a][b];
+    }
+    for (const std::string& w : g.partial.warnings)  // the same line from two channels once
+      if (std::find(r.warnings.begin(), r.warnings.end(), w) == r.warnings.end()) r.warnings.push_back(w);
+    r.evaluations += g.partial.evaluations + g.evaluations;
+    r.coarse_evaluations += g.partial.coarse_evaluations;
   }
   for (std::size_t i = 0; i < data.size(); ++i) r.chi2 += r.residual[i] * r.residual[i];
   r.dof = static_cast<int>(data.size()) - n;
