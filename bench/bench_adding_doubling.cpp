@@ -1,7 +1,8 @@
 // Cost of materials/adding_doubling per stack and quadrature order, and the Monte Carlo walk's
 // cost to reach the same error (README, "Adding-doubling"). Stacks: the skin presets (two
 // composite layers over Lambert; skin_oily has three layers and two indices, its rough top made
-// smooth), the contract leaf
+// smooth, but its top layer, sebum, neither scatters nor absorbs), a three-layer skin (a
+// hypodermis added to skin.json: three scattering layers, two indices), the contract leaf
 // (two layers, transmitting), the MCML slab and a semi-infinite forward-peaked medium.
 //   BM_AddingDoubling/<stack>/<order>: one call of adding_doubling_totals (all three channels,
 //     collimated and diffuse incidence at once) at 45 degrees.
@@ -37,7 +38,15 @@ std::vector<NamedStack> stacks() {
   lamina::LayerStack semi;
   semi.layers.push_back(lamina::make_layer("half-space", 1.33, lamina::kInfiniteThickness, lamina::Spectrum(0.5, 1.0, 2.0),
                                            lamina::Spectrum(30.0), lamina::Spectrum(0.9)));
+  // A three-layer skin (epidermis, dermis, hypodermis over the Lambert substrate): skin.json with
+  // a 3 mm fat layer of index 1.44 added (illustrative adipose values after Jacques 2013, "Optical
+  // properties of biological tissues: a review", Phys. Med. Biol. 58 R37: mu_s' ~1.3 /mm, g 0.9,
+  // weak absorption), so three scattering layers and two indices.
+  lamina::LayerStack three = file("skin.json");
+  three.layers.push_back(lamina::make_layer("hypodermis", 1.44, 3.0, lamina::Spectrum(0.02, 0.03, 0.05),
+                                            lamina::Spectrum(14.0, 13.0, 12.0), lamina::Spectrum(0.9)));
   return {{"skin", file("skin.json")},
+          {"skin_3layer", three},
           {"skin_oily", lamina::with_smooth_top(file("skin_oily.json"))},  // as the table mode sees it
           {"leaf", file("contract_leaf.json")},
           {"mcml_slab", mcml},

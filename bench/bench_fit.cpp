@@ -1,9 +1,11 @@
 // Cost of `lamina fit`'s library (materials/stack_fit): a single-slab inversion from R and T at
 // normal incidence (iad's problem: the absorption and scattering coefficients of a slab of known
 // thickness, index and g), for one channel and for all three, and one forward evaluation.
-//   BM_FitSlab/<channels>/<quadrature points>: fit_stack from a start away from the truth (sigma_a 1.5, sigma_s 20)
+//   BM_FitSlab/<channels>/<quadrature points>/<coarse points>: fit_stack from a start away from the truth (sigma_a 1.5, sigma_s 20)
 //     to noise-free data of the slab (sigma_a 0.3/1/2, sigma_s 8/12/15 per mm, g 0.8, 1 mm, n 1.4,
-//     in air); counters: forward-model solutions per fit (optimiser and Jacobian).
+//     in air); coarse points 0: the optimiser on the accurate model alone (the fit before the
+//     defect correction), 4: the default (FitSettings::coarse_quadrature_points); counters:
+//     forward-model solutions per fit (optimiser and Jacobian), of which on the coarse model.
 //   BM_FitForward: one forward evaluation (adding_doubling_totals, three channels, 16 points).
 // README "lamina fit" quotes these numbers.
 #include <benchmark/benchmark.h>
@@ -42,16 +44,25 @@ void BM_FitSlab(benchmark::State& state) {
   const int channels = static_cast<int>(state.range(0));
   lamina::FitSettings settings;
   settings.forward.quadrature_points = static_cast<int>(state.range(1));
+  settings.coarse_quadrature_points = static_cast<int>(state.range(2));
   const lamina::StackTemplate start = lamina::parse_stack_template_json(kStart, "start");
   const std::vector<lamina::FitMeasurement> d = slab_data(channels);
   const std::vector<lamina::FitParameterSpec> specs = {{"layers[0].sigma_a", 0.0, 10.0}, {"layers[0].sigma_s", 0.0, 100.0}};
   lamina::FitResult r;
   for (auto _ : state) benchmark::DoNotOptimize(r = lamina::fit_stack(start, specs, d, settings));
   state.counters["evaluations"] = r.evaluations;
+  state.counters["coarse"] = r.coarse_evaluations;
   state.counters["chi2"] = r.chi2;
   state.counters["sigma_a_r"] = r.value[0];
 }
-BENCHMARK(BM_FitSlab)->Args({1, 8})->Args({1, 16})->Args({3, 8})->Args({3, 16})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FitSlab)
+    ->Args({1, 8, 0})
+    ->Args({1, 16, 0})
+    ->Args({1, 16, 4})
+    ->Args({3, 8, 0})
+    ->Args({3, 16, 0})
+    ->Args({3, 16, 4})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_FitForward(benchmark::State& state) {
   const lamina::LayerStack truth = lamina::parse_stack_json(kSlab, "slab");

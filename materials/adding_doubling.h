@@ -45,8 +45,8 @@ struct AddingDoublingSettings {
   // brdf_table_adding_doubling: fill the table's `single` with the analytic first order (else
   // single = 0 and multiple = value; the table mode does not need it).
   bool single_scattering_bins = true;
-  // adding_doubling_totals only: solve this channel alone (0, 1, 2) and leave the others' totals
-  // 0, a third of the cost (lamina fit fits channels apart, materials/stack_fit.h); -1: all.
+  // Solve this channel alone (0, 1, 2) and leave the others' totals (and bins) 0, a third of the
+  // cost (lamina fit fits channels apart, materials/stack_fit.h); -1: all.
   int only_channel = -1;
 };
 

@@ -193,7 +193,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   return table;
 }
 
-BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n) {
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n, bool diffuse_totals) {
   BrdfTable table = empty_table(options);
   const glm::dvec3 wi = incident_direction(options.theta_i_deg, options.phi_i_deg);
   const double phi_i = options.phi_i_deg * kDegree;
@@ -225,7 +225,7 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
     }
   });
   const ZerothOrder zeroth = zeroth_order(stack, wi.z);
-  const FirstOrderAlbedo albedo = first_order_albedo(stack, wi.z);
+  const FirstOrderAlbedo albedo = diffuse_totals ? first_order_albedo(stack, wi.z) : FirstOrderAlbedo{};
   table.totals.R_specular.value = zeroth.R_specular;
   table.totals.T_ballistic.value = zeroth.T_ballistic;
   table.totals.R_diffuse.value = albedo.R_diffuse;

@@ -95,7 +95,11 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
 // Totals: R_specular and T_ballistic from zeroth_order; R_diffuse and T_diffuse the first-order
 // albedos; absorbed = 1 - the others, i.e. the absorbed light PLUS the light of two and more
 // scattering events that first order leaves out (so that the five still sum to 1).
-BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n = 6);
+// diffuse_totals = false leaves R_diffuse and T_diffuse 0 and absorbed = 1 - R_specular -
+// T_ballistic: their quadrature (first_order_albedo, 48 x 96 directions) costs about as much as
+// the bins of a 6 x 12 table, and a caller of the bins alone (auto's prediction) does not need it.
+BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& options, int n = 6,
+                                 bool diffuse_totals = true);
 
 // The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
 // directions: the average over walks of sum_events throughput * connection_weight_all_paths(wo).

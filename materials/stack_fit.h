@@ -21,6 +21,8 @@
 //   T               all transmitted light: T_ballistic + T_diffuse, or T_hemispherical
 //   T_diffuse       transmitted light without the unscattered beam (collimated only)
 //   T_unscattered   the unscattered beam T_ballistic (collimated only)
+// and the bins of a BRDF/BTDF table (parse_fit_table: `lamina brdf`'s CSV, the model being the
+// adding-doubling table on the same bins, which unlike R and T sees the phase function's shape),
 // each with its 1-sigma uncertainty (Gaussian errors, independent).
 //
 // Fit: minimise chi^2(x) = sum_i ((m_i(x) - y_i) / s_i)^2 over the box of the bounds (NLopt's
@@ -58,7 +60,9 @@ struct FitParameterSpec {
   double lower = 0.0, upper = 0.0;
 };
 
-enum class FitQuantity { kR, kRDiffuse, kT, kTDiffuse, kTUnscattered };
+// kBin: one bin of a BRDF/BTDF table (the `value` of `lamina brdf`'s table: the non-delta BRDF
+// or BTDF averaged over the bin weighted by projected solid angle, 1/sr), collimated incidence.
+enum class FitQuantity { kR, kRDiffuse, kT, kTDiffuse, kTUnscattered, kBin };
 
 struct FitMeasurement {
   FitQuantity quantity = FitQuantity::kR;
@@ -67,6 +71,9 @@ struct FitMeasurement {
   double theta_i_deg = 0.0;     // collimated incidence, in [0, 90)
   double value = 0.0, sigma = 0.0;
   std::string where;            // "FILE: line N", for messages
+  // kBin only: the bin (side 0 reflect, 1 transmit; k of bins_theta in |cos theta_o|, m of
+  // bins_phi in phi_o from the light's azimuth), as materials/brdf_table.h numbers them.
+  int side = 0, bin_theta = 0, bin_phi = 0, bins_theta = 0, bins_phi = 0;
 };
 
 // Reads the measurement CSV (docs/contracts.md "lamina fit"): a header with the columns
@@ -75,6 +82,18 @@ struct FitMeasurement {
 // > 0. Throws FitError("FILE: line N: reason") (or "FILE: reason" for the file as a whole).
 std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, const std::string& source_name);
 std::vector<FitMeasurement> load_fit_measurements(const std::string& path);
+
+// Reads a BRDF/BTDF table in `lamina brdf`'s CSV format (docs/contracts.md "lamina brdf": the
+// header side,channel,theta_o_deg,phi_o_deg,value,stderr[,single,multiple] in any order, one row
+// per bin and channel) as kBin measurements for light at theta_i_deg (phi_o from the light's
+// azimuth, as lamina brdf writes it). The grid, K x M, is that of the distinct theta_o and phi_o
+// values, each of which must be a bin centre of it (acos((k + 1/2) / K), (m + 1/2) 360 / M
+// degrees, to 1e-6 degree); a subset of the bins may be given as long as every ring and every
+// azimuth appears. Each bin's sigma is sqrt(stderr^2 + sigma_floor^2) (the table's own
+// standard error, and a floor for what it leaves out, e.g. a measurement's calibration); it
+// must be > 0. Throws FitError("FILE: line N: reason").
+std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::string& source_name, double theta_i_deg,
+                                            double sigma_floor);
 
 // One unknown of the fit: a parameter, or one channel of a colour parameter.
 struct FitUnknown {
@@ -85,13 +104,25 @@ struct FitUnknown {
 };
 
 struct FitSettings {
-  // The forward model's quadrature: 16 points (adding-doubling's default). 8 points are ~5x
-  // faster (README "lamina fit": 7-12 ms against ~50 ms for a slab from R and T) but their totals
-  // can be off by 1e-4 to 4e-4 for g >= 0.85 (delta-M at order 8), a third of a typical sphere's
-  // sigma of 1e-3; the check below says when that matters.
+  // The forward model's quadrature: 16 points (adding-doubling's default). At 8 points the
+  // totals can be off by 1e-4 to 4e-4 for g >= 0.85 (delta-M at order 8), a third of a typical
+  // sphere's sigma of 1e-3; the check below says when that matters.
   AddingDoublingSettings forward{16};
+  // The optimiser's search runs on a coarse forward model of this many points, corrected towards
+  // `forward` by a few accurate solutions (defect correction, stack_fit.cpp fit_group), which
+  // reaches the accurate model's optimum (the result agrees with a search on `forward` alone to
+  // ~3e-3 sigma, tests/materials/test_stack_fit.cpp) at a fraction of the cost (README "lamina
+  // fit": a slab from R and T in ~5 ms instead of ~27 ms at 16 points). 0, or not below
+  // forward.quadrature_points: the search uses `forward` itself.
+  int coarse_quadrature_points = 4;
+  // At most this many corrections (each one accurate solution and a short coarse search); a
+  // correction that has not settled by then (the accurate model still moving by 0.01 sigma) is
+  // a warning.
+  int max_corrections = 8;
   // After the fit, compare the model at twice the points: a measurement whose value moves by
-  // more than 0.2 of its sigma gets a warning (the discretisation biases the fit).
+  // more than 0.2 of its sigma gets a warning (the discretisation biases the fit). Twice the
+  // points are solved only if half the points move a value by more than 0.2 sigma (a screen:
+  // stack_fit.cpp).
   bool check_discretisation = true;
   // Stopping rules (NLopt): the scaled unknowns move by less than relative_tolerance, or chi^2
   // by less than chi2_tolerance between steps. chi^2 - min chi^2 = d^2 for an unknown d sigmas
@@ -115,6 +146,7 @@ struct FitResult {
   double chi2 = 0.0;
   int dof = 0;                             // measurements - unknowns
   int evaluations = 0;                     // forward-model solutions (optimiser and Jacobian)
+  int coarse_evaluations = 0;              // of which on the coarse model (FitSettings)
   std::vector<std::string> warnings;       // one line each: identifiability, bounds
   std::vector<Spectrum> parameter_values;  // per parameter spec: the fitted value (colours whole)
   LayerStack stack;                        // the template's stack with the fitted values

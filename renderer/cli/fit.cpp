@@ -1,4 +1,5 @@
-// lamina fit: the parameters of a material file from measured totals (docs/contracts.md,
+// lamina fit: the parameters of a material file from measured totals and/or BRDF/BTDF tables in
+// lamina brdf's CSV format (docs/contracts.md,
 // "lamina fit"). Parses, calls materials/stack_fit, prints; the physics and the statistics live
 // in materials/.
 //
@@ -51,6 +52,7 @@ const char* quantity_name(lamina::FitQuantity q) {
     case lamina::FitQuantity::kT: return "T";
     case lamina::FitQuantity::kTDiffuse: return "T_diffuse";
     case lamina::FitQuantity::kTUnscattered: return "T_unscattered";
+    case lamina::FitQuantity::kBin: return "bin";
   }
   return "?";
 }
@@ -65,6 +67,7 @@ std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::F
   j["chi2"] = r.chi2;
   j["dof"] = r.dof;
   j["evaluations"] = r.evaluations;
+  j["coarse_evaluations"] = r.coarse_evaluations;
   nlohmann::ordered_json ps = nlohmann::ordered_json::array();
   for (std::size_t k = 0; k < r.unknowns.size(); ++k) {
     const lamina::FitUnknown& u = r.unknowns[k];
@@ -87,6 +90,11 @@ std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::F
     e["channel"] = kChannels[m.channel];
     if (m.diffuse) e["theta_i_deg"] = "diffuse";
     else e["theta_i_deg"] = m.theta_i_deg;
+    if (m.quantity == lamina::FitQuantity::kBin) {  // the bin's centre, as the table's CSV gives it
+      e["side"] = m.side == 0 ? "reflect" : "transmit";
+      e["theta_o_deg"] = std::acos((m.bin_theta + 0.5) / m.bins_theta) * 180.0 / 3.14159265358979323846;
+      e["phi_o_deg"] = (m.bin_phi + 0.5) * 360.0 / m.bins_phi;
+    }
     e["value"] = m.value;
     e["sigma"] = m.sigma;
     e["model"] = r.model[i];
@@ -108,20 +116,42 @@ int run_fit(int argc, char** argv) {
       "measurements; sigmas come from (J^T W J)^-1.",
       "lamina fit"};
   std::string stack_path, data_path, out_path, summary_path;
-  std::vector<std::string> params;
+  std::vector<std::string> params, tables;
+  double table_sigma = 0.0;
   int quadrature_points = lamina::FitSettings{}.forward.quadrature_points;
+  int coarse_points = lamina::FitSettings{}.coarse_quadrature_points;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md): the start and the fixed values")->required();
-  app.add_option("--data", data_path, "measurements CSV: quantity,channel,theta_i_deg,value,sigma")->required();
+  app.add_option("--data", data_path, "measurements CSV: quantity,channel,theta_i_deg,value,sigma");
+  app.add_option("--table", tables,
+                 "DEG:TABLE.csv, a measured BRDF/BTDF table in lamina brdf's CSV format for light at DEG degrees; repeat "
+                 "(with or instead of --data)");
+  app.add_option("--table-sigma", table_sigma,
+                 "added in quadrature to each table bin's stderr (1/sr; needed where the stderr is 0)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--param", params, "PATH=LO:HI, a parameter to fit (a texture-binding path) and its bounds; repeat")
       ->required();
   app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
       ->check(cli::integer(4, 64));
+  app.add_option("--coarse-quadrature-points", coarse_points,
+                 "the optimiser searches on this coarser model, corrected by a few solutions at --quadrature-points "
+                 "(default 4; 0: search on --quadrature-points itself, ~5x slower, same result to ~1e-2 sigma)")
+      ->check(cli::integer(0, 64));
   app.add_option("--out", out_path, "write the fitted material file here");
   app.add_option("--summary", summary_path, "write the fit's report as JSON here (default: stdout)");
   std::vector<lamina::FitParameterSpec> specs;
+  std::vector<std::pair<double, std::string>> table_specs;
   try {
     app.parse(argc, argv);
     for (const std::string& p : params) specs.push_back(parse_param(p));
+    for (const std::string& spec : tables) {  // DEG:FILE
+      const std::size_t colon = spec.find(':');
+      double theta = 0.0;
+      const std::string why = colon == std::string::npos ? std::string("no ':'") : cli::parse_real(spec.substr(0, colon), &theta);
+      if (!why.empty() || colon + 1 == spec.size())
+        throw cli::UsageError("--table " + cli::in_quotes(spec) + ": expected DEG:TABLE.csv" + (why.empty() ? "" : " (" + why + ")"));
+      table_specs.push_back({theta, spec.substr(colon + 1)});
+    }
+    if (data_path.empty() && tables.empty()) throw cli::UsageError("no measurements: give --data and/or --table");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -138,10 +168,20 @@ int run_fit(int argc, char** argv) {
     std::stringstream text;
     text << in.rdbuf();
     const lamina::StackTemplate t = lamina::parse_stack_template_json(text.str(), stack_path);
-    const std::vector<lamina::FitMeasurement> data = lamina::load_fit_measurements(data_path);
+    std::vector<lamina::FitMeasurement> data;
+    if (!data_path.empty()) data = lamina::load_fit_measurements(data_path);
+    for (const auto& [theta, path] : table_specs) {
+      std::ifstream tin(path, std::ios::binary);
+      if (!tin) throw lamina::FitError(path + ": cannot open");
+      std::stringstream ttext;
+      ttext << tin.rdbuf();
+      const std::vector<lamina::FitMeasurement> bins = lamina::parse_fit_table(ttext.str(), path, theta, table_sigma);
+      data.insert(data.end(), bins.begin(), bins.end());
+    }
     cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
     lamina::FitSettings settings;
     settings.forward.quadrature_points = quadrature_points;
+    settings.coarse_quadrature_points = coarse_points;
     lamina::FitResult r;
     try {
       r = lamina::fit_stack(t, specs, data, settings);

@@ -115,7 +115,9 @@ void add_walks(const LayerStack& stack, BrdfOptions options, std::uint64_t walks
 }
 
 Binned first_order_binned(const LayerStack& stack, const BrdfOptions& options) {
-  Binned out = binned(brdf_table_first_order(stack, options), false);
+  // The bins and the exact delta parts only: binned() does not read the first-order diffuse
+  // totals, whose quadrature would cost as much as the bins.
+  Binned out = binned(brdf_table_first_order(stack, options, 6, false), false);
   out.transmit_factor = transmit_factor(stack);
   return out;
 }

@@ -105,6 +105,42 @@ TEST_F(CliFit, UnidentifiedGIsAWarningLine) {
   EXPECT_FALSE(fit["warnings"].empty());
 }
 
+// A BRDF/BTDF table as the measurements: lamina brdf's own table (adding-doubling, 6 x 12 bins,
+// 30 degrees) of the slab, fitted from another start for sigma_a, sigma_s and g per channel. The
+// table's stderr is 0, so --table-sigma sets the bins' sigma; the data are the model itself to
+// 9 digits, so every value comes back within a small fraction of its sigma (0.03: the stopping
+// rule's ~1e-3 sigma plus the CSV's rounding), and g, which R and T alone cannot give (the test
+// above), has a finite sigma.
+TEST_F(CliFit, BrdfTableAsMeasurementsRecoversTheSlab) {
+  const CliResult b = run("brdf " + dir_ + "/truth.json --theta-i 30 --method adding-doubling --bins-theta 6 --bins-phi 12 --out " +
+                          dir_ + "/t30.csv --summary " + dir_ + "/t30.json");
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const CliResult r = run("fit " + dir_ + "/start.json --table 30:" + dir_ + "/t30.csv --table-sigma 0.001" +
+                          " --param 'layers[0].sigma_a=0:10' --param 'layers[0].sigma_s=0:100' --param 'layers[0].g=0:0.95'" +
+                          " --summary " + dir_ + "/fit.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  const nlohmann::json fit = nlohmann::json::parse(slurp(dir_ + "/fit.json"));
+  ASSERT_EQ(fit["parameters"].size(), 9u);
+  const double truth[3][3] = {{0.5, 1.0, 2.0}, {8.0, 10.0, 12.0}, {0.8, 0.8, 0.8}};
+  for (int p = 0; p < 3; ++p)
+    for (int c = 0; c < 3; ++c) {
+      const nlohmann::json& x = fit["parameters"][3 * p + c];
+      ASSERT_FALSE(x["sigma"].is_null()) << x.dump();
+      EXPECT_NEAR(x["value"].get<double>(), truth[p][c], 0.03 * x["sigma"].get<double>()) << x.dump();
+    }
+  EXPECT_EQ(fit["measurements"].size(), 2u * 6 * 12 * 3);
+  EXPECT_EQ(fit["measurements"][0]["quantity"], "bin");
+  EXPECT_EQ(fit["measurements"][0]["side"], "reflect");
+  // Usage: a --table without its angle, or no measurements at all.
+  const CliResult u = run("fit " + dir_ + "/start.json --table " + dir_ + "/t30.csv --param 'layers[0].sigma_a=0:10'");
+  EXPECT_EQ(u.exit_code, 2) << u.err;
+  EXPECT_NE(u.err.find("expected DEG:TABLE.csv"), std::string::npos) << u.err;
+  const CliResult none = run("fit " + dir_ + "/start.json --param 'layers[0].sigma_a=0:10'");
+  EXPECT_EQ(none.exit_code, 2) << none.err;
+  EXPECT_NE(none.err.find("no measurements: give --data and/or --table"), std::string::npos) << none.err;
+}
+
 TEST_F(CliFit, BadInputIsOneLineError) {
   std::ofstream(dir_ + "/m.csv") << kHeader << "R,r,0,0.3,0.01\nT,r,0,0.4,0.01\n";
   std::ofstream(dir_ + "/nocol.csv") << "quantity,channel,value,sigma\nR,r,0.3,0.01\n";
