@@ -41,6 +41,16 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return out;
 }
 
+// The fields of line `line_no` of a measurement CSV, after checking that it is text (a binary file
+// given by mistake fails here, naming the byte).
+std::vector<std::string> csv_fields(const std::string& line, const std::string& source, int line_no) {
+  for (unsigned char ch : line)
+    if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
+      throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
+                     "): expected CSV");
+  return split_csv_line(line);
+}
+
 // A finite number, the whole field; else throws with `what`.
 double parse_number(const std::string& field, const std::string& where, const std::string& column) {
   if (field.empty()) throw FitError(where + ": " + column + " is empty");
@@ -176,11 +186,7 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
   while (std::getline(in, line)) {
     ++line_no;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    for (unsigned char ch : line)
-      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
-        throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
-                       "): expected CSV");
-    const std::vector<std::string> f = split_csv_line(line);
+    const std::vector<std::string> f = csv_fields(line, source, line_no);
     const std::string where = source + ": line " + std::to_string(line_no);
     if (column.empty()) {  // the header
       for (std::size_t k = 0; k < f.size(); ++k) {
@@ -247,11 +253,7 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
   while (std::getline(in, line)) {
     ++line_no;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    for (unsigned char ch : line)
-      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch >= 0x7f)
-        throw FitError(source + ": line " + std::to_string(line_no) + ": not text (byte " + std::to_string(ch) +
-                       "): expected CSV");
-    const std::vector<std::string> f = split_csv_line(line);
+    const std::vector<std::string> f = csv_fields(line, source, line_no);
     const std::string where = source + ": line " + std::to_string(line_no);
     if (column.empty()) {  // the header
       for (std::size_t k = 0; k < f.size(); ++k) {
