@@ -51,6 +51,23 @@ std::vector<std::string> csv_fields(const std::string& line, const std::string& 
   return split_csv_line(line);
 }
 
+// A CSV header: column name -> index. Every name must be one of `required` or `ignored`, none may
+// repeat, every required one must be there; the errors end with `unknown_hint` / `missing_hint`.
+std::map<std::string, int> csv_header(const std::vector<std::string>& f, const std::string& where,
+                                      const std::vector<std::string>& required, const std::vector<std::string>& ignored,
+                                      const std::string& unknown_hint, const std::string& missing_hint) {
+  std::map<std::string, int> column;
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    if (std::find(required.begin(), required.end(), f[k]) == required.end() &&
+        std::find(ignored.begin(), ignored.end(), f[k]) == ignored.end())
+      throw FitError(where + ": unknown column '" + f[k] + "' (" + unknown_hint + ")");
+    if (!column.emplace(f[k], static_cast<int>(k)).second) throw FitError(where + ": column '" + f[k] + "' twice");
+  }
+  for (const std::string& c : required)
+    if (!column.count(c)) throw FitError(where + ": missing column '" + c + "' (" + missing_hint + ")");
+  return column;
+}
+
 // A finite number, the whole field; else throws with `what`.
 double parse_number(const std::string& field, const std::string& where, const std::string& column) {
   if (field.empty()) throw FitError(where + ": " + column + " is empty");
@@ -189,13 +206,8 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
     const std::vector<std::string> f = csv_fields(line, source, line_no);
     const std::string where = source + ": line " + std::to_string(line_no);
     if (column.empty()) {  // the header
-      for (std::size_t k = 0; k < f.size(); ++k) {
-        if (std::find(std::begin(kColumns), std::end(kColumns), f[k]) == std::end(kColumns))
-          throw FitError(where + ": unknown column '" + f[k] + "' (expected quantity,channel,theta_i_deg,value,sigma)");
-        if (!column.emplace(f[k], static_cast<int>(k)).second) throw FitError(where + ": column '" + f[k] + "' twice");
-      }
-      for (const char* c : kColumns)
-        if (!column.count(c)) throw FitError(where + ": missing column '" + std::string(c) + "' (expected quantity,channel,theta_i_deg,value,sigma)");
+      const std::string expected = "expected quantity,channel,theta_i_deg,value,sigma";
+      column = csv_header(f, where, {std::begin(kColumns), std::end(kColumns)}, {}, expected, expected);
       continue;
     }
     if (f.size() != column.size())
@@ -256,14 +268,9 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
     const std::vector<std::string> f = csv_fields(line, source, line_no);
     const std::string where = source + ": line " + std::to_string(line_no);
     if (column.empty()) {  // the header
-      for (std::size_t k = 0; k < f.size(); ++k) {
-        if (std::find(std::begin(kRequired), std::end(kRequired), f[k]) == std::end(kRequired) &&
-            std::find(std::begin(kIgnored), std::end(kIgnored), f[k]) == std::end(kIgnored))
-          throw FitError(where + ": unknown column '" + f[k] + "' (expected lamina brdf's side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple)");
-        if (!column.emplace(f[k], static_cast<int>(k)).second) throw FitError(where + ": column '" + f[k] + "' twice");
-      }
-      for (const char* c : kRequired)
-        if (!column.count(c)) throw FitError(where + ": missing column '" + std::string(c) + "' (a lamina brdf table)");
+      column = csv_header(f, where, {std::begin(kRequired), std::end(kRequired)}, {std::begin(kIgnored), std::end(kIgnored)},
+                          "expected lamina brdf's side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple",
+                          "a lamina brdf table");
       continue;
     }
     if (f.size() != column.size())
