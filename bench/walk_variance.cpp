@@ -15,8 +15,7 @@
 //   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
 //   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
 // and the share of the mean and of the second moment by event order.
-//   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first two rows only;
-//   env NB=N: N technique-B samples per event)
+//   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first two rows only)
 // Not run by the test suite.
 #include <cmath>
 #include <cstdio>

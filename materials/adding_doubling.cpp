@@ -269,70 +269,47 @@ struct LU {
 // of b loses l_ik b_k for k = 0..i-1 in that order, then u_ik b_k for k = i+1..n-1, and is
 // divided by u_ii (multiplied by its inverse, as the plain loops did). The 4-column tiles keep
 // the row in registers over k; the order of the terms is that of the plain loops.
-__attribute__((target_clones("avx2", "default"))) void substitute(int n, const double* lu, double* b) {
-  auto row = [&](int i) { return b + static_cast<std::size_t>(i) * n; };
-  // Four tiles of a row at a time: four independent chains of subtractions, where one chain
-  // would wait for each subtraction's latency.
-  for (int i = 0; i < n; ++i) {
-    const double* li = lu + static_cast<std::size_t>(i) * n;
-    double* bi = row(i);
-    int j = 0;
-    for (; j + 16 <= n; j += 16) {
-      Double4 a0 = load4(bi + j), a1 = load4(bi + j + 4), a2 = load4(bi + j + 8), a3 = load4(bi + j + 12);
-      for (int k = 0; k < i; ++k) {
-        if (li[k] == 0.0) continue;
-        const double* bk = row(k) + j;
-        a0 -= li[k] * load4(bk);
-        a1 -= li[k] * load4(bk + 4);
-        a2 -= li[k] * load4(bk + 8);
-        a3 -= li[k] * load4(bk + 12);
-      }
-      store4(bi + j, a0);
-      store4(bi + j + 4, a1);
-      store4(bi + j + 8, a2);
-      store4(bi + j + 12, a3);
+// Row i of the right-hand sides b (n x n, row-major) loses c_k b_k for k = k0..k1-1 in that
+// order, then is multiplied by `scale` (1 for the forward substitution, exact). Four 4-column
+// tiles at a time: four independent chains of subtractions, where one chain would wait for each
+// subtraction's latency. Inlined into each clone of substitute.
+[[gnu::always_inline]] inline void eliminate_row(int n, const double* c, int k0, int k1, double* b, int i, double scale) {
+  auto row = [&](int r) { return b + static_cast<std::size_t>(r) * n; };
+  double* bi = row(i);
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    Double4 a0 = load4(bi + j), a1 = load4(bi + j + 4), a2 = load4(bi + j + 8), a3 = load4(bi + j + 12);
+    for (int k = k0; k < k1; ++k) {
+      if (c[k] == 0.0) continue;
+      const double* bk = row(k) + j;
+      a0 -= c[k] * load4(bk);
+      a1 -= c[k] * load4(bk + 4);
+      a2 -= c[k] * load4(bk + 8);
+      a3 -= c[k] * load4(bk + 12);
     }
-    for (; j + 4 <= n; j += 4) {
-      Double4 acc = load4(bi + j);
-      for (int k = 0; k < i; ++k)
-        if (li[k] != 0.0) acc -= li[k] * load4(row(k) + j);
-      store4(bi + j, acc);
-    }
-    for (; j < n; ++j)
-      for (int k = 0; k < i; ++k)
-        if (li[k] != 0.0) bi[j] -= li[k] * row(k)[j];
+    store4(bi + j, a0 * scale);
+    store4(bi + j + 4, a1 * scale);
+    store4(bi + j + 8, a2 * scale);
+    store4(bi + j + 12, a3 * scale);
   }
+  for (; j + 4 <= n; j += 4) {
+    Double4 acc = load4(bi + j);
+    for (int k = k0; k < k1; ++k)
+      if (c[k] != 0.0) acc -= c[k] * load4(row(k) + j);
+    store4(bi + j, acc * scale);
+  }
+  for (; j < n; ++j) {
+    for (int k = k0; k < k1; ++k)
+      if (c[k] != 0.0) bi[j] -= c[k] * row(k)[j];
+    bi[j] *= scale;
+  }
+}
+
+__attribute__((target_clones("avx2", "default"))) void substitute(int n, const double* lu, double* b) {
+  for (int i = 0; i < n; ++i) eliminate_row(n, lu + static_cast<std::size_t>(i) * n, 0, i, b, i, 1.0);
   for (int i = n - 1; i >= 0; --i) {
     const double* ui = lu + static_cast<std::size_t>(i) * n;
-    double* bi = row(i);
-    const double inv = 1.0 / ui[i];
-    int j = 0;
-    for (; j + 16 <= n; j += 16) {
-      Double4 a0 = load4(bi + j), a1 = load4(bi + j + 4), a2 = load4(bi + j + 8), a3 = load4(bi + j + 12);
-      for (int k = i + 1; k < n; ++k) {
-        if (ui[k] == 0.0) continue;
-        const double* bk = row(k) + j;
-        a0 -= ui[k] * load4(bk);
-        a1 -= ui[k] * load4(bk + 4);
-        a2 -= ui[k] * load4(bk + 8);
-        a3 -= ui[k] * load4(bk + 12);
-      }
-      store4(bi + j, a0 * inv);
-      store4(bi + j + 4, a1 * inv);
-      store4(bi + j + 8, a2 * inv);
-      store4(bi + j + 12, a3 * inv);
-    }
-    for (; j + 4 <= n; j += 4) {
-      Double4 acc = load4(bi + j);
-      for (int k = i + 1; k < n; ++k)
-        if (ui[k] != 0.0) acc -= ui[k] * load4(row(k) + j);
-      store4(bi + j, acc * inv);
-    }
-    for (; j < n; ++j) {
-      for (int k = i + 1; k < n; ++k)
-        if (ui[k] != 0.0) bi[j] -= ui[k] * row(k)[j];
-      bi[j] *= inv;
-    }
+    eliminate_row(n, ui, i + 1, n, b, i, 1.0 / ui[i]);
   }
 }
 

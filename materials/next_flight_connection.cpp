@@ -36,12 +36,15 @@ bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& 
   return true;
 }
 
+double next_flight_direction_pdf(const ScatterEvent& previous, const ScatterEvent& event, double g) {
+  return henyey_greenstein(glm::dot(previous.direction, event.direction), g);
+}
+
 double next_flight_weight_of_event(const ScatterEvent& previous, const ScatterEvent& event,
                                    const ExitDirection& exit) {
   const ExitDirection::LayerExit& path = exit.layers[event.layer];
-  const double p_a = henyey_greenstein(glm::dot(previous.direction, event.direction), path.single_g);
-  const double p_b = henyey_greenstein(glm::dot(event.direction, path.inside), path.single_g);
-  return p_a + p_b > 0.0 ? p_a / (p_a + p_b) : 0.0;
+  return next_flight_weight(next_flight_direction_pdf(previous, event, path.single_g),
+                            henyey_greenstein(glm::dot(event.direction, path.inside), path.single_g));
 }
 
 Spectrum next_flight_connection(const LayerStack& stack, const ScatterEvent& event,
@@ -62,7 +65,7 @@ Spectrum next_flight_connection(const LayerStack& stack, const ScatterEvent& eve
   const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
   const double distance_rate = exit.up ? -d.z : d.z;  // d(distance to the exit side) / ds
   // W p_A p_B / (p_A + p_B) G(d_B) / p_B: the p_B of G cancels the 1/p_B of the sample.
-  const double mis = p_a / (p_a + p_b);
+  const double mis = next_flight_weight(p_a, p_b);
   const double emission = p_b / path.mu_inside;  // p(d . b) / mu_b, as connect_direct
   const Spectrum sigma_t = layer.sigma_t();
   const Spectrum sigma_s = layer.sigma_s();

@@ -46,8 +46,15 @@ namespace lamina {
 // 1.3x at g = 0.5, 1.6x at 0.7, 1.9x at 0.9, for about 1.3x the time; docs/layered_rendering.md.)
 bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& exit, double min_g = 0.0);
 
-// Technique A's weight for an event whose flight came straight from the previous volume event
-// (ScatterEvent::flight_from_previous, in a next_flight_layer): p_A / (p_A + p_B) at its direction.
+// p_A: the density with which the previous volume event's phase sampling gave `event` its
+// direction (ScatterEvent::flight_from_previous, in a next_flight_layer of HG parameter g).
+double next_flight_direction_pdf(const ScatterEvent& previous, const ScatterEvent& event, double g);
+
+// Technique A's weight, the balance heuristic p_A / (p_A + p_B), p_B the event's phase function
+// towards the exit's inside direction (connect_direct's DirectExit::phase).
+inline double next_flight_weight(double p_a, double p_b) { return p_a + p_b > 0.0 ? p_a / (p_a + p_b) : 0.0; }
+
+// The same from the event alone: p_A and p_B evaluated here.
 double next_flight_weight_of_event(const ScatterEvent& previous, const ScatterEvent& event,
                                    const ExitDirection& exit);
 

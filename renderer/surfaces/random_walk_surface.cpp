@@ -4,7 +4,6 @@
 #include <vector>
 
 #include "materials/fresnel.h"
-#include "materials/henyey_greenstein.h"
 #include "materials/microfacet.h"
 #include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
@@ -73,14 +72,14 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   scale.assign(light_count, 0.0);
 
   // An event's contribution towards light direction `light` through its prepared exit.
-  // p_a >= 0: a next-flight technique-A connection, weighted p_a / (p_a + p_b) with p_b the
-  // event's phase function towards the light (next_flight_weight_of_event, from connect_direct's).
+  // p_a >= 0: a next-flight technique-A connection, weighted next_flight_weight(p_a, p_b) with
+  // p_b the event's phase function towards the light (connect_direct's DirectExit::phase).
   auto contribution = [&](const ScatterEvent& e, const ExitDirection& exit, const LightDirection& light,
                           double light_scale, double p_a = -1.0) {
     const DirectExit direct = connect_direct(stack_of(e), e, exit);
     if (direct.weight.is_black()) return Spectrum(0.0);
     double weight = light_scale;
-    if (p_a >= 0.0) weight *= p_a + direct.phase > 0.0 ? p_a / (p_a + direct.phase) : 0.0;
+    if (p_a >= 0.0) weight *= next_flight_weight(p_a, direct.phase);
     if (options_.naive) {
       // The naive estimator drops the Fresnel transmission of the way out.
       const double ft = exit.layers[e.layer].fresnel_t;
@@ -145,15 +144,15 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     const ScatterEvent previous = last;
     last = e;
     double p_a_event = -1.0;  // next-flight technique A's p_A, computed once per event
+    // Technique B never starts from the event after which the walk switches to the similar
+    // stack: its next flight is not the exact stack's.
+    const bool switches_after = settings.similar && !e.similar && e.order >= settings.similarity_after;
     for (int k = 0; k < light_count; ++k) {
       if (scale[k] == 0.0) continue;
       const ExitDirection& exit = e.similar ? similar_exits[k] : exits[k];
       const bool split = uses_next_flight(e, k);
       // Technique B from this event: the next flight's connection along a direction drawn
       // around the light's inside direction, with its own roulette on depth.
-      // (Not from the event after which the walk switches to the similar stack: its next
-      // flight is not the exact stack's.)
-      const bool switches_after = settings.similar && !e.similar && e.order >= settings.similarity_after;
       if (split && e.kind == ScatterEvent::Kind::Volume && !switches_after) {
         const double bound = next_flight_depth_bound(stack_of(e), e, exit);
         const double depth = options_.next_flight_roulette_depth;
@@ -170,8 +169,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       // every light).
       double p_a = -1.0;
       if (split && e.flight_from_previous) {
-        if (!(p_a_event >= 0.0))
-          p_a_event = henyey_greenstein(glm::dot(previous.direction, e.direction), exit.layers[e.layer].single_g);
+        if (!(p_a_event >= 0.0)) p_a_event = next_flight_direction_pdf(previous, e, exit.layers[e.layer].single_g);
         p_a = p_a_event;
       }
       lights[k].f_cos += contribution(e, exit, lights[k], scale[k] / p, p_a);
