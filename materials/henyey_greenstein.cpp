@@ -23,16 +23,16 @@ double sample_henyey_greenstein_cos(double g, double u) {
   return std::clamp(num / (t * t), -1.0, 1.0);
 }
 
-glm::dvec3 rotate_direction(const glm::dvec3& d, double cos_theta, double phi) {
+glm::dvec3 rotate_direction(const glm::dvec3& d, double cos_theta, glm::dvec2 azimuth) {
   glm::dvec3 t, b;
   orthonormal_basis(d, &t, &b);
   const double sin_theta = std::sqrt(std::max(0.0, (1.0 - cos_theta) * (1.0 + cos_theta)));
-  glm::dvec3 w = sin_theta * std::cos(phi) * t + sin_theta * std::sin(phi) * b + cos_theta * d;
-  return w / std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z);
+  glm::dvec3 w = sin_theta * azimuth.x * t + sin_theta * azimuth.y * b + cos_theta * d;
+  return w * (1.0 / std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z));
 }
 
 glm::dvec3 sample_henyey_greenstein(const glm::dvec3& d, double g, double u1, double u2) {
-  return rotate_direction(d, sample_henyey_greenstein_cos(g, u1), 2.0 * kPi * u2);
+  return rotate_direction(d, sample_henyey_greenstein_cos(g, u1), unit_circle(u2));
 }
 
 }  // namespace lamina

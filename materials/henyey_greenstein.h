@@ -3,6 +3,7 @@
 // cosine g. cos is the cosine between the propagation directions before and after scattering.
 #pragma once
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 namespace lamina {
@@ -25,7 +26,8 @@ double sample_henyey_greenstein_cos(double g, double u);
 glm::dvec3 sample_henyey_greenstein(const glm::dvec3& d, double g, double u1, double u2);
 
 // Rotates the unit vector d to the direction with cos(theta) = cos_theta from d and azimuth phi
-// about it, using a continuous orthonormal basis (no division by sin(theta), so d = +-z works).
-glm::dvec3 rotate_direction(const glm::dvec3& d, double cos_theta, double phi);
+// about it, (cos phi, sin phi) = azimuth (unit_circle), using a continuous orthonormal basis (no
+// division by sin(theta), so d = +-z works).
+glm::dvec3 rotate_direction(const glm::dvec3& d, double cos_theta, glm::dvec2 azimuth);
 
 }  // namespace lamina

@@ -638,6 +638,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
+      if (!settings.compute_exit_pdf) return result;
       const LayerStack& last_stack = last_event.similar ? *settings.similar : stack;
       if (rough && side == WalkResult::Side::Top) {
         ExitDirection exit;
@@ -887,8 +888,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     if (flight_guided && cache[l].v0[hero] > 0.0) {
       const double mu = sample_dwivedi_cos(cache[l].v0[hero], u1);
       const double sin_theta = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
-      const double phi = 2.0 * kPi * u2;
-      d_new = {sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu};
+      const glm::dvec2 azimuth = unit_circle(u2);
+      d_new = {sin_theta * azimuth.x, sin_theta * azimuth.y, mu};
     } else if (flight_guided) {
       d_new = sample_uniform_sphere({u1, u2});  // no channel guided here: the isotropic technique
     } else if (sigma_s[hero] > 0.0) {

@@ -75,8 +75,9 @@ struct WalkResult {
   int scatter_count = 0;      // volume + substrate scattering events before the exit / end
   int interactions = 0;       // all events: scatterings and interface reflections/refractions
   // The walk left straight from its last scattering event (no interface reflection since then,
-  // and at least one event). Then exit_pdf is connection_pdf(stack, last event, direction): the
-  // solid-angle density (outside measure) of this exit, for MIS against light sampling.
+  // and at least one event). Then, if WalkSettings::compute_exit_pdf, exit_pdf is
+  // connection_pdf(stack, last event, direction): the solid-angle density (outside measure) of
+  // this exit in the hero's coefficients.
   bool straight_from_last_event = false;
   double exit_pdf = 0.0;
   // Direct estimate of the absorbed power (what collisions and the substrate removed), for
@@ -134,6 +135,10 @@ struct WalkSettings {
   // already is), so the walk stays unbiased. Exits and connection pdfs account for it
   // (connection_pdf, prepare_exit with the same guiding).
   double guiding = 0.0;
+  // Fill WalkResult::exit_pdf. It costs a prepared exit (the refracted direction in every layer)
+  // per walk, and neither the renderer (which needs the mean over heroes, exit_pdf_for_mis) nor
+  // `lamina brdf` reads it: on the MCML slab it was a tenth of a walk's time.
+  bool compute_exit_pdf = false;
 };
 
 using EventCallback = std::function<void(const ScatterEvent&)>;

@@ -23,7 +23,7 @@ TEST(HenyeyGreenstein, SamplerInvertsCdfForNegativeG) {
 
 TEST(HenyeyGreenstein, RotateAlongNormalIsFinite) {
   for (double z : {1.0, -1.0}) {
-    const glm::dvec3 w = rotate_direction({0.0, 0.0, z}, 0.5, 1.0);
+    const glm::dvec3 w = rotate_direction({0.0, 0.0, z}, 0.5, {std::cos(1.0), std::sin(1.0)});
     EXPECT_NEAR(w.x * w.x + w.y * w.y + w.z * w.z, 1.0, 1e-14);
     EXPECT_NEAR(w.z * z, 0.5, 1e-14);
   }

@@ -47,11 +47,13 @@ LayerStack coloured_stack() {
 int check_straight_exits(const LayerStack& stack, const glm::dvec3& wi, const WalkSettings& settings,
                          std::uint64_t seed, int walks,
                          const std::function<const LayerStack*(const ScatterEvent&)>& through) {
+  WalkSettings with_exit_pdf = settings;
+  with_exit_pdf.compute_exit_pdf = true;
   int checked = 0;
   for (int i = 0; i < walks; ++i) {
     Rng rng(seed, static_cast<std::uint64_t>(i));
     ScatterEvent last;
-    const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) { last = e; }, settings);
+    const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) { last = e; }, with_exit_pdf);
     if (!r.straight_from_last_event) continue;
     const LayerStack* s = through(last);
     if (!s) continue;
@@ -408,11 +410,13 @@ TEST(RandomWalkGuided, SameEstimatesAsClassicWalks) {
 
 TEST(RandomWalkGuided, AnisotropicLayersWalkClassically) {
   const LayerStack s = coloured_stack();  // every layer anisotropic
-  WalkSettings guided;
+  WalkSettings classic;
+  classic.compute_exit_pdf = true;
+  WalkSettings guided = classic;
   guided.guiding = 0.7;
   for (int i = 0; i < 300; ++i) {
     Rng a(4, i), b(4, i);
-    const WalkResult x = random_walk(s, incident_direction(25.0, 0.0), a);
+    const WalkResult x = random_walk(s, incident_direction(25.0, 0.0), a, {}, classic);
     const WalkResult y = random_walk(s, incident_direction(25.0, 0.0), b, {}, guided);
     ASSERT_EQ(x.end, y.end);
     ASSERT_EQ(x.scatter_count, y.scatter_count);

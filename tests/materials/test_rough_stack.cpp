@@ -185,6 +185,7 @@ TEST(RoughStack, StraightExitsMatchTheConnectionThroughTheirFacet) {
   // densities and the Fresnel terms cancel only if prepare_exit's are the walk's).
   WalkSettings no_roulette;
   no_roulette.roulette_threshold = 0.0;
+  no_roulette.compute_exit_pdf = true;
   int checked = 0;
   for (double alpha : {0.05, 0.3, 0.9}) {
     LayerStack stack = rough_stack(alpha);
