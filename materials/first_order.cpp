@@ -101,14 +101,13 @@ double opposite_side_integral(double tau, double mu_i, double mu_o) {
 
 enum class Exit { Top, Bottom };
 
-Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit) {
+// ti_rgb, to_rgb: the unscattered transport along wi (from above) and wo (on the exit side).
+Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit,
+                           const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb) {
   Spectrum f;
   const int n = static_cast<int>(stack.layers.size());
   const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
-  const Outside out_side = exit == Exit::Top ? Outside::Above : Outside::Below;
   const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
-  const auto ti_rgb = unscattered_transport_rgb(stack, wi.z, Outside::Above);
-  const auto to_rgb = unscattered_transport_rgb(stack, wo.z, out_side);
   for (int c = 0; c < kChannels; ++c) {
     const StackTransport& ti = ti_rgb[c];
     const StackTransport& to = to_rgb[c];
@@ -151,6 +150,11 @@ Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const 
   return f;
 }
 
+Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit) {
+  return single_scattering(stack, wi, wo, exit, unscattered_transport_rgb(stack, wi.z, Outside::Above),
+                           unscattered_transport_rgb(stack, wo.z, exit == Exit::Top ? Outside::Above : Outside::Below));
+}
+
 }  // namespace
 
 Spectrum first_order_brdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo) {
@@ -165,6 +169,14 @@ Spectrum first_order_btdf(const LayerStack& stack, const glm::dvec3& wi, const g
 
 Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo) {
   return wo.z >= 0.0 ? first_order_brdf(stack, wi, wo) : first_order_btdf(stack, wi, wo);
+}
+
+Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, const ChannelTransport& in,
+                          const ChannelTransport& out) {
+  if (!(wi.z > 0.0)) return Spectrum();
+  if (wo.z > 0.0) return single_scattering(stack, wi, wo, Exit::Top, in, out);
+  if (wo.z < 0.0 && stack.transmits()) return single_scattering(stack, wi, wo, Exit::Bottom, in, out);
+  return Spectrum();
 }
 
 namespace {

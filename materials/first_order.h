@@ -13,10 +13,13 @@
 // flipped(stack) with the z components negated.
 #pragma once
 
+#include <array>
+
 #include <glm/vec3.hpp>
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
+#include "materials/zeroth_order.h"
 
 namespace lamina {
 
@@ -29,6 +32,15 @@ Spectrum first_order_btdf(const LayerStack& stack, const glm::dvec3& wi, const g
 
 // Dispatches on the sign of wo.z.
 Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
+
+// The same value with the unscattered transport along wi and wo given: in =
+// unscattered_transport_rgb(stack, wi.z, Outside::Above), out = unscattered_transport_rgb(stack,
+// wo.z, Outside::Above for wo.z >= 0, else Outside::Below). They depend on the cosines alone, so
+// a caller that evaluates many directions sharing them (brdf_table_first_order: every bin shares
+// wi, every azimuth of a bin row the cosine of wo) computes each once; they are most of the cost.
+using ChannelTransport = std::array<StackTransport, kChannels>;
+Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, const ChannelTransport& in,
+                          const ChannelTransport& out);
 
 // The single-scattering directional albedos for light arriving at cos(theta_i):
 //   R_diffuse = int_{wo.z > 0} f_r1 |wo.z| dwo,   T_diffuse = int_{wo.z < 0} f_t1 |wo.z| dwo,
