@@ -1,6 +1,7 @@
 #include "materials/first_order.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -101,17 +102,19 @@ double opposite_side_integral(double tau, double mu_i, double mu_o) {
 
 enum class Exit { Top, Bottom };
 
-// ti_rgb, to_rgb: the unscattered transport along wi (from above) and wo (on the exit side).
-Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit,
-                           const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb) {
-  Spectrum f;
+using ChannelTransport = std::array<StackTransport, kChannels>;
+
+// Calls term(t) for every layer and channel that scatters light from wi into wo, in channel
+// order and within a channel in layer order (the order of the sums below). ti_rgb, to_rgb: the
+// unscattered transport along wi (from above) and wo (on the exit side).
+template <class Term>
+void for_each_term(const LayerStack& stack, Exit exit, const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb,
+                   Term&& term) {
   const int n = static_cast<int>(stack.layers.size());
   const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
-  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
   for (int c = 0; c < kChannels; ++c) {
     const StackTransport& ti = ti_rgb[c];
     const StackTransport& to = to_rgb[c];
-    double sum = 0.0;
     for (int k = 0; k < n; ++k) {
       const Layer& layer = stack.layers[k];
       const LayerTransport& li = ti.layers[k];
@@ -129,30 +132,56 @@ Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const 
       const double back = far_R * lo.t;
       const double eta = n_out / layer.ior;
       const double X = exit_T / (1.0 - lo.above.R_bottom * lo.below.R_top * lo.t * lo.t) * eta * eta;
-      // Step 4: phase function arguments.
-      const double c_h = -wi_wo_xy * stack.above_ior * n_out / (layer.ior * layer.ior);
-      const double p_minus = layer.phase(c, c_h - li.mu * lo.mu);
-      const double p_plus = layer.phase(c, c_h + li.mu * lo.mu);
       // Step 2: depth integrals.
-      const double A = same_side_integral(li.tau, li.mu, lo.mu);
-      const double K = opposite_side_integral(li.tau, li.mu, lo.mu);
-      const double direct = a + b * back, via_far = a * back + b;
-      const double bracket = exit == Exit::Top ? direct * p_minus * A + via_far * p_plus * K
-                                               : direct * p_plus * K + via_far * p_minus * A;
-      sum += W * X * bracket;
+      FirstOrderCosines::Term t;
+      t.layer = k;
+      t.channel = c;
+      t.weight = W * X;
+      t.direct = a + b * back;
+      t.via_far = a * back + b;
+      t.A = same_side_integral(li.tau, li.mu, lo.mu);
+      t.K = opposite_side_integral(li.tau, li.mu, lo.mu);
+      t.mu_product = li.mu * lo.mu;
+      term(t);
     }
-    if (exit == Exit::Top && stack.below.kind == Below::Kind::Lambert) {
-      const double eta = stack.above_ior / stack.layers[n - 1].ior;
-      sum += stack.below.albedo[c] * kInvPi * ti.whole.T * to.whole.T * eta * eta;
-    }
-    f[c] = sum;
   }
-  return f;
+}
+
+// The Lambert substrate's single reflection (exit through the top only), per channel.
+bool substrate_term(const LayerStack& stack, Exit exit, const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb,
+                    Spectrum* f) {
+  if (exit != Exit::Top || stack.below.kind != Below::Kind::Lambert) return false;
+  const double eta = stack.above_ior / stack.layers.back().ior;
+  for (int c = 0; c < kChannels; ++c)
+    (*f)[c] = stack.below.albedo[c] * kInvPi * ti_rgb[c].whole.T * to_rgb[c].whole.T * eta * eta;
+  return true;
+}
+
+// A term's value: its weight times the phase function at the two scattering angles (Step 4;
+// wi_wo_xy = wi.x wo.x + wi.y wo.y, the only dependence on azimuth).
+double term_value(const LayerStack& stack, const FirstOrderCosines::Term& t, bool top, double n_out, double wi_wo_xy) {
+  const Layer& layer = stack.layers[t.layer];
+  const double c_h = -wi_wo_xy * stack.above_ior * n_out / (layer.ior * layer.ior);
+  const double p_minus = layer.phase(t.channel, c_h - t.mu_product);
+  const double p_plus = layer.phase(t.channel, c_h + t.mu_product);
+  const double bracket = top ? t.direct * p_minus * t.A + t.via_far * p_plus * t.K
+                             : t.direct * p_plus * t.K + t.via_far * p_minus * t.A;
+  return t.weight * bracket;
 }
 
 Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit) {
-  return single_scattering(stack, wi, wo, exit, unscattered_transport_rgb(stack, wi.z, Outside::Above),
-                           unscattered_transport_rgb(stack, wo.z, exit == Exit::Top ? Outside::Above : Outside::Below));
+  const ChannelTransport ti = unscattered_transport_rgb(stack, wi.z, Outside::Above);
+  const ChannelTransport to = unscattered_transport_rgb(stack, wo.z, exit == Exit::Top ? Outside::Above : Outside::Below);
+  const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
+  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
+  double sum[kChannels] = {0.0, 0.0, 0.0};
+  for_each_term(stack, exit, ti, to, [&](const FirstOrderCosines::Term& t) {
+    sum[t.channel] += term_value(stack, t, exit == Exit::Top, n_out, wi_wo_xy);
+  });
+  Spectrum substrate, f;
+  const bool lambert = substrate_term(stack, exit, ti, to, &substrate);
+  for (int c = 0; c < kChannels; ++c) f[c] = lambert ? sum[c] + substrate[c] : sum[c];
+  return f;
 }
 
 }  // namespace
@@ -171,12 +200,30 @@ Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const g
   return wo.z >= 0.0 ? first_order_brdf(stack, wi, wo) : first_order_btdf(stack, wi, wo);
 }
 
-Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, const ChannelTransport& in,
-                          const ChannelTransport& out) {
-  if (!(wi.z > 0.0)) return Spectrum();
-  if (wo.z > 0.0) return single_scattering(stack, wi, wo, Exit::Top, in, out);
-  if (wo.z < 0.0 && stack.transmits()) return single_scattering(stack, wi, wo, Exit::Bottom, in, out);
-  return Spectrum();
+FirstOrderCosines first_order_cosines(const LayerStack& stack, double cos_i, double cos_o) {
+  FirstOrderCosines out;
+  out.cos_i = cos_i;
+  out.cos_o = cos_o;
+  const bool top = cos_o > 0.0;
+  if (!(cos_i > 0.0) || !(top || (cos_o < 0.0 && stack.transmits()))) return out;  // f = 0
+  const Exit exit = top ? Exit::Top : Exit::Bottom;
+  const ChannelTransport ti = unscattered_transport_rgb(stack, cos_i, Outside::Above);
+  const ChannelTransport to = unscattered_transport_rgb(stack, cos_o, top ? Outside::Above : Outside::Below);
+  for_each_term(stack, exit, ti, to, [&](const FirstOrderCosines::Term& t) { out.terms.push_back(t); });
+  out.has_substrate = substrate_term(stack, exit, ti, to, &out.substrate);
+  return out;
+}
+
+Spectrum first_order_bsdf(const LayerStack& stack, const FirstOrderCosines& cosines, const glm::dvec3& wi,
+                          const glm::dvec3& wo) {
+  const bool top = cosines.cos_o > 0.0;
+  const double n_out = top ? stack.above_ior : stack.below.ior;
+  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
+  double sum[kChannels] = {0.0, 0.0, 0.0};
+  for (const FirstOrderCosines::Term& t : cosines.terms) sum[t.channel] += term_value(stack, t, top, n_out, wi_wo_xy);
+  Spectrum f;
+  for (int c = 0; c < kChannels; ++c) f[c] = cosines.has_substrate ? sum[c] + cosines.substrate[c] : sum[c];
+  return f;
 }
 
 namespace {

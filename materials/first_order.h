@@ -13,13 +13,12 @@
 // flipped(stack) with the z components negated.
 #pragma once
 
-#include <array>
+#include <vector>
 
 #include <glm/vec3.hpp>
 
 #include "materials/spectrum.h"
 #include "materials/stack.h"
-#include "materials/zeroth_order.h"
 
 namespace lamina {
 
@@ -33,14 +32,27 @@ Spectrum first_order_btdf(const LayerStack& stack, const glm::dvec3& wi, const g
 // Dispatches on the sign of wo.z.
 Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
 
-// The same value with the unscattered transport along wi and wo given: in =
-// unscattered_transport_rgb(stack, wi.z, Outside::Above), out = unscattered_transport_rgb(stack,
-// wo.z, Outside::Above for wo.z >= 0, else Outside::Below). They depend on the cosines alone, so
-// a caller that evaluates many directions sharing them (brdf_table_first_order: every bin shares
-// wi, every azimuth of a bin row the cosine of wo) computes each once; they are most of the cost.
-using ChannelTransport = std::array<StackTransport, kChannels>;
-Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, const ChannelTransport& in,
-                          const ChannelTransport& out);
+// first_order_bsdf in two steps: the parts that depend on the cosines of wi and wo alone (the
+// unscattered beams' transport, the depth integrals, the Lambert substrate's term: most of the
+// cost), then the phase functions at the azimuth of wi and wo. A caller that evaluates many
+// directions sharing the cosines (brdf_table_first_order: every azimuth of a bin row) prepares
+// them once; the value is the same, bit for bit.
+struct FirstOrderCosines {
+  // One layer's and channel's single scattering without its phase function: it adds
+  // weight (direct p(c_h -+ mu_product) A + via_far p(c_h +- mu_product) K) (first_order.cpp).
+  struct Term {
+    int layer = 0, channel = 0;
+    double weight = 0.0, direct = 0.0, via_far = 0.0, A = 0.0, K = 0.0, mu_product = 0.0;
+  };
+  double cos_i = 0.0, cos_o = 0.0;  // wi.z and wo.z (wo.z < 0: transmission)
+  std::vector<Term> terms;          // by channel, then layer
+  bool has_substrate = false;       // the Lambert substrate's term (reflection only)
+  Spectrum substrate;
+};
+FirstOrderCosines first_order_cosines(const LayerStack& stack, double cos_i, double cos_o);
+// = first_order_bsdf(stack, wi, wo) for wi.z = cosines.cos_i, wo.z = cosines.cos_o.
+Spectrum first_order_bsdf(const LayerStack& stack, const FirstOrderCosines& cosines, const glm::dvec3& wi,
+                          const glm::dvec3& wo);
 
 // The single-scattering directional albedos for light arriving at cos(theta_i):
 //   R_diffuse = int_{wo.z > 0} f_r1 |wo.z| dwo,   T_diffuse = int_{wo.z < 0} f_t1 |wo.z| dwo,
