@@ -243,10 +243,9 @@ double legendre_p(int n, double x, double* derivative) {
 
 }  // namespace
 
-void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
+GaussLegendreRule::GaussLegendreRule(int n) : n_(n) {
   // Roots of P_n by Newton from the usual initial guess cos(pi (i + 3/4)/(n + 1/2)); weight
-  // 2/((1 - x^2) P_n'(x)^2). The roots are symmetric, so pairs are filled together.
-  const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+  // 2/((1 - x^2) P_n'(x)^2). The roots are symmetric, so only half are kept.
   for (int i = 0; i < (n + 1) / 2; ++i) {
     double x = std::cos(kPi * (i + 0.75) / (n + 0.5));
     double dp = 1.0;
@@ -257,11 +256,23 @@ void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
       if (std::abs(dx) < 1e-16) break;
     }
     legendre_p(n, x, &dp);  // the derivative at the converged root
-    const double w = 2.0 / ((1.0 - x * x) * dp * dp);
-    nodes[i] = mid - half * x;
-    nodes[n - 1 - i] = mid + half * x;
-    weights[i] = weights[n - 1 - i] = half * w;
+    root_.push_back(x);
+    weight_.push_back(2.0 / ((1.0 - x * x) * dp * dp));
   }
+}
+
+void GaussLegendreRule::apply(double a, double b, double* nodes, double* weights) const {
+  const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+  for (std::size_t i = 0; i < root_.size(); ++i) {
+    const double x = root_[i];
+    nodes[i] = mid - half * x;
+    nodes[n_ - 1 - i] = mid + half * x;
+    weights[i] = weights[n_ - 1 - i] = half * weight_[i];
+  }
+}
+
+void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
+  GaussLegendreRule(n).apply(a, b, nodes, weights);
 }
 
 FirstOrderAlbedo first_order_albedo(const LayerStack& stack, double cos_theta_i, int n_mu, int n_phi) {

@@ -74,4 +74,18 @@ FirstOrderAlbedo first_order_bihemispherical_albedo(const LayerStack& stack, int
 // Recipes 3rd ed. section 4.6).
 void gauss_legendre(int n, double a, double b, double* nodes, double* weights);
 
+// The same rule with its roots on [-1, 1] found once: apply(a, b, ...) gives gauss_legendre(n, a,
+// b, ...) bit for bit without the Newton iterations (for callers that need many intervals:
+// the adding-doubling bins integrate over every bin ring, mode and incidence).
+class GaussLegendreRule {
+ public:
+  explicit GaussLegendreRule(int n);
+  void apply(double a, double b, double* nodes, double* weights) const;
+  int size() const { return n_; }
+
+ private:
+  int n_;
+  std::vector<double> root_, weight_;  // the first (n + 1) / 2 roots on [-1, 1] and their weights
+};
+
 }  // namespace lamina
