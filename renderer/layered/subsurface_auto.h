@@ -57,7 +57,8 @@
 // where the choice is made without an estimate, as before the stages. On the test stacks the
 // bound exceeds the actual difference from the full-order prediction by 10x to 10^7x (the
 // triangle inequality assumes dP aligned with the model's difference, and N/2 is far worse than
-// N); it still decides every stack of bench/bench_auto at tolerance 0.05 at 8 points.
+// N); it still decides skin.json, skin_oily.json and contract_leaf.json of bench/bench_auto at
+// tolerance 0.05 at 4 points, leaf.json at 8.
 // Cost order (README "Speed and accuracy"): lambert < first-order < table < random-walk.
 #pragma once
 
@@ -88,7 +89,7 @@ struct AutoSettings {
   // The adding-doubling reference in stages: first at this many quadrature points (and half as
   // many, for the estimate of its discretisation error), doubling until the choice is decided
   // or the full order (the table mode's rule) is reached; 0: the full order at once.
-  int first_reference_points = 8;
+  int first_reference_points = 4;
   // Tests: stop after the first stage, decided or not (its errors and their estimate).
   bool single_reference_stage = false;
 };
