@@ -2,7 +2,8 @@
 // stacks, where its reference is adding-doubling (no walks): README "Shading modes", auto.
 //   BM_AutoPrediction/<stack>: choose_subsurface_mode at the default settings (tolerance 0.05);
 //     the stacks' rough tops (skin_oily) are made smooth, as the table mode sees them. Counters:
-//     the quadrature points adding-doubling needed (the table mode's rule) and the walks (0).
+//     the quadrature points adding-doubling needed (the table mode's rule), the points of the
+//     stage that decided (subsurface_auto.h: the reference in stages) and the walks (0).
 #include <benchmark/benchmark.h>
 
 #include <string>
@@ -25,6 +26,7 @@ void BM_AutoPrediction(benchmark::State& state, const std::string& file) {
   lamina::AddingDoublingSettings ad;
   lamina::adding_doubling_resolves(stack, s.table.quadrature_points, &ad);
   state.counters["points"] = ad.quadrature_points;
+  state.counters["decided_at"] = c.reference_points;
   state.counters["walks"] = static_cast<double>(c.walks);
   state.SetLabel(c.reason.substr(0, c.reason.find(' ', 6)));
 }

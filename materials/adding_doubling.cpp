@@ -112,7 +112,7 @@
 
 #include <tbb/parallel_for.h>
 
-#include "materials/first_order.h"  // gauss_legendre
+#include "materials/first_order.h"  // GaussLegendreRule
 #include "materials/fresnel.h"
 #include "materials/sampling.h"  // kPi
 #include "materials/zeroth_order.h"
@@ -799,9 +799,10 @@ struct ModeRadiance {
     }
     std::sort(cuts.begin(), cuts.end());
     constexpr int kPoints = 8;
+    static const GaussLegendreRule rule(kPoints);  // its roots once, not per piece
     double xs[kPoints], ws[kPoints], sum = 0.0;
     for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
-      gauss_legendre(kPoints, cuts[k], cuts[k + 1], xs, ws);
+      rule.apply(cuts[k], cuts[k + 1], xs, ws);
       for (int i = 0; i < kPoints; ++i) sum += 0.5 * ws[i] * (*this)(std::sqrt(xs[i]));
     }
     return sum;

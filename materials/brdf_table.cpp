@@ -202,12 +202,21 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
   // mu dmu dphi = dx dphi / 2) the weight is uniform in (x, phi): Gauss-Legendre in x on
   // [lo^2, hi^2] and the midpoint rule in phi, normalised by the bin's area in (x, phi).
 
+  // Everything but the phase functions depends on the cosines alone (first_order_cosines):
+  // prepared once per cosine node of a bin row, for all its azimuths. A stack that does not
+  // transmit has no transmission bins to evaluate (first_order_btdf is 0).
   tbb::parallel_for(tbb::blocked_range<int>(0, 2 * K), [&](const tbb::blocked_range<int>& range) {
     std::vector<double> nodes(n), weights(n);
+    std::vector<FirstOrderCosines> cosines(n);
     for (int sk = range.begin(); sk != range.end(); ++sk) {
       const int side = sk / K, k = sk % K;
+      if (side == 1 && !stack.transmits()) continue;  // the table's bins are 0 already
       const double lo = static_cast<double>(k) / K, hi = static_cast<double>(k + 1) / K;
       gauss_legendre(n, lo * lo, hi * hi, nodes.data(), weights.data());
+      for (int a = 0; a < n; ++a) {
+        const double mu = std::sqrt(nodes[a]);
+        cosines[a] = first_order_cosines(stack, wi.z, side == 0 ? mu : -mu);
+      }
       for (int m = 0; m < M; ++m) {
         Spectrum sum;
         for (int a = 0; a < n; ++a) {
@@ -216,7 +225,7 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
           for (int b = 0; b < n; ++b) {
             const double phi = phi_i + 2.0 * kPi * (m + (b + 0.5) / n) / M;
             const glm::dvec3 wo{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
-            sum += first_order_bsdf(stack, wi, wo) * (weights[a] / n);
+            sum += first_order_bsdf(stack, cosines[a], wi, wo) * (weights[a] / n);
           }
         }
         const int idx = table.bin_index(static_cast<BrdfSide>(side), k, m);

@@ -1,6 +1,7 @@
 #include "materials/first_order.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -101,18 +102,19 @@ double opposite_side_integral(double tau, double mu_i, double mu_o) {
 
 enum class Exit { Top, Bottom };
 
-Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit) {
-  Spectrum f;
+using ChannelTransport = std::array<StackTransport, kChannels>;
+
+// Calls term(t) for every layer and channel that scatters light from wi into wo, in channel
+// order and within a channel in layer order (the order of the sums below). ti_rgb, to_rgb: the
+// unscattered transport along wi (from above) and wo (on the exit side).
+template <class Term>
+void for_each_term(const LayerStack& stack, Exit exit, const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb,
+                   Term&& term) {
   const int n = static_cast<int>(stack.layers.size());
   const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
-  const Outside out_side = exit == Exit::Top ? Outside::Above : Outside::Below;
-  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
-  const auto ti_rgb = unscattered_transport_rgb(stack, wi.z, Outside::Above);
-  const auto to_rgb = unscattered_transport_rgb(stack, wo.z, out_side);
   for (int c = 0; c < kChannels; ++c) {
     const StackTransport& ti = ti_rgb[c];
     const StackTransport& to = to_rgb[c];
-    double sum = 0.0;
     for (int k = 0; k < n; ++k) {
       const Layer& layer = stack.layers[k];
       const LayerTransport& li = ti.layers[k];
@@ -130,24 +132,55 @@ Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const 
       const double back = far_R * lo.t;
       const double eta = n_out / layer.ior;
       const double X = exit_T / (1.0 - lo.above.R_bottom * lo.below.R_top * lo.t * lo.t) * eta * eta;
-      // Step 4: phase function arguments.
-      const double c_h = -wi_wo_xy * stack.above_ior * n_out / (layer.ior * layer.ior);
-      const double p_minus = layer.phase(c, c_h - li.mu * lo.mu);
-      const double p_plus = layer.phase(c, c_h + li.mu * lo.mu);
       // Step 2: depth integrals.
-      const double A = same_side_integral(li.tau, li.mu, lo.mu);
-      const double K = opposite_side_integral(li.tau, li.mu, lo.mu);
-      const double direct = a + b * back, via_far = a * back + b;
-      const double bracket = exit == Exit::Top ? direct * p_minus * A + via_far * p_plus * K
-                                               : direct * p_plus * K + via_far * p_minus * A;
-      sum += W * X * bracket;
+      FirstOrderCosines::Term t;
+      t.layer = k;
+      t.channel = c;
+      t.weight = W * X;
+      t.direct = a + b * back;
+      t.via_far = a * back + b;
+      t.A = same_side_integral(li.tau, li.mu, lo.mu);
+      t.K = opposite_side_integral(li.tau, li.mu, lo.mu);
+      t.mu_product = li.mu * lo.mu;
+      term(t);
     }
-    if (exit == Exit::Top && stack.below.kind == Below::Kind::Lambert) {
-      const double eta = stack.above_ior / stack.layers[n - 1].ior;
-      sum += stack.below.albedo[c] * kInvPi * ti.whole.T * to.whole.T * eta * eta;
-    }
-    f[c] = sum;
   }
+}
+
+// The Lambert substrate's single reflection (exit through the top only), per channel.
+bool substrate_term(const LayerStack& stack, Exit exit, const ChannelTransport& ti_rgb, const ChannelTransport& to_rgb,
+                    Spectrum* f) {
+  if (exit != Exit::Top || stack.below.kind != Below::Kind::Lambert) return false;
+  const double eta = stack.above_ior / stack.layers.back().ior;
+  for (int c = 0; c < kChannels; ++c)
+    (*f)[c] = stack.below.albedo[c] * kInvPi * ti_rgb[c].whole.T * to_rgb[c].whole.T * eta * eta;
+  return true;
+}
+
+// A term's value: its weight times the phase function at the two scattering angles (Step 4;
+// wi_wo_xy = wi.x wo.x + wi.y wo.y, the only dependence on azimuth).
+double term_value(const LayerStack& stack, const FirstOrderCosines::Term& t, bool top, double n_out, double wi_wo_xy) {
+  const Layer& layer = stack.layers[t.layer];
+  const double c_h = -wi_wo_xy * stack.above_ior * n_out / (layer.ior * layer.ior);
+  const double p_minus = layer.phase(t.channel, c_h - t.mu_product);
+  const double p_plus = layer.phase(t.channel, c_h + t.mu_product);
+  const double bracket = top ? t.direct * p_minus * t.A + t.via_far * p_plus * t.K
+                             : t.direct * p_plus * t.K + t.via_far * p_minus * t.A;
+  return t.weight * bracket;
+}
+
+Spectrum single_scattering(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo, Exit exit) {
+  const ChannelTransport ti = unscattered_transport_rgb(stack, wi.z, Outside::Above);
+  const ChannelTransport to = unscattered_transport_rgb(stack, wo.z, exit == Exit::Top ? Outside::Above : Outside::Below);
+  const double n_out = exit == Exit::Top ? stack.above_ior : stack.below.ior;
+  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
+  double sum[kChannels] = {0.0, 0.0, 0.0};
+  for_each_term(stack, exit, ti, to, [&](const FirstOrderCosines::Term& t) {
+    sum[t.channel] += term_value(stack, t, exit == Exit::Top, n_out, wi_wo_xy);
+  });
+  Spectrum substrate, f;
+  const bool lambert = substrate_term(stack, exit, ti, to, &substrate);
+  for (int c = 0; c < kChannels; ++c) f[c] = lambert ? sum[c] + substrate[c] : sum[c];
   return f;
 }
 
@@ -167,6 +200,32 @@ Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const g
   return wo.z >= 0.0 ? first_order_brdf(stack, wi, wo) : first_order_btdf(stack, wi, wo);
 }
 
+FirstOrderCosines first_order_cosines(const LayerStack& stack, double cos_i, double cos_o) {
+  FirstOrderCosines out;
+  out.cos_i = cos_i;
+  out.cos_o = cos_o;
+  const bool top = cos_o > 0.0;
+  if (!(cos_i > 0.0) || !(top || (cos_o < 0.0 && stack.transmits()))) return out;  // f = 0
+  const Exit exit = top ? Exit::Top : Exit::Bottom;
+  const ChannelTransport ti = unscattered_transport_rgb(stack, cos_i, Outside::Above);
+  const ChannelTransport to = unscattered_transport_rgb(stack, cos_o, top ? Outside::Above : Outside::Below);
+  for_each_term(stack, exit, ti, to, [&](const FirstOrderCosines::Term& t) { out.terms.push_back(t); });
+  out.has_substrate = substrate_term(stack, exit, ti, to, &out.substrate);
+  return out;
+}
+
+Spectrum first_order_bsdf(const LayerStack& stack, const FirstOrderCosines& cosines, const glm::dvec3& wi,
+                          const glm::dvec3& wo) {
+  const bool top = cosines.cos_o > 0.0;
+  const double n_out = top ? stack.above_ior : stack.below.ior;
+  const double wi_wo_xy = wi.x * wo.x + wi.y * wo.y;
+  double sum[kChannels] = {0.0, 0.0, 0.0};
+  for (const FirstOrderCosines::Term& t : cosines.terms) sum[t.channel] += term_value(stack, t, top, n_out, wi_wo_xy);
+  Spectrum f;
+  for (int c = 0; c < kChannels; ++c) f[c] = cosines.has_substrate ? sum[c] + cosines.substrate[c] : sum[c];
+  return f;
+}
+
 namespace {
 
 // P_n(x) by the three-term recurrence j P_j = (2j - 1) x P_{j-1} - (j - 1) P_{j-2}, and its
@@ -184,10 +243,9 @@ double legendre_p(int n, double x, double* derivative) {
 
 }  // namespace
 
-void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
+GaussLegendreRule::GaussLegendreRule(int n) : n_(n) {
   // Roots of P_n by Newton from the usual initial guess cos(pi (i + 3/4)/(n + 1/2)); weight
-  // 2/((1 - x^2) P_n'(x)^2). The roots are symmetric, so pairs are filled together.
-  const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+  // 2/((1 - x^2) P_n'(x)^2). The roots are symmetric, so only half are kept.
   for (int i = 0; i < (n + 1) / 2; ++i) {
     double x = std::cos(kPi * (i + 0.75) / (n + 0.5));
     double dp = 1.0;
@@ -198,11 +256,23 @@ void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
       if (std::abs(dx) < 1e-16) break;
     }
     legendre_p(n, x, &dp);  // the derivative at the converged root
-    const double w = 2.0 / ((1.0 - x * x) * dp * dp);
-    nodes[i] = mid - half * x;
-    nodes[n - 1 - i] = mid + half * x;
-    weights[i] = weights[n - 1 - i] = half * w;
+    root_.push_back(x);
+    weight_.push_back(2.0 / ((1.0 - x * x) * dp * dp));
   }
+}
+
+void GaussLegendreRule::apply(double a, double b, double* nodes, double* weights) const {
+  const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+  for (std::size_t i = 0; i < root_.size(); ++i) {
+    const double x = root_[i];
+    nodes[i] = mid - half * x;
+    nodes[n_ - 1 - i] = mid + half * x;
+    weights[i] = weights[n_ - 1 - i] = half * weight_[i];
+  }
+}
+
+void gauss_legendre(int n, double a, double b, double* nodes, double* weights) {
+  GaussLegendreRule(n).apply(a, b, nodes, weights);
 }
 
 FirstOrderAlbedo first_order_albedo(const LayerStack& stack, double cos_theta_i, int n_mu, int n_phi) {

@@ -13,6 +13,8 @@
 // flipped(stack) with the z components negated.
 #pragma once
 
+#include <vector>
+
 #include <glm/vec3.hpp>
 
 #include "materials/spectrum.h"
@@ -29,6 +31,28 @@ Spectrum first_order_btdf(const LayerStack& stack, const glm::dvec3& wi, const g
 
 // Dispatches on the sign of wo.z.
 Spectrum first_order_bsdf(const LayerStack& stack, const glm::dvec3& wi, const glm::dvec3& wo);
+
+// first_order_bsdf in two steps: the parts that depend on the cosines of wi and wo alone (the
+// unscattered beams' transport, the depth integrals, the Lambert substrate's term: most of the
+// cost), then the phase functions at the azimuth of wi and wo. A caller that evaluates many
+// directions sharing the cosines (brdf_table_first_order: every azimuth of a bin row) prepares
+// them once; the value is the same, bit for bit.
+struct FirstOrderCosines {
+  // One layer's and channel's single scattering without its phase function: it adds
+  // weight (direct p(c_h -+ mu_product) A + via_far p(c_h +- mu_product) K) (first_order.cpp).
+  struct Term {
+    int layer = 0, channel = 0;
+    double weight = 0.0, direct = 0.0, via_far = 0.0, A = 0.0, K = 0.0, mu_product = 0.0;
+  };
+  double cos_i = 0.0, cos_o = 0.0;  // wi.z and wo.z (wo.z < 0: transmission)
+  std::vector<Term> terms;          // by channel, then layer
+  bool has_substrate = false;       // the Lambert substrate's term (reflection only)
+  Spectrum substrate;
+};
+FirstOrderCosines first_order_cosines(const LayerStack& stack, double cos_i, double cos_o);
+// = first_order_bsdf(stack, wi, wo) for wi.z = cosines.cos_i, wo.z = cosines.cos_o.
+Spectrum first_order_bsdf(const LayerStack& stack, const FirstOrderCosines& cosines, const glm::dvec3& wi,
+                          const glm::dvec3& wo);
 
 // The single-scattering directional albedos for light arriving at cos(theta_i):
 //   R_diffuse = int_{wo.z > 0} f_r1 |wo.z| dwo,   T_diffuse = int_{wo.z < 0} f_t1 |wo.z| dwo,
@@ -49,5 +73,19 @@ FirstOrderAlbedo first_order_bihemispherical_albedo(const LayerStack& stack, int
 // Nodes and weights of the n-point Gauss-Legendre rule on [a, b] (Newton on P_n; Numerical
 // Recipes 3rd ed. section 4.6).
 void gauss_legendre(int n, double a, double b, double* nodes, double* weights);
+
+// The same rule with its roots on [-1, 1] found once: apply(a, b, ...) gives gauss_legendre(n, a,
+// b, ...) bit for bit without the Newton iterations (for callers that need many intervals:
+// the adding-doubling bins integrate over every bin ring, mode and incidence).
+class GaussLegendreRule {
+ public:
+  explicit GaussLegendreRule(int n);
+  void apply(double a, double b, double* nodes, double* weights) const;
+  int size() const { return n_; }
+
+ private:
+  int n_;
+  std::vector<double> root_, weight_;  // the first (n + 1) / 2 roots on [-1, 1] and their weights
+};
 
 }  // namespace lamina

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -299,6 +300,108 @@ ViewErrors finish(const Accumulator& a, double* spread = nullptr) {
 
 const char* short_name(SubsurfaceMode m) { return subsurface_mode_name(m); }
 
+// A prediction's reference, per side (i) and incidence (j).
+using ReferenceGrid = std::vector<std::vector<Binned>>;
+
+// The models' errors over the views (every side and incidence) against `reference`: lambert,
+// first order (`first`, per view) and the table, whose interpolation error at view j comes from
+// the reference's second difference over the incidences (spacing `stride` table nodes).
+ViewErrors errors_against(const ReferenceGrid& reference, const ReferenceGrid& first, const Binned& lambert, int stride,
+                          const AutoSettings& settings, double* spread) {
+  Accumulator acc;
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    const int n = static_cast<int>(reference[i].size());
+    for (int j = 0; j < n; ++j) {
+      const Binned& walk = reference[i][j];
+      const Relative rl = relative_to(combine({{&lambert, 1.0}, {&walk, -1.0}}), walk);
+      acc.shape_ref += rl.shape_ref2;
+      record(rl, 0, &acc);
+      record(relative_to(combine({{&first[i][j], 1.0}, {&walk, -1.0}}), walk), 1, &acc);
+      // The table's interpolation error at the midpoints between its nodes (spacing h) near
+      // incidence j: h^2 |P''| / 8, with P'' from the second difference over the prediction's
+      // incidences (spacing stride h), centred on an inner one (the end ones take their
+      // neighbour's): (P_{j-1} - 2 P_j + P_{j+1}) / (8 stride^2). Its statistics: a half-half
+      // mix of two nodes (the typical view between nodes).
+      if (n >= 3) {
+        const int c = std::clamp(j, 1, n - 2);
+        const double k = 1.0 / (8.0 * stride * stride);
+        const Difference bias =
+            combine({{&reference[i][c - 1], k}, {&reference[i][c], -2.0 * k}, {&reference[i][c + 1], k}});
+        record_table(bias, walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
+      } else {
+        record_table(combine({{&walk, 0.0}}), walk, {{&walk, 1.0}}, settings, 0.0, &acc);
+      }
+    }
+  }
+  return finish(acc, spread);
+}
+
+// The adding-doubling reference at `points` quadrature points (each side capped at its own full
+// order, full[i]), every incidence of a side in one solution.
+ReferenceGrid adding_doubling_reference(const std::vector<std::reference_wrapper<const LayerStack>>& stacks,
+                                        const std::vector<AddingDoublingSettings>& full, int points,
+                                        const std::vector<std::vector<BrdfOptions>>& options) {
+  ReferenceGrid out(stacks.size());
+  for (std::size_t i = 0; i < stacks.size(); ++i) {
+    const int n = static_cast<int>(options[i].size());
+    std::vector<double> theta(n);
+    for (int j = 0; j < n; ++j) theta[j] = options[i][j].theta_i_deg;
+    AddingDoublingSettings ad = full[i];
+    ad.quadrature_points = std::min(points, full[i].quadrature_points);
+    ad.single_scattering_bins = false;
+    const std::vector<BrdfTable> tables = brdf_tables_adding_doubling(stacks[i], options[i][0], theta, ad);
+    for (int j = 0; j < n; ++j) {
+      out[i].push_back(binned(tables[j], false));
+      out[i][j].transmit_factor = transmit_factor(stacks[i]);
+    }
+  }
+  return out;
+}
+
+// The discretisation error of the models' errors predicted against the adding-doubling
+// reference P at N points, from the reference at N/2, Q (derivation in subsurface_auto.h):
+// with dP = P - Q taken as a bound on P's own error in every norm, each metric
+// e = ||X - P|| / ||P|| (X the model's powers, or for the table X - P = the linear interpolation
+// bias B(P)) moves by at most (||dX|| + e ||dP||) / (||P|| - ||dP||), with ||dX|| = ||dP|| for
+// lambert and first order (X does not depend on the reference) and ||B(dP)|| for the table.
+ModeErrors reference_discretisation(const ReferenceGrid& P, const ReferenceGrid& Q, const ViewErrors& errors, int stride) {
+  ReferenceGrid dP = P;
+  for (std::size_t i = 0; i < P.size(); ++i)
+    for (std::size_t j = 0; j < P[i].size(); ++j) {
+      Binned& d = dP[i][j];
+      for (std::size_t b = 0; b < d.power.size(); ++b) d.power[b] = P[i][j].power[b] - Q[i][j].power[b];
+      d.R_specular = d.T_ballistic = Spectrum(0.0);  // exact (zeroth order) in both
+    }
+  // ||dP|| / ||P|| in the lambert slot, ||B(dP)|| / ||P|| in the table's: the same sums over
+  // views as the errors themselves (shape: sums over views; uniform: the worst view).
+  Accumulator acc;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    const int n = static_cast<int>(P[i].size());
+    for (int j = 0; j < n; ++j) {
+      const Relative r = relative_to(combine({{&dP[i][j], 1.0}}), P[i][j]);
+      acc.shape_ref += r.shape_ref2;
+      record(r, 0, &acc);
+      if (n >= 3) {
+        const int c = std::clamp(j, 1, n - 2);
+        const double k = 1.0 / (8.0 * stride * stride);
+        record(relative_to(combine({{&dP[i][c - 1], k}, {&dP[i][c], -2.0 * k}, {&dP[i][c + 1], k}}), P[i][j]), 2, &acc);
+      }
+    }
+  }
+  const ViewErrors rel = finish(acc);
+  auto moved = [](double dX, double e, double dP) {
+    return dP < 1.0 ? (dX + e * dP) / (1.0 - dP) : std::numeric_limits<double>::infinity();
+  };
+  ModeErrors out;
+  for (int m = 0; m < 3; ++m) {
+    const int slot = m == 2 ? 2 : 0;
+    const double shape = moved(rel.shape.*kModels[slot], errors.shape.*kModels[m], rel.shape.lambert);
+    const double uniform = moved(rel.uniform.*kModels[slot], errors.uniform.*kModels[m], rel.uniform.lambert);
+    out.*kModels[m] = std::max(shape, uniform);
+  }
+  return out;
+}
+
 }  // namespace
 
 AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSettings& settings) {
@@ -315,84 +418,66 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   // incidence: walk (pooled over rounds) and first order (exact).
   std::vector<std::reference_wrapper<const LayerStack>> stacks{material.base_stack()};
   if (material.transmits()) stacks.push_back(material.flipped_stack());
-  struct Node {
-    BrdfOptions options;
-    Binned walk, first;
-  };
-  std::vector<std::vector<Node>> nodes(stacks.size(), std::vector<Node>(n));
+  std::vector<std::vector<BrdfOptions>> options(stacks.size(), std::vector<BrdfOptions>(n));
+  ReferenceGrid first(stacks.size(), std::vector<Binned>(n)), reference = first;
   for (std::size_t i = 0; i < stacks.size(); ++i)
     for (int j = 0; j < n; ++j) {
-      Node& node = nodes[i][j];
-      node.options = options_at(table_node_cosine(settings.table, j * stride), settings, settings.seed + 104729u * i + 7919u * j);
-      node.first = first_order_binned(stacks[i], node.options);
+      options[i][j] = options_at(table_node_cosine(settings.table, j * stride), settings, settings.seed + 104729u * i + 7919u * j);
+      first[i][j] = first_order_binned(stacks[i], options[i][j]);
     }
+  double spread[3] = {0.0, 0.0, 0.0};
+  auto decided = [&](const ViewErrors& e, const double* margin) {
+    for (int m = 0; m < 3; ++m)
+      if (!(std::abs(std::max(e.shape.*kModels[m], e.uniform.*kModels[m]) - settings.tolerance) >= 2.0 * margin[m])) return false;
+    return true;
+  };
+  ViewErrors worst;
+  std::uint64_t walks = 0;
+  // With adding-doubling tables (the default) the reference is the adding-doubling solution on
+  // the prediction's bins, for every incidence in one solution: exact up to its discretisation
+  // error, so no walks, no noise, one pass. A stack it cannot resolve (the table mode's own rule,
+  // adding_doubling_resolves, which also sets the full order) keeps the walks.
+  bool exact = settings.table.method == TableSettings::Method::AddingDoubling && !settings.walk_reference;
+  std::vector<AddingDoublingSettings> ad(stacks.size());
+  for (std::size_t i = 0; i < stacks.size() && exact; ++i)
+    exact = adding_doubling_resolves(stacks[i], settings.table.quadrature_points, &ad[i]);
+  int full_points = 0, reference_points = 0;
+  ModeErrors discretisation;
+  if (exact) {
+    // Stages (subsurface_auto.h): from first_reference_points, doubling, with the estimate of
+    // each stage's discretisation error from the one at half its order, until the choice is
+    // decided (every model's predicted error at least 2 estimates from the tolerance, as for the
+    // walk's noise below) or the full order is reached (then no estimate: the reference as the
+    // table mode resolves it).
+    for (const AddingDoublingSettings& a : ad) full_points = std::max(full_points, a.quadrature_points);
+    int points = settings.first_reference_points > 0 ? std::min(settings.first_reference_points, full_points) : full_points;
+    ReferenceGrid half;
+    for (;;) {
+      reference = adding_doubling_reference(stacks, ad, points, options);
+      worst = errors_against(reference, first, lambert, stride, settings, spread);
+      reference_points = points;
+      discretisation = ModeErrors();
+      if (points >= full_points) break;
+      if (half.empty()) half = adding_doubling_reference(stacks, ad, std::max(2, points / 2), options);
+      discretisation = reference_discretisation(reference, half, worst, stride);
+      const double margin[3] = {discretisation.lambert, discretisation.first_order, discretisation.table};
+      if (settings.single_reference_stage || decided(worst, margin)) break;
+      half = std::move(reference);
+      points = std::min(2 * points, full_points);
+    }
+  }
   // Rounds of walks (doubling, a fixed sequence of seeds: deterministic) until the choice is
   // decided -- every cheaper model's predicted error is at least 2 of its standard deviations
   // away from the tolerance (finish()) -- or the budget is spent. Cheap stacks (thin, absorbing: few events per walk)
   // so get the many walks their rare scattering needs, expensive ones stop once the walk is
   // clearly needed.
-  double spread[3] = {0.0, 0.0, 0.0};
-  auto worst_errors = [&] {
-    Accumulator acc;
-    for (std::size_t i = 0; i < stacks.size(); ++i)
-      for (int j = 0; j < n; ++j) {
-        const Binned& walk = nodes[i][j].walk;
-        const Relative rl = relative_to(combine({{&lambert, 1.0}, {&walk, -1.0}}), walk);
-        acc.shape_ref += rl.shape_ref2;
-        record(rl, 0, &acc);
-        record(relative_to(combine({{&nodes[i][j].first, 1.0}, {&walk, -1.0}}), walk), 1, &acc);
-        // The table's interpolation error at the midpoints between its nodes (spacing h) near
-        // incidence j: h^2 |P''| / 8, with P'' from the second difference over the prediction's
-        // incidences (spacing stride h), centred on an inner one (the end ones take their
-        // neighbour's): (P_{j-1} - 2 P_j + P_{j+1}) / (8 stride^2). Its statistics: a half-half
-        // mix of two nodes (the typical view between nodes).
-        if (n >= 3) {
-          const int c = std::clamp(j, 1, n - 2);
-          const double k = 1.0 / (8.0 * stride * stride);
-          const Difference bias = combine({{&nodes[i][c - 1].walk, k}, {&nodes[i][c].walk, -2.0 * k}, {&nodes[i][c + 1].walk, k}});
-          record_table(bias, walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
-        } else {
-          record_table(combine({{&walk, 0.0}}), walk, {{&walk, 1.0}}, settings, 0.0, &acc);
-        }
-      }
-    const ViewErrors worst = finish(acc, spread);
-    return worst;
-  };
-  ViewErrors worst;
-  std::uint64_t walks = 0;
-  // With adding-doubling tables (the default) the reference is the adding-doubling solution on
-  // the prediction's bins, for every incidence in one solution: exact (its discretisation error,
-  // ~1e-4 of a bin, is far below any tolerance), so no walks, no noise, one pass, milliseconds.
-  // A stack it cannot resolve (the table mode's own rule, adding_doubling_resolves) keeps the walks.
-  bool exact = settings.table.method == TableSettings::Method::AddingDoubling && !settings.walk_reference;
-  std::vector<AddingDoublingSettings> ad(stacks.size());
-  for (std::size_t i = 0; i < stacks.size() && exact; ++i)
-    exact = adding_doubling_resolves(stacks[i], settings.table.quadrature_points, &ad[i]);
-  if (exact) {
-    for (std::size_t i = 0; i < stacks.size(); ++i) {
-      std::vector<double> theta(n);
-      for (int j = 0; j < n; ++j) theta[j] = nodes[i][j].options.theta_i_deg;
-      ad[i].single_scattering_bins = false;
-      const std::vector<BrdfTable> tables = brdf_tables_adding_doubling(stacks[i], nodes[i][0].options, theta, ad[i]);
-      for (int j = 0; j < n; ++j) {
-        nodes[i][j].walk = binned(tables[j], false);
-        nodes[i][j].walk.transmit_factor = transmit_factor(stacks[i]);
-      }
-    }
-    worst = worst_errors();
-  }
   for (int round = 0; !exact && walks < settings.max_walks; ++round) {
     const std::uint64_t more = walks == 0 ? settings.walks : std::min(walks, settings.max_walks - walks);
     for (std::size_t i = 0; i < stacks.size(); ++i)
-      for (Node& node : nodes[i]) add_walks(stacks[i], node.options, more, round, &node.walk);
+      for (int j = 0; j < n; ++j) add_walks(stacks[i], options[i][j], more, round, &reference[i][j]);
     walks += more;
-    worst = worst_errors();
-    bool decided = true;
-    for (int m = 0; m < 3; ++m) {
-      const double e = std::max(worst.shape.*kModels[m], worst.uniform.*kModels[m]);
-      decided = decided && std::abs(e - settings.tolerance) >= 2.0 * spread[m];
-    }
-    if (decided) break;
+    worst = errors_against(reference, first, lambert, stride, settings, spread);
+    if (decided(worst, spread)) break;
   }
 
   AutoChoice ch;
@@ -417,7 +502,17 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
                 short_name(ch.mode), chosen, ch.mode == SubsurfaceMode::RandomWalk ? "reference," : "<=", tol,
                 ch.error_lambert, ch.error_first_order, ch.error_table, ch.noise_floor);
   ch.reason = buf;
-  if (exact) ch.reason += " [reference: adding-doubling]";
+  if (exact) {
+    ch.reason += string_printf(" [reference: adding-doubling, %d points", reference_points);
+    if (reference_points < full_points)
+      ch.reason += string_printf(" of %d, discretisation error <= %.2g", full_points,
+                                 std::max({discretisation.lambert, discretisation.first_order, discretisation.table}));
+    ch.reason += "]";
+  }
+  ch.reference_points = exact ? reference_points : 0;
+  ch.discretisation_lambert = discretisation.lambert;
+  ch.discretisation_first_order = discretisation.first_order;
+  ch.discretisation_table = discretisation.table;
   ch.walks = walks;
   ch.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ch;
@@ -464,7 +559,8 @@ namespace {
 std::string auto_key(const LayeredMaterial& m, const AutoSettings& s) {
   std::ostringstream what;
   what << std::hexfloat << "auto prediction\ntolerance " << s.tolerance << " bins " << s.bins_theta << ' ' << s.bins_phi
-       << " walks " << s.walks << ' ' << s.max_walks << " seed " << s.seed << "\ntable " << s.table.nodes << ' '
+       << " walks " << s.walks << ' ' << s.max_walks << " seed " << s.seed << " reference stages " << s.first_reference_points << ' '
+       << s.single_reference_stage << "\ntable " << s.table.nodes << ' '
        << s.table.grazing_cosine << ' ' << s.table.bins_theta << ' ' << s.table.bins_phi << ' ' << s.table.walks_per_node
        << ' ' << s.table.seed << " method " << static_cast<int>(s.table.method) << ' ' << s.table.quadrature_points
        << "\nalbedo walks " << m.albedo_walks() << '\n'
@@ -486,6 +582,10 @@ std::optional<AutoChoice> load_choice(const WalkCache& cache, const std::string&
     c.walks = j.at("walks").get<std::uint64_t>();
     c.seconds = j.at("seconds").get<double>();
     c.reason = j.at("reason").get<std::string>();
+    c.reference_points = j.value("reference_points", 0);
+    c.discretisation_lambert = j.value("discretisation_lambert", 0.0);
+    c.discretisation_first_order = j.value("discretisation_first_order", 0.0);
+    c.discretisation_table = j.value("discretisation_table", 0.0);
     c.cached = true;
     return c;
   } catch (const std::exception&) {
@@ -499,7 +599,10 @@ void store_choice(const WalkCache& cache, const std::string& key, const AutoChoi
   const nlohmann::json j = {{"mode", subsurface_mode_name(c.mode)}, {"error_lambert", c.error_lambert},
                             {"error_first_order", c.error_first_order}, {"error_table", c.error_table},
                             {"noise_floor", c.noise_floor}, {"walks", c.walks}, {"seconds", c.seconds},
-                            {"reason", c.reason}};
+                            {"reason", c.reason}, {"reference_points", c.reference_points},
+                            {"discretisation_lambert", c.discretisation_lambert},
+                            {"discretisation_first_order", c.discretisation_first_order},
+                            {"discretisation_table", c.discretisation_table}};
   cache.store_record("auto", key, j.dump(2) + "\n");
 }
 

@@ -38,6 +38,27 @@
 // with P'' ~ second difference / h^2); its own statistical error is the walk's noise scaled to
 // the table's walks per node and, for the shape, to its finer bins (sum of sigma_b^2 ~ power / N
 // whatever the bins; sum of P_b^2 falls as 1 / bin count).
+// The adding-doubling reference in stages. Its cost grows as ~N^4 with the quadrature order N
+// (N^3 per solution, ~N azimuthal modes), and the full order (the table mode's rule, 16 points,
+// 24 or more for g 0.9) is rarely needed to decide. So the reference P is first solved at a low
+// order N (AutoSettings::first_reference_points) and at N/2, Q, and the difference dP = P - Q is
+// taken as a bound on P's own discretisation error in every norm below (the error falls fast
+// with the order, so the difference from half the order overstates it; README "Adding-doubling",
+// convergence table). Each metric is a ratio e = ||X - P|| / ||P|| of norms over bins, channels
+// and views (shape: the sums over views; uniform: per view, then the worst), and with P moved by
+// at most dP it moves by at most (triangle inequality on numerator and denominator)
+//     delta = (||dX|| + e ||dP||) / (||P|| - ||dP||),
+// where dX is how the model's difference X - P moves with P: -dP for lambert and first order (X
+// does not depend on the reference), the interpolation bias of dP for the table (the bias is
+// linear in P: B(P) - B(Q) = B(dP)). A model's delta is the larger of its two metrics' (the
+// predicted error is their maximum). The choice is decided at order N when every model's
+// predicted error is at least 2 deltas from the tolerance (as the walk's rounds use 2 standard
+// deviations); otherwise N doubles (the previous stage is the new N/2) up to the full order,
+// where the choice is made without an estimate, as before the stages. On the test stacks the
+// bound exceeds the actual difference from the full-order prediction by a factor from 9.6 (the
+// thin film's first-order error at 4 points) to over 10^5 (the triangle inequality assumes dP
+// aligned with the model's difference, and N/2 is far worse than N); it still decides skin.json, skin_oily.json and contract_leaf.json of bench/bench_auto at
+// tolerance 0.05 at 4 points, leaf.json at 8.
 // Cost order (README "Speed and accuracy"): lambert < first-order < table < random-walk.
 #pragma once
 
@@ -65,6 +86,12 @@ struct AutoSettings {
   // With adding-doubling tables the reference is adding-doubling itself where it resolves the
   // stack (exact, no walks); true forces the walks (tests: the two references agree).
   bool walk_reference = false;
+  // The adding-doubling reference in stages: first at this many quadrature points (and half as
+  // many, for the estimate of its discretisation error), doubling until the choice is decided
+  // or the full order (the table mode's rule) is reached; 0: the full order at once.
+  int first_reference_points = 4;
+  // Tests: stop after the first stage, decided or not (its errors and their estimate).
+  bool single_reference_stage = false;
 };
 
 // Predicted relative errors of the cheaper models against the walk (whose own error is 0).
@@ -90,6 +117,10 @@ struct AutoChoice {
   // The prediction's relative noise (the largest over incidences and sides).
   double noise_floor = 0.0;
   std::uint64_t walks = 0;  // per incidence and side, in all rounds
+  // The adding-doubling reference's quadrature points (0: the walk's reference) and, when below
+  // the full order, the estimated discretisation error of each predicted error (else 0).
+  int reference_points = 0;
+  double discretisation_lambert = 0.0, discretisation_first_order = 0.0, discretisation_table = 0.0;
   double seconds = 0.0;  // time of the prediction
   // "chose first-order (predicted error 0.012 <= 0.05; lambert 0.31, first-order 0.012, table 0.021)"
   std::string reason;

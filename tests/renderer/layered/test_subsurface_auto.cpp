@@ -11,6 +11,7 @@
 
 #include "materials/sampling.h"
 #include "materials/stack.h"
+#include "materials/stack_file.h"
 #include "renderer/render/environment.h"
 #include "renderer/render/integrator.h"
 #include "renderer/layered/layered_material.h"
@@ -147,6 +148,95 @@ TEST(SubsurfaceAuto, AddingDoublingReferenceAgreesWithTheWalk) {
     EXPECT_NEAR(exact.error_first_order, walk.error_first_order, tol) << stack.name;
     EXPECT_NEAR(exact.error_table, walk.error_table, tol) << stack.name;
   }
+}
+
+// ---- The staged adding-doubling reference --------------------------------------------------
+//
+// The prediction first solves adding-doubling at a low order (AutoSettings::
+// first_reference_points, and half of it for the estimate of the discretisation error) and goes
+// to the full order (the table mode's rule) only when some model's predicted error is within 2
+// estimates of the tolerance (subsurface_auto.h). Checked on stacks that stress the quadrature:
+// thin, absorbing, a film with total internal reflection, skin-like and the skin preset (index
+// 1.4, Lambert substrate), a slab with g = 0.9 (the delta-M peak carries much of the low orders'
+// phase function), and the leaf preset seen from both sides (transmitting, g 0.9 epidermis).
+
+std::vector<LayerStack> staged_test_stacks() {
+  LayerStack film = thin_weak();
+  film.name = "film-1.4";
+  film.layers[0].ior = 1.4;
+  LayerStack forward = test::one_layer(1.4, 0.5, Spectrum(0.2), Spectrum(20.0), Spectrum(0.9));
+  forward.name = "slab-g0.9";
+  std::vector<LayerStack> out = {thin_weak(), absorbing(), film, skin_like(), forward};
+  for (const char* f : {"skin.json", "leaf.json"}) {
+    out.push_back(with_smooth_top(load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/" + f)));
+    out.back().name = f;
+  }
+  return out;
+}
+
+AutoChoice predict_with_reference(const LayeredMaterial& m, double tolerance, int first_points, bool single_stage) {
+  AutoSettings s;
+  s.tolerance = tolerance;
+  s.first_reference_points = first_points;
+  s.single_reference_stage = single_stage;
+  return choose_subsurface_mode(m, s);
+}
+
+// The estimate of a low-order stage's discretisation error bounds the actual difference of each
+// predicted error from the full-order prediction's (the choice's definition), at every stage
+// below the full order, with no margin: an estimate that is too small by a factor fails here.
+TEST(SubsurfaceAuto, ReferenceDiscretisationEstimateBoundsTheFullOrder) {
+  for (const LayerStack& stack : staged_test_stacks()) {
+    const LayeredMaterial m(stack, stack.name);
+    const AutoChoice full = predict_with_reference(m, 0.05, 0, false);
+    ASSERT_GT(full.reference_points, 0) << full.reason;
+    EXPECT_EQ(full.discretisation_lambert + full.discretisation_first_order + full.discretisation_table, 0.0);
+    for (int points = 4; points < full.reference_points; points *= 2) {
+      const AutoChoice low = predict_with_reference(m, 0.05, points, true);
+      EXPECT_EQ(low.reference_points, points);
+      const double actual[3] = {std::abs(low.error_lambert - full.error_lambert),
+                                std::abs(low.error_first_order - full.error_first_order),
+                                std::abs(low.error_table - full.error_table)};
+      const double estimate[3] = {low.discretisation_lambert, low.discretisation_first_order, low.discretisation_table};
+      const char* names[3] = {"lambert", "first-order", "table"};
+      for (int k = 0; k < 3; ++k) {
+        std::printf("%-12s %2d of %2d points  %-11s  full %.5f  low %.5f  |difference| %.2e  estimate %.2e\n",
+                    stack.name.c_str(), points, full.reference_points, names[k],
+                    k == 0 ? full.error_lambert : k == 1 ? full.error_first_order : full.error_table,
+                    k == 0 ? low.error_lambert : k == 1 ? low.error_first_order : low.error_table, actual[k], estimate[k]);
+        EXPECT_LE(actual[k], estimate[k]) << stack.name << " " << names[k] << " at " << points << " points";
+      }
+    }
+  }
+}
+
+// The staged choice is the full-order choice at every tolerance of a sweep: a grid from 0.01 to 1
+// (mostly decided at the first stage) and, for every model, tolerances 0.1% above and below its
+// full-order predicted error (where a low-order error off by more than 0.1% would choose
+// differently unless the estimate sends the decision to the full order).
+TEST(SubsurfaceAuto, StagedChoiceIsTheFullOrderChoice) {
+  int first_stage = 0, choices = 0;
+  for (const LayerStack& stack : staged_test_stacks()) {
+    const LayeredMaterial m(stack, stack.name);
+    const AutoChoice full = predict_with_reference(m, 0.05, 0, false);
+    std::vector<double> tolerances = {0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0};
+    for (double e : {full.error_lambert, full.error_first_order, full.error_table})
+      for (double f : {0.999, 1.001})
+        if (e * f > 0.0 && e * f <= 1.0) tolerances.push_back(e * f);
+    for (double tolerance : tolerances) {
+      // The full-order choice at this tolerance: the cheapest model within it.
+      const SubsurfaceMode expected = full.error_lambert <= tolerance       ? SubsurfaceMode::Lambert
+                                      : full.error_first_order <= tolerance ? SubsurfaceMode::FirstOrder
+                                      : full.error_table <= tolerance       ? SubsurfaceMode::Table
+                                                                            : SubsurfaceMode::RandomWalk;
+      const AutoChoice staged = predict_with_reference(m, tolerance, AutoSettings{}.first_reference_points, false);
+      EXPECT_EQ(staged.mode, expected) << stack.name << " at E = " << tolerance << ": " << staged.reason << " | full: "
+                                       << full.reason;
+      ++choices;
+      if (staged.reference_points < full.reference_points) ++first_stage;
+    }
+  }
+  std::printf("%d of %d choices decided below the full order\n", first_stage, choices);
 }
 
 // ---- Measured image error of the chosen mode against the walk --------------------------------
