@@ -7,6 +7,8 @@
 #include <limits>
 
 #include <nlopt.h>
+
+#include "materials/albedo.h"
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -72,11 +74,12 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
 }
 
 AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitParameterSpec>& axes, int nodes,
-                                 const AddingDoublingSettings& settings) {
+                                 const AddingDoublingSettings& settings, AlbedoKind kind) {
   if (nodes < 2 || nodes > 1024) throw FitError("an albedo lookup needs 2 to 1024 nodes per axis, got " + std::to_string(nodes));
   const std::vector<StackParameter> ps = check_albedo_axes(t, axes);
   AlbedoLookup table;
   table.axes = axes;
+  table.kind = kind;
   table.nodes = nodes;
   table.albedo.resize(static_cast<std::size_t>(nodes) * nodes);
   table.lab.resize(table.albedo.size());
@@ -88,7 +91,8 @@ AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitPa
       apply_parameters(t, ps, v, &stack);
       // Diffuse incidence: every solution carries it (the collimated angle is irrelevant).
       const std::size_t k = static_cast<std::size_t>(i) * nodes + j;
-      table.albedo[k] = adding_doubling_totals(stack, 1.0, settings).R_hemispherical;
+      table.albedo[k] = kind == AlbedoKind::kTotal ? adding_doubling_totals(stack, 1.0, settings).R_hemispherical
+                                                   : diffuse_bihemispherical_albedo_adding_doubling(stack, settings);
       table.lab[k] = linear_rgb_to_lab(table.albedo[k]);
     }
   });

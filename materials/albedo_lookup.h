@@ -19,10 +19,18 @@
 
 namespace lamina {
 
+// Which albedo the table holds. kDiffuse: the light that scattered in the stack, under uniform
+// diffuse light, R_h - R_hs (diffuse_bihemispherical_albedo_adding_doubling, materials/albedo.h):
+// the renderer's Lambert albedo, and what a cross-polarised photograph records (the polariser
+// removes the surface's specular reflection; the rendered stack adds it back itself). kTotal:
+// R_hemispherical, the specular reflection of the interfaces included (~0.07 more for skin).
+enum class AlbedoKind { kDiffuse, kTotal };
+
 struct AlbedoLookup {
   std::vector<FitParameterSpec> axes;  // two scalar parameters with their ranges
+  AlbedoKind kind = AlbedoKind::kDiffuse;
   int nodes = 0;                       // per axis, evenly spaced from lower to upper
-  std::vector<Spectrum> albedo;        // R_hemispherical at [i0 * nodes + i1]
+  std::vector<Spectrum> albedo;        // the albedo of `kind` at [i0 * nodes + i1]
   std::vector<Spectrum> lab;           // the same in L*a*b*
   // The albedo at unit coordinates (u0, u1) in [0, 1]^2, bilinear between the nodes.
   Spectrum at(double u0, double u1) const;
@@ -31,13 +39,13 @@ struct AlbedoLookup {
 // The checks of build_albedo_lookup's axes alone (cheap: no solution), and the parsed parameters.
 std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes);
 
-// Tabulates R_hemispherical of `t` with the two parameters of `axes` (paths as in
+// Tabulates the albedo of `kind` of `t` with the two parameters of `axes` (paths as in
 // stack_parameters.h, scalar ones: fractions, thicknesses) on a nodes x nodes grid. Throws
 // FitError for a bad path, bounds or a colour parameter; nodes in [2, 1024]. The nodes are
 // solved in parallel (TBB), each into its own place: the table does not depend on the threads.
 //
 // Error of the lookup (the bilinear interpolation's, falling with the square of the spacing), on
-// the skin preset's melanin 0-0.3 and blood 0-0.2 at 8 quadrature points, for colours on the
+// the skin preset's melanin 0-0.3 and blood 0-0.2 at 8 quadrature points (kTotal), for colours on the
 // stack's surface: at 20 random fractions in 5-95% of the ranges
 // (tests/materials/test_albedo_lookup.cpp) within 5.4% / 2.2% / 0.25% of each range with
 // 9 / 17 / 33 nodes, Delta E under 1.4 / 0.3 / 0.05; on a 12 x 8 grid over 5-95% at 33 nodes
@@ -46,7 +54,7 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
 // depends on blood: the blood fraction there is ill-conditioned (an 8-bit sRGB rounding of the
 // colour, Delta E < 0.7, moves it by up to 0.69 of its range).
 AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitParameterSpec>& axes, int nodes,
-                                 const AddingDoublingSettings& settings = {});
+                                 const AddingDoublingSettings& settings, AlbedoKind kind);
 
 struct AlbedoMatch {
   double value[2] = {0.0, 0.0};  // the two parameters

@@ -220,9 +220,10 @@ int run_albedo_fit(const AlbedoOptions& o, const AlbedoOutputs& out) {
     outputs.commit();
     const std::size_t texels = r.match.delta_e.size();
     std::printf(
-        "lamina fit: %d x %d texels (%s) -> %s: Delta E76 mean %.2f, median %.2f, 95th percentile %.2f, max %.2f; "
+        "lamina fit: %d x %d texels (%s, %s albedo) -> %s: Delta E76 mean %.2f, median %.2f, 95th percentile %.2f, max %.2f; "
         "%zu texels (%.1f%%) not reachable (Delta E > %g); lookup %d x %d in %.1f s, matching %.1f s\n",
-        r.width, r.height, decoded_srgb ? "sRGB decoded" : "linear", o.out_dir.c_str(), r.delta_e.mean, r.delta_e.median,
+        r.width, r.height, decoded_srgb ? "sRGB decoded" : "linear",
+        o.settings.albedo == lamina::AlbedoKind::kDiffuse ? "diffuse" : "total", o.out_dir.c_str(), r.delta_e.mean, r.delta_e.median,
         r.delta_e.p95, r.delta_e.max, r.delta_e.above, texels ? 100.0 * r.delta_e.above / texels : 0.0,
         o.settings.unreachable_delta_e, o.settings.nodes, o.settings.nodes, r.lookup_seconds, r.matching_seconds);
   } catch (const std::exception& e) {
@@ -277,6 +278,12 @@ int run_fit(int argc, char** argv) {
                                               "fitted_albedo.png and albedo_fit.json");
   app.add_option("--material", albedo.material,
                  "albedo-texture: the material name in materials.json (default: the stack's name, else its file name)");
+  std::string albedo_kind = "diffuse";
+  app.add_option("--albedo", albedo_kind,
+                 "albedo-texture: what the texture is: diffuse (the light scattered in the stack, R_h - R_hs: a "
+                 "cross-polarised albedo, the renderer's Lambert albedo; default) or total (R_hemispherical, with the "
+                 "specular reflection)")
+      ->check(CLI::IsMember({"diffuse", "total"}));
   app.add_option("--lookup-nodes", albedo.settings.nodes, "albedo-texture: lookup nodes per parameter (default 33)")
       ->check(cli::integer(2, 1024));
   app.add_option("--unreachable-delta-e", albedo.settings.unreachable_delta_e,
@@ -295,12 +302,13 @@ int run_fit(int argc, char** argv) {
         if (app.count(other) > 0) throw cli::UsageError(std::string(other) + ": not with --albedo-texture");
       albedo.stack = stack_path;
       albedo.settings.axes = specs;
+      albedo.settings.albedo = albedo_kind == "total" ? lamina::AlbedoKind::kTotal : lamina::AlbedoKind::kDiffuse;
       // The skin preset's R_hemispherical at 8 points is within 5e-6 of 16 and 32 points (lamina
       // brdf --method adding-doubling), far below a visible difference, at a fifth of the cost.
       albedo.settings.quadrature_points = app.count("--quadrature-points") > 0 ? quadrature_points : 8;
       albedo_out = check_albedo_usage(albedo);
     } else {
-      for (const char* only : {"--texture-decoding", "--out-dir", "--material", "--lookup-nodes", "--unreachable-delta-e", "--threads"})
+      for (const char* only : {"--texture-decoding", "--albedo", "--out-dir", "--material", "--lookup-nodes", "--unreachable-delta-e", "--threads"})
         if (app.count(only) > 0) throw cli::UsageError(std::string(only) + ": only with --albedo-texture");
     }
     for (const std::string& spec : tables) {  // DEG:FILE

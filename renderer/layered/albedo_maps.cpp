@@ -27,7 +27,7 @@ AlbedoMapsResult fit_albedo_maps(const StackTemplate& stack, const Image& textur
   r.height = texture.height;
   const auto t0 = Clock::now();
   const AlbedoLookup table =
-      build_albedo_lookup(stack, settings.axes, settings.nodes, AddingDoublingSettings{settings.quadrature_points});
+      build_albedo_lookup(stack, settings.axes, settings.nodes, AddingDoublingSettings{settings.quadrature_points}, settings.albedo);
   const auto t1 = Clock::now();
   if (on_lookup_built) on_lookup_built();
   const std::size_t texels = static_cast<std::size_t>(texture.width) * texture.height;
@@ -93,7 +93,7 @@ std::string albedo_maps_report_json(const AlbedoMapsResult& r, const AlbedoMapsS
   j["texels"] = texels;
   j["stack"] = in.stack;
   j["material"] = in.material;
-  j["lookup"] = {{"nodes", s.nodes}, {"quadrature_points", s.quadrature_points}, {"albedo", "R_hemispherical"}};
+  j["lookup"] = {{"nodes", s.nodes}, {"quadrature_points", s.quadrature_points}, {"albedo", s.albedo == AlbedoKind::kDiffuse ? "diffuse" : "total"}};
   nlohmann::ordered_json ps = nlohmann::ordered_json::array();
   for (int a = 0; a < 2; ++a) {
     const std::vector<double>& v = r.match.value[a];

@@ -27,6 +27,7 @@ struct AlbedoMapsSettings {
   std::vector<FitParameterSpec> axes;  // two scalar parameters and their ranges
   int nodes = 33;                      // lookup nodes per axis
   int quadrature_points = 8;           // adding-doubling points of the lookup's solutions
+  AlbedoKind albedo = AlbedoKind::kDiffuse;  // which albedo the texture is (materials/albedo_lookup.h)
   // A texel whose match is farther than this (CIE76) is counted as not reachable by the two
   // parameters. 2.3 is the just-noticeable difference (Mahy et al. 1994); the lookup's own
   // error is far below it (0.05 at 33 nodes).

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "materials/albedo.h"
 #include "materials/stack_file.h"
 
 namespace lamina {
@@ -45,7 +46,7 @@ TEST(AlbedoLookup, SkinColoursMapBackToTheirFractions) {
   std::vector<StackParameter> ps = {parse_stack_parameter(t, axes[0].path), parse_stack_parameter(t, axes[1].path)};
   double previous = 0.0;
   for (int nodes : {9, 17, 33}) {
-    const AlbedoLookup table = build_albedo_lookup(t, axes, nodes, settings);
+    const AlbedoLookup table = build_albedo_lookup(t, axes, nodes, settings, AlbedoKind::kTotal);
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> u(0.05, 0.95);
     double worst_e = 0.0, worst = 0.0;
@@ -71,7 +72,7 @@ TEST(AlbedoLookup, MapMatchesEachTexelAsMatchAlbedoDoes) {
   const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
   const AlbedoLookup table = build_albedo_lookup(
       t, {{"layers[0].components[0].fraction", 0.0, 0.3}, {"layers[1].components[0].fraction", 0.0, 0.2}}, 9,
-      AddingDoublingSettings{4});
+      AddingDoublingSettings{4}, AlbedoKind::kDiffuse);
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   const std::size_t texels = 5000;  // more than one block
@@ -87,6 +88,31 @@ TEST(AlbedoLookup, MapMatchesEachTexelAsMatchAlbedoDoes) {
     EXPECT_EQ(map.delta_e[i], m.delta_e);
     EXPECT_EQ(map.albedo[i], m.albedo);
   }
+}
+
+// The diffuse table holds the renderer's Lambert albedo (R_h - R_hs) at each node: below the total
+// R_hemispherical by the specular reflection of the top, the same in every channel and at every
+// node (the layers below match its index 1.4): Fresnel's reflectance of n 1.4 for uniform diffuse
+// light, 2 int F(mu) mu dmu = 0.076812 (numerical integration of the unpolarised Fresnel factor).
+TEST(AlbedoLookup, DiffuseTableHoldsTheLambertAlbedo) {
+  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  const std::vector<FitParameterSpec> axes = {{"layers[0].components[0].fraction", 0.0, 0.3},
+                                              {"layers[1].components[0].fraction", 0.0, 0.2}};
+  const AddingDoublingSettings settings{8};
+  const AlbedoLookup diffuse = build_albedo_lookup(t, axes, 3, settings, AlbedoKind::kDiffuse);
+  const AlbedoLookup total = build_albedo_lookup(t, axes, 3, settings, AlbedoKind::kTotal);
+  std::vector<StackParameter> ps = {parse_stack_parameter(t, axes[0].path), parse_stack_parameter(t, axes[1].path)};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const Spectrum v[2] = {Spectrum(0.15 * i), Spectrum(0.1 * j)};
+      LayerStack s;
+      apply_parameters(t, ps, v, &s);
+      const Spectrum expected = diffuse_bihemispherical_albedo_adding_doubling(s, settings);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(diffuse.albedo[i * 3 + j][c], expected[c]);
+        EXPECT_NEAR(total.albedo[i * 3 + j][c] - diffuse.albedo[i * 3 + j][c], 0.076812, 1e-5) << i << " " << j << " " << c;
+      }
+    }
 }
 
 TEST(AlbedoLookup, DeltaEStatistics) {
@@ -109,9 +135,9 @@ TEST(AlbedoLookup, DeltaEStatistics) {
 
 TEST(AlbedoLookup, BadAxesAreOneLineErrors) {
   const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
-  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].sigma_a", 0.0, 1.0}, {"layers[1].thickness", 0.1, 1.0}}, 4), FitError);
-  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 1.0, 0.1}, {"layers[1].thickness", 0.1, 1.0}}, 4), FitError);
-  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 0.1, 1.0}}, 4), FitError);
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].sigma_a", 0.0, 1.0}, {"layers[1].thickness", 0.1, 1.0}}, 4, {}, AlbedoKind::kDiffuse), FitError);
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 1.0, 0.1}, {"layers[1].thickness", 0.1, 1.0}}, 4, {}, AlbedoKind::kDiffuse), FitError);
+  EXPECT_THROW(build_albedo_lookup(t, {{"layers[0].thickness", 0.1, 1.0}}, 4, {}, AlbedoKind::kDiffuse), FitError);
 }
 
 }  // namespace
