@@ -259,7 +259,7 @@ int run_fit(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--param", params, "PATH=LO:HI, a parameter to fit (a texture-binding path) and its bounds; repeat")
       ->required();
-  app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
+  app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16, 8 with --albedo-texture; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
       ->check(cli::integer(4, 64));
   app.add_option("--coarse-quadrature-points", coarse_points,
                  "the optimiser searches on this coarser model, corrected by a few solutions at --quadrature-points "
