@@ -4,6 +4,7 @@
 
 #include <cstdint>
 
+#include "materials/adding_doubling.h"
 #include "materials/random_walk.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
@@ -23,7 +24,8 @@ Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std:
 // unscattered part (materials/zeroth_order, exact, by Gauss-Legendre quadrature in mu on the
 // segments between the critical cosines, where R_specular has kinks). Smooth tops only (a rough
 // top's facets are not in adding-doubling): the caller keeps the walk for those.
-Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack);
+// `settings`: R_h's solution (the default 16 points; R_hs is exact).
+Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack, const AddingDoublingSettings& settings = {});
 
 // The bias of an approximate walk (settings, e.g. similarity_after) on that albedo: the mean and
 // standard error of (approximate - exact) over paired walks that share their random numbers

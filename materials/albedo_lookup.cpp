@@ -2,9 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <limits>
 
 #include <nlopt.h>
+
+#include "materials/albedo.h"
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace lamina {
 
@@ -36,11 +42,14 @@ Spectrum AlbedoLookup::at(double u0, double u1) const {
   return (1 - fx) * ((1 - fy) * node(i, j) + fy * node(i, j + 1)) + fx * ((1 - fy) * node(i + 1, j) + fy * node(i + 1, j + 1));
 }
 
-AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitParameterSpec>& axes, int nodes,
-                                 const AddingDoublingSettings& settings) {
+std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes) {
   if (axes.size() != 2) throw FitError("an albedo lookup needs two parameters, got " + std::to_string(axes.size()));
-  if (nodes < 2 || nodes > 1024) throw FitError("an albedo lookup needs 2 to 1024 nodes per axis, got " + std::to_string(nodes));
   if (t.stack.rough_top()) throw FitError("roughness: the adding-doubling forward model is for a smooth top interface");
+  auto text = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", v);
+    return std::string(b);
+  };
   std::vector<StackParameter> ps;
   for (const FitParameterSpec& a : axes) {
     StackParameter p;
@@ -52,8 +61,8 @@ AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitPa
     if (p.spectral()) throw FitError(a.path + ": an albedo lookup's axis must be a scalar parameter (a fraction, a thickness)");
     if (!std::isfinite(a.lower) || !std::isfinite(a.upper) || !(a.lower < a.upper) || a.lower < p.min_value() ||
         a.upper > p.max_value())
-      throw FitError(a.path + ": bounds must be finite, increasing and inside [" + std::to_string(p.min_value()) + ", " +
-                     std::to_string(p.max_value()) + "]");
+      throw FitError(a.path + ": bounds must be finite, increasing and inside [" + text(p.min_value()) + ", " +
+                     text(p.max_value()) + "] (got " + text(a.lower) + ":" + text(a.upper) + ")");
     ps.push_back(p);
   }
   try {
@@ -61,22 +70,32 @@ AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitPa
   } catch (const StackParameterError& e) {
     throw FitError(e.what());
   }
+  return ps;
+}
+
+AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitParameterSpec>& axes, int nodes,
+                                 const AddingDoublingSettings& settings, AlbedoKind kind) {
+  if (nodes < 2 || nodes > 1024) throw FitError("an albedo lookup needs 2 to 1024 nodes per axis, got " + std::to_string(nodes));
+  const std::vector<StackParameter> ps = check_albedo_axes(t, axes);
   AlbedoLookup table;
   table.axes = axes;
+  table.kind = kind;
   table.nodes = nodes;
   table.albedo.resize(static_cast<std::size_t>(nodes) * nodes);
   table.lab.resize(table.albedo.size());
-  LayerStack stack;
-  for (int i = 0; i < nodes; ++i)
+  tbb::parallel_for(0, nodes, [&](int i) {
+    LayerStack stack;  // one scratch stack per row
     for (int j = 0; j < nodes; ++j) {
       const Spectrum v[2] = {Spectrum(axes[0].lower + (axes[0].upper - axes[0].lower) * i / (nodes - 1.0)),
                              Spectrum(axes[1].lower + (axes[1].upper - axes[1].lower) * j / (nodes - 1.0))};
       apply_parameters(t, ps, v, &stack);
       // Diffuse incidence: every solution carries it (the collimated angle is irrelevant).
       const std::size_t k = static_cast<std::size_t>(i) * nodes + j;
-      table.albedo[k] = adding_doubling_totals(stack, 1.0, settings).R_hemispherical;
+      table.albedo[k] = kind == AlbedoKind::kTotal ? adding_doubling_totals(stack, 1.0, settings).R_hemispherical
+                                                   : diffuse_bihemispherical_albedo_adding_doubling(stack, settings);
       table.lab[k] = linear_rgb_to_lab(table.albedo[k]);
     }
+  });
   return table;
 }
 
@@ -121,6 +140,47 @@ AlbedoMatch match_albedo(const AlbedoLookup& t, const Spectrum& linear_rgb) {
   m.albedo = t.at(u0, u1);
   m.delta_e = best_e;
   return m;
+}
+
+AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std::size_t texels,
+                                const std::function<void(std::size_t)>& on_progress) {
+  AlbedoMapMatch out;
+  out.value[0].resize(texels);
+  out.value[1].resize(texels);
+  out.albedo.resize(texels);
+  out.delta_e.resize(texels);
+  // Blocks of a fixed size only pace the progress reports: every texel is matched on its own.
+  constexpr std::size_t kBlock = 4096;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, texels, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      const float* p = rgb + 3 * i;
+      const AlbedoMatch m = match_albedo(table, Spectrum(p[0], p[1], p[2]));
+      out.value[0][i] = m.value[0];
+      out.value[1][i] = m.value[1];
+      out.albedo[i] = m.albedo;
+      out.delta_e[i] = m.delta_e;
+    }
+    if (on_progress) on_progress(r.size());
+  });
+  return out;
+}
+
+DeltaEStatistics delta_e_statistics(std::vector<double> e, double threshold) {
+  DeltaEStatistics s;
+  if (e.empty()) return s;
+  for (double v : e) {
+    s.mean += v;
+    if (v > threshold) ++s.above;
+  }
+  s.mean /= static_cast<double>(e.size());
+  std::sort(e.begin(), e.end());
+  const std::size_t n = e.size();
+  s.median = n % 2 ? e[n / 2] : 0.5 * (e[n / 2 - 1] + e[n / 2]);
+  // Nearest rank: the ceil(0.95 n)-th smallest value (in integers: 0.95 n is not exact in binary).
+  const std::size_t rank = (95 * n + 99) / 100;
+  s.p95 = e[rank - 1];
+  s.max = e.back();
+  return s;
 }
 
 }  // namespace lamina

@@ -9,22 +9,32 @@
 //                        measurements with the model's values and residuals, the warnings;
 //                        printed to stdout if omitted
 // Identifiability and bound warnings also go to stderr, one line each ("lamina fit: warning: ").
+//
+// With --albedo-texture instead of measurements: parameter maps from a colour texture through the
+// albedo lookup (renderer/layered/albedo_maps.h), written all or none into --out-dir.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
 
 #include "materials/stack_file.h"
 #include "materials/stack_fit.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/cli/outputs.h"
+#include "renderer/image/image_io.h"
+#include "renderer/layered/albedo_maps.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/progress.h"
 
 namespace {
 
@@ -106,6 +116,123 @@ std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::F
   return j.dump(2) + "\n";
 }
 
+// The options of the albedo-texture mode, as parsed.
+struct AlbedoOptions {
+  std::string texture, decoding = "auto", out_dir, material;
+  std::string stack;
+  lamina::AlbedoMapsSettings settings;
+  int threads = 0;
+};
+
+// The files the mode writes into --out-dir, the report last.
+struct AlbedoOutputs {
+  std::string maps[2], materials_map, fitted_albedo, report;
+};
+
+AlbedoOutputs albedo_outputs(const AlbedoOptions& o) {
+  namespace fs = std::filesystem;
+  auto in_dir = [&](const std::string& name) { return (fs::path(o.out_dir) / name).string(); };
+  AlbedoOutputs out;
+  for (int a = 0; a < 2; ++a) out.maps[a] = in_dir(lamina::parameter_map_file_name(o.settings.axes[a].path));
+  out.materials_map = in_dir("materials.json");
+  out.fitted_albedo = in_dir("fitted_albedo.png");
+  out.report = in_dir("albedo_fit.json");
+  return out;
+}
+
+// Usage and output-path errors (exit 2), before any file is read.
+AlbedoOutputs check_albedo_usage(const AlbedoOptions& o) {
+  namespace fs = std::filesystem;
+  if (o.settings.axes.size() != 2)
+    throw cli::UsageError("--albedo-texture: the lookup is over exactly two parameters: give two --param (got " +
+                          std::to_string(o.settings.axes.size()) + ")");
+  if (o.out_dir.empty()) throw cli::UsageError("--albedo-texture: give --out-dir DIR for the maps");
+  std::error_code ec;
+  if (!fs::is_directory(o.out_dir, ec))
+    throw cli::UsageError("--out-dir '" + o.out_dir + "': " + (fs::exists(o.out_dir, ec) ? "not a directory" : "does not exist"));
+  const AlbedoOutputs out = albedo_outputs(o);
+  try {
+    cli::check_output_paths({{"--out-dir", out.maps[0]},
+                             {"--out-dir", out.maps[1]},
+                             {"--out-dir", out.materials_map},
+                             {"--out-dir", out.fitted_albedo},
+                             {"--out-dir", out.report}});
+  } catch (const cli::OutputPathError& e) {
+    throw cli::UsageError(e.what());
+  }
+  return out;
+}
+
+int run_albedo_fit(const AlbedoOptions& o, const AlbedoOutputs& out) {
+  namespace fs = std::filesystem;
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  std::optional<tbb::global_control> threads;
+  if (o.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(o.threads));
+  try {
+    const lamina::StackTemplate t = lamina::load_stack_template(o.stack);
+    try {  // the axes before the texture: a bad --param is found before a large file is read
+      lamina::check_albedo_axes(t, o.settings.axes);
+    } catch (const lamina::FitError& e) {
+      throw lamina::FitError(o.stack + ": " + e.what());
+    }
+    const lamina::StoredEncoding encoding = o.decoding == "srgb"     ? lamina::StoredEncoding::kSrgb
+                                            : o.decoding == "linear" ? lamina::StoredEncoding::kLinear
+                                                                     : lamina::StoredEncoding::kAsFile;
+    bool decoded_srgb = false;
+    const lamina::Image texture = lamina::read_image(o.texture, encoding, &decoded_srgb);
+    lamina::check_albedo_texture(texture, o.texture);
+    std::optional<lamina::Progress> progress;
+    lamina::AlbedoMapsResult r;
+    try {
+      r = lamina::fit_albedo_maps(
+          t, texture, o.settings,
+          [&] { progress.emplace("fit", static_cast<std::uint64_t>(texture.width) * texture.height); },
+          [&](std::size_t n) { progress->advance(n); });
+    } catch (const lamina::FitError& e) {  // an axis's problem: name the file it is in
+      throw lamina::FitError(o.stack + ": " + e.what());
+    }
+    if (progress) progress->finish();
+    const std::string material = !o.material.empty()       ? o.material
+                                 : !t.stack.name.empty()    ? t.stack.name
+                                                            : fs::path(o.stack).stem().string();
+    const std::string stack_reference = fs::weakly_canonical(fs::absolute(o.stack)).string();
+    lamina::AlbedoMapsInputs inputs;
+    inputs.texture = o.texture;
+    inputs.texture_decoding = decoded_srgb ? "srgb" : "linear";
+    inputs.stack = o.stack;
+    inputs.material = material;
+    inputs.materials_map = fs::path(out.materials_map).filename().string();
+    inputs.fitted_albedo = fs::path(out.fitted_albedo).filename().string();
+    inputs.threads = o.threads;
+    inputs.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    const std::string map_json = lamina::albedo_materials_map_json(material, stack_reference, o.settings);
+    const std::string report = lamina::albedo_maps_report_json(r, o.settings, inputs);
+    cli::StagedOutputs outputs;  // every file or none
+    for (int a = 0; a < 2; ++a) {
+      const std::vector<float> values = lamina::parameter_map_values(r, o.settings, a);
+      outputs.write(out.maps[a], [&](const std::string& tmp) { lamina::write_data_png16(tmp, r.width, r.height, values); });
+    }
+    outputs.write(out.materials_map, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, map_json); });
+    const lamina::Image fitted = lamina::fitted_albedo_image(r);
+    outputs.write(out.fitted_albedo, [&](const std::string& tmp) { lamina::write_png(tmp, fitted); });
+    outputs.write(out.report, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, report); });
+    outputs.commit();
+    const std::size_t texels = r.match.delta_e.size();
+    std::printf(
+        "lamina fit: %d x %d texels (%s, %s albedo) -> %s: Delta E76 mean %.2f, median %.2f, 95th percentile %.2f, max %.2f; "
+        "%zu texels (%.1f%%) not reachable (Delta E > %g); lookup %d x %d in %.1f s, matching %.1f s\n",
+        r.width, r.height, decoded_srgb ? "sRGB decoded" : "linear",
+        o.settings.albedo == lamina::AlbedoKind::kDiffuse ? "diffuse" : "total", o.out_dir.c_str(), r.delta_e.mean, r.delta_e.median,
+        r.delta_e.p95, r.delta_e.max, r.delta_e.above, texels ? 100.0 * r.delta_e.above / texels : 0.0,
+        o.settings.unreachable_delta_e, o.settings.nodes, o.settings.nodes, r.lookup_seconds, r.matching_seconds);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lamina fit: %s\n", cli::one_line(e.what()).c_str());
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_fit(int argc, char** argv) {
@@ -113,7 +240,9 @@ int run_fit(int argc, char** argv) {
       "Fit parameters of a material file to measured totals (R, T, unscattered T; per channel; per\n"
       "incidence angle or diffuse) by weighted least squares on the adding-doubling solution.\n"
       "A colour parameter is fitted per channel (PATH[r], PATH[g], PATH[b]) from that channel's\n"
-      "measurements; sigmas come from (J^T W J)^-1.",
+      "measurements; sigmas come from (J^T W J)^-1.\n"
+      "With --albedo-texture: two parameter maps from a colour texture through a lookup table of\n"
+      "the stack's diffuse albedo over two parameters (nearest in CIE L*a*b*).",
       "lamina fit"};
   std::string stack_path, data_path, out_path, summary_path;
   std::vector<std::string> params, tables;
@@ -130,7 +259,7 @@ int run_fit(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--param", params, "PATH=LO:HI, a parameter to fit (a texture-binding path) and its bounds; repeat")
       ->required();
-  app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
+  app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16, 8 with --albedo-texture; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
       ->check(cli::integer(4, 64));
   app.add_option("--coarse-quadrature-points", coarse_points,
                  "the optimiser searches on this coarser model, corrected by a few solutions at --quadrature-points "
@@ -138,11 +267,50 @@ int run_fit(int argc, char** argv) {
       ->check(cli::integer(0, 64));
   app.add_option("--out", out_path, "write the fitted material file here");
   app.add_option("--summary", summary_path, "write the fit's report as JSON here (default: stdout)");
+  AlbedoOptions albedo;
+  app.add_option("--albedo-texture", albedo.texture,
+                 "instead of measurements: a colour texture (PNG, JPEG, EXR, ...) to turn into maps of the two --param");
+  app.add_option("--texture-decoding", albedo.decoding,
+                 "albedo-texture: auto (as the file says: 8/16-bit files are sRGB unless tagged linear, float files "
+                 "linear), srgb or linear")
+      ->check(CLI::IsMember({"auto", "srgb", "linear"}));
+  app.add_option("--out-dir", albedo.out_dir, "albedo-texture: an existing directory for the maps, materials.json, "
+                                              "fitted_albedo.png and albedo_fit.json");
+  app.add_option("--material", albedo.material,
+                 "albedo-texture: the material name in materials.json (default: the stack's name, else its file name)");
+  std::string albedo_kind = "diffuse";
+  app.add_option("--albedo", albedo_kind,
+                 "albedo-texture: what the texture is: diffuse (the light scattered in the stack, R_h - R_hs: a "
+                 "cross-polarised albedo, the renderer's Lambert albedo; default) or total (R_hemispherical, with the "
+                 "specular reflection)")
+      ->check(CLI::IsMember({"diffuse", "total"}));
+  app.add_option("--lookup-nodes", albedo.settings.nodes, "albedo-texture: lookup nodes per parameter (default 33)")
+      ->check(cli::integer(2, 1024));
+  app.add_option("--unreachable-delta-e", albedo.settings.unreachable_delta_e,
+                 "albedo-texture: a texel matched farther than this (CIE76) counts as not reachable (default 2.3)")
+      ->check(cli::positive());
+  app.add_option("--threads", albedo.threads, "albedo-texture: threads (0: all cores); the maps do not depend on it")
+      ->check(cli::integer(0, 4096));
   std::vector<lamina::FitParameterSpec> specs;
   std::vector<std::pair<double, std::string>> table_specs;
+  std::optional<AlbedoOutputs> albedo_out;  // set in the albedo-texture mode
   try {
     app.parse(argc, argv);
     for (const std::string& p : params) specs.push_back(parse_param(p));
+    if (!albedo.texture.empty()) {
+      for (const char* other : {"--data", "--table", "--table-sigma", "--out", "--summary", "--coarse-quadrature-points"})
+        if (app.count(other) > 0) throw cli::UsageError(std::string(other) + ": not with --albedo-texture");
+      albedo.stack = stack_path;
+      albedo.settings.axes = specs;
+      albedo.settings.albedo = albedo_kind == "total" ? lamina::AlbedoKind::kTotal : lamina::AlbedoKind::kDiffuse;
+      // The skin preset's R_hemispherical at 8 points is within 5e-6 of 16 and 32 points (lamina
+      // brdf --method adding-doubling), far below a visible difference, at a fifth of the cost.
+      albedo.settings.quadrature_points = app.count("--quadrature-points") > 0 ? quadrature_points : 8;
+      albedo_out = check_albedo_usage(albedo);
+    } else {
+      for (const char* only : {"--texture-decoding", "--albedo", "--out-dir", "--material", "--lookup-nodes", "--unreachable-delta-e", "--threads"})
+        if (app.count(only) > 0) throw cli::UsageError(std::string(only) + ": only with --albedo-texture");
+    }
     for (const std::string& spec : tables) {  // DEG:FILE
       const std::size_t colon = spec.find(':');
       double theta = 0.0;
@@ -151,7 +319,7 @@ int run_fit(int argc, char** argv) {
         throw cli::UsageError("--table " + cli::in_quotes(spec) + ": expected DEG:TABLE.csv" + (why.empty() ? "" : " (" + why + ")"));
       table_specs.push_back({theta, spec.substr(colon + 1)});
     }
-    if (data_path.empty() && tables.empty()) throw cli::UsageError("no measurements: give --data and/or --table");
+    if (!albedo_out && data_path.empty() && tables.empty()) throw cli::UsageError("no measurements: give --data and/or --table");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -161,6 +329,7 @@ int run_fit(int argc, char** argv) {
     std::fprintf(stderr, "lamina fit: %s\n", e.what());
     return 2;
   }
+  if (albedo_out) return run_albedo_fit(albedo, *albedo_out);
 
   try {
     std::ifstream in(stack_path, std::ios::binary);

@@ -130,6 +130,19 @@ void write_png(const std::string& path, const Image& image) {
   write_atomically(path, "png", spec, bytes.data());
 }
 
+void write_data_png16(const std::string& path, int width, int height, const std::vector<float>& values) {
+  if (width <= 0 || height <= 0 || values.size() != static_cast<std::size_t>(width) * height)
+    throw ImageIoError("cannot write '" + path + "': empty or inconsistent image");
+  std::vector<std::uint16_t> stored(values.size());
+  for (std::size_t i = 0; i < stored.size(); ++i) {
+    const float v = values[i];
+    stored[i] = static_cast<std::uint16_t>(v > 0.0f ? std::lround(65535.0 * std::min(v, 1.0f)) : 0);  // NaN: 0
+  }
+  OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::UINT16);
+  spec.attribute("oiio:ColorSpace", "Linear");
+  write_atomically(path, "png", spec, stored.data());
+}
+
 namespace {
 
 // While alive, the process's stderr goes to /dev/null. OpenImageIO's PNG reader lets libpng print
@@ -318,7 +331,18 @@ int channel_index(const OIIO::ImageSpec& spec, const std::string& name) {
 
 }  // namespace
 
+// The one reader behind both read_image overloads.
+static Image read_image(const std::string& path, StoredEncoding encoding, bool* decoded_srgb, int* colour_channels);
+
 Image read_image(const std::string& path, int* colour_channels) {
+  return read_image(path, StoredEncoding::kAsFile, nullptr, colour_channels);
+}
+
+Image read_image(const std::string& path, StoredEncoding encoding, bool* decoded_srgb) {
+  return read_image(path, encoding, decoded_srgb, nullptr);
+}
+
+static Image read_image(const std::string& path, StoredEncoding encoding, bool* decoded_srgb, int* colour_channels) {
   OIIO::ImageSpec spec;
   const std::vector<float> all = read_all_channels(path, &spec);
   const int nc = spec.nchannels;
@@ -333,7 +357,8 @@ Image read_image(const std::string& path, int* colour_channels) {
     src[0] = src[1] = src[2] = (y >= 0 ? y : 0);
   }
   if (colour_channels) *colour_channels = (src[0] == src[1] && src[1] == src[2]) ? 1 : 3;
-  const bool srgb = stored_as_srgb(spec);
+  const bool srgb = encoding == StoredEncoding::kSrgb || (encoding == StoredEncoding::kAsFile && stored_as_srgb(spec));
+  if (decoded_srgb) *decoded_srgb = srgb;
   Image image(spec.width, spec.height);
   const std::size_t n = static_cast<std::size_t>(spec.width) * spec.height;
   for (std::size_t i = 0; i < n; ++i)

@@ -52,6 +52,16 @@ void write_png(const std::string& path, const Image& image);
 // decoded from sRGB). Alpha and extra channels are dropped; grey is expanded to RGB.
 // `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
 Image read_image(const std::string& path, int* colour_channels = nullptr);
+// How an image file's stored values become linear: as the file says (read_image's rule:
+// integer files are sRGB unless tagged linear, float files linear), or forced either way (a
+// colour texture known to be sRGB, or one stored linearly in 8 bits without saying so).
+enum class StoredEncoding { kAsFile, kSrgb, kLinear };
+// read_image with that choice; *decoded_srgb (if given) says whether sRGB was decoded.
+Image read_image(const std::string& path, StoredEncoding encoding, bool* decoded_srgb);
+// Writes one channel of data, values in [0, 1] (clamped; NaN as 0), as a 16-bit grey PNG storing
+// round(65535 v) with no transfer function (tagged linear): texture bindings read it back as
+// v to 1/65535 (docs/stack_bindings.md, "Maps are data"). Atomically as above.
+void write_data_png16(const std::string& path, int width, int height, const std::vector<float>& values);
 // The most samples (width x height x channels) read_image decodes: 2^28 floats, 1 GiB, a
 // 9459 x 9459 RGB image. A larger header is refused before anything is allocated.
 constexpr std::size_t kMaxImageSamples = std::size_t(1) << 28;
