@@ -25,14 +25,13 @@ double attenuated_path_integral(double c, double len, double offset) {
 
 }  // namespace
 
-bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& exit, double min_g) {
+bool next_flight_layer(int layer, const ExitDirection& exit, double min_g) {
   if (exit.layers.empty()) return false;
   const ExitDirection::LayerExit& path = exit.layers[layer];
   if (!path.exists || !path.single_lobe || path.single_g < min_g) return false;
   if (!exit.guided.empty() && exit.guided[layer].guiding > 0.0) return false;
-  const Spectrum sigma_s = stack.layers[layer].sigma_s();
   for (int c = 0; c < kChannels; ++c)
-    if (!(sigma_s[c] > 0.0)) return false;
+    if (!(path.sigma_s[c] > 0.0)) return false;
   return true;
 }
 
@@ -67,8 +66,8 @@ Spectrum next_flight_connection(const LayerStack& stack, const ScatterEvent& eve
   // W p_A p_B / (p_A + p_B) G(d_B) / p_B: the p_B of G cancels the 1/p_B of the sample.
   const double mis = next_flight_weight(p_a, p_b);
   const double emission = p_b / path.mu_inside;  // p(d . b) / mu_b, as connect_direct
-  const Spectrum sigma_t = layer.sigma_t();
-  const Spectrum sigma_s = layer.sigma_s();
+  const Spectrum& sigma_t = path.sigma_t;
+  const Spectrum& sigma_s = path.sigma_s;
   Spectrum out;
   for (int c = 0; c < kChannels; ++c) {
     const double r = path.depth_rate[c];
@@ -83,7 +82,7 @@ Spectrum next_flight_event_connection(const LayerStack& stack, const ScatterEven
                                       const ScatterEvent& event, const ExitDirection& exit, double u1,
                                       double u2) {
   Spectrum own = connect_direct(stack, event, exit).weight;
-  if (!next_flight_layer(stack, event.layer, exit)) return event.throughput * own;
+  if (!next_flight_layer(event.layer, exit)) return event.throughput * own;
   if (event.flight_from_previous) own *= next_flight_weight_of_event(previous, event, exit);
   if (event.kind == ScatterEvent::Kind::Volume) own += next_flight_connection(stack, event, exit, u1, u2);
   return event.throughput * own;
@@ -93,9 +92,8 @@ double next_flight_depth_bound(const LayerStack& stack, const ScatterEvent& even
   const ExitDirection::LayerExit& path = exit.layers[event.layer];
   const Layer& layer = stack.layers[event.layer];
   const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
-  const Spectrum sigma_t = layer.sigma_t();
   double bound = std::numeric_limits<double>::infinity();
-  for (int c = 0; c < kChannels; ++c) bound = std::min(bound, sigma_t[c] * distance0 + path.tau_beyond[c]);
+  for (int c = 0; c < kChannels; ++c) bound = std::min(bound, path.sigma_t[c] * distance0 + path.tau_beyond[c]);
   return bound;
 }
 

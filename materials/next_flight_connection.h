@@ -44,7 +44,7 @@ namespace lamina {
 // scatters in every channel, its flights are not guided, and some inside direction reaches the
 // exit. (The spikes grow with g: on skin-like layers the variance of a walk's connection falls
 // 1.3x at g = 0.5, 1.6x at 0.7, 1.9x at 0.9, for about 1.3x the time; docs/layered_rendering.md.)
-bool next_flight_layer(const LayerStack& stack, int layer, const ExitDirection& exit, double min_g = 0.0);
+bool next_flight_layer(int layer, const ExitDirection& exit, double min_g = 0.0);
 
 // p_A: the density with which the previous volume event's phase sampling gave `event` its
 // direction (ScatterEvent::flight_from_previous, in a next_flight_layer of HG parameter g).

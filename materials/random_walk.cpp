@@ -268,7 +268,9 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
     e.jacobian = top_jacobian * r * r * mu_ref / mu;
     e.grey_phase = phase_is_grey(layer);
     e.single_lobe = e.grey_phase && single_henyey_greenstein(layer, &e.single_g);
-    const Spectrum sigma_t = layer.sigma_t();
+    e.sigma_s = layer.sigma_s();
+    e.sigma_t = layer.sigma_a + e.sigma_s;
+    const Spectrum& sigma_t = e.sigma_t;
     for (int c = 0; c < kChannels; ++c) e.depth_rate[c] = sigma_t[c] > 0.0 ? sigma_t[c] / mu : 0.0;
     e.tau_beyond = tau_beyond;
     if (guiding > 0.0) {
@@ -352,7 +354,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
       sampling = Spectrum(p);
       if (path.single_lobe) out.phase = p;
     } else {
-      const Spectrum sigma_s = layer.sigma_s();
+      const Spectrum& sigma_s = path.sigma_s;
       for (int c = 0; c < kChannels; ++c) {
         const double p = layer.phase(c, cos_theta);
         emission[c] = p / path.mu_inside;

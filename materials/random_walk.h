@@ -177,6 +177,7 @@ struct ExitDirection {
     bool grey_phase = false;    // the layer's phase function is the same in every channel
     bool single_lobe = false;   // ... and one HG lobe (all its lobes share one g): single_g
     double single_g = 0.0;
+    Spectrum sigma_t, sigma_s;  // the layer's coefficients (sums over its lobes), for the connections
     Spectrum depth_rate;        // optical depth per mm of depth travelled in this layer: sigma_t / mu
     Spectrum tau_beyond;        // optical depth of the layers between this one and the outside
     double min_depth_rate = 0.0;  // the smallest channel of depth_rate, and of tau_beyond

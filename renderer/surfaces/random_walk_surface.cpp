@@ -116,9 +116,9 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     for (int k = 0; k < light_count; ++k) {
       if (!lights[k].delta || scale[k] == 0.0) continue;
       for (int l = 0; l < n_layers; ++l) {
-        next_flight[k * n_layers + l] = next_flight_layer(stack_, l, exits[k], options_.next_flight_min_g);
+        next_flight[k * n_layers + l] = next_flight_layer(l, exits[k], options_.next_flight_min_g);
         if (settings.similar) similar_next_flight[k * n_layers + l] =
-            next_flight_layer(similar, l, similar_exits[k], options_.next_flight_min_g);
+            next_flight_layer(l, similar_exits[k], options_.next_flight_min_g);
       }
     }
   }

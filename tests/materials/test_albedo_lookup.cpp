@@ -62,7 +62,9 @@ TEST(AlbedoLookup, SkinColoursMapBackToTheirFractions) {
       worst = std::max({worst, std::abs(m.value[0] / 0.3 - u0), std::abs(m.value[1] / 0.2 - u1)});
     }
     std::printf("%d nodes: worst Delta E %.4f, worst parameter error %.5f of the range\n", nodes, worst_e, worst);
-    if (previous > 0.0) EXPECT_LT(worst, 0.5 * previous) << nodes << " nodes";
+    if (previous > 0.0) {
+      EXPECT_LT(worst, 0.5 * previous) << nodes << " nodes";
+    }
     previous = worst;
   }
 }

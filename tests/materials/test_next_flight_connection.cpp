@@ -97,13 +97,13 @@ TEST(NextFlightConnection, SameMeanInAHalfSpaceAtGrazingAngles) {
 TEST(NextFlightConnection, OnlyInSingleGreyLobeLayers) {
   LayerStack s = test::one_layer(1.4, 0.5, Spectrum(0.1), Spectrum(5.0), Spectrum(0.3, 0.5, 0.7));
   const ExitDirection exit = prepare_exit(s, direction(30, 0));
-  EXPECT_FALSE(next_flight_layer(s, 0, exit));  // g differs per channel
+  EXPECT_FALSE(next_flight_layer(0, exit));  // g differs per channel
   s.layers[0].lobes[0].g = Spectrum(0.5);
-  EXPECT_TRUE(next_flight_layer(s, 0, prepare_exit(s, direction(30, 0))));
-  EXPECT_FALSE(next_flight_layer(s, 0, prepare_exit(s, direction(30, 0)), 0.6));  // below min_g
-  EXPECT_TRUE(next_flight_layer(s, 0, prepare_exit(s, direction(30, 0)), 0.5));
+  EXPECT_TRUE(next_flight_layer(0, prepare_exit(s, direction(30, 0))));
+  EXPECT_FALSE(next_flight_layer(0, prepare_exit(s, direction(30, 0)), 0.6));  // below min_g
+  EXPECT_TRUE(next_flight_layer(0, prepare_exit(s, direction(30, 0)), 0.5));
   s.layers[0].lobes[0].sigma_s = Spectrum(5.0, 0.0, 5.0);  // a channel that does not scatter
-  EXPECT_FALSE(next_flight_layer(s, 0, prepare_exit(s, direction(30, 0))));
+  EXPECT_FALSE(next_flight_layer(0, prepare_exit(s, direction(30, 0))));
 }
 
 }  // namespace
