@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -66,6 +67,39 @@ std::map<std::string, int> csv_header(const std::vector<std::string>& f, const s
   for (const std::string& c : required)
     if (!column.count(c)) throw FitError(where + ": missing column '" + c + "' (" + missing_hint + ")");
   return column;
+}
+
+// What a CSV's header must be (csv_header's rules) and what to say when there is none.
+struct CsvHeaderSpec {
+  std::vector<std::string> required, ignored;
+  std::string unknown_hint, missing_hint;
+  std::string empty;  // the error after "SOURCE: " for a text without a header
+};
+
+// Reads a CSV text: blank lines are skipped, the first other line is the header (`spec`), and
+// every further line, checked to have the header's number of fields, goes to
+// on_row(fields, where, column) with where = "SOURCE: line N".
+void read_csv_rows(const std::string& text, const std::string& source, const CsvHeaderSpec& spec,
+                   const std::function<void(const std::vector<std::string>&, const std::string&,
+                                            std::map<std::string, int>&)>& on_row) {
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  std::map<std::string, int> column;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::vector<std::string> f = csv_fields(line, source, line_no);
+    const std::string where = source + ": line " + std::to_string(line_no);
+    if (column.empty()) {
+      column = csv_header(f, where, spec.required, spec.ignored, spec.unknown_hint, spec.missing_hint);
+      continue;
+    }
+    if (f.size() != column.size())
+      throw FitError(where + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(column.size()));
+    on_row(f, where, column);
+  }
+  if (column.empty()) throw FitError(source + ": " + spec.empty);
 }
 
 // A finite number, the whole field; else throws with `what`.
@@ -194,24 +228,12 @@ double scaled_objective(unsigned n, const double* u, double* grad, void* data) {
 }  // namespace
 
 std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, const std::string& source) {
-  std::istringstream in(text);
-  std::string line;
-  int line_no = 0;
-  std::map<std::string, int> column;
-  static const char* const kColumns[] = {"quantity", "channel", "theta_i_deg", "value", "sigma"};
+  const std::string expected = "expected quantity,channel,theta_i_deg,value,sigma";
+  const CsvHeaderSpec spec{{"quantity", "channel", "theta_i_deg", "value", "sigma"}, {}, expected, expected,
+                           "empty (expected the header quantity,channel,theta_i_deg,value,sigma)"};
   std::vector<FitMeasurement> out;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const std::vector<std::string> f = csv_fields(line, source, line_no);
-    const std::string where = source + ": line " + std::to_string(line_no);
-    if (column.empty()) {  // the header
-      const std::string expected = "expected quantity,channel,theta_i_deg,value,sigma";
-      column = csv_header(f, where, {std::begin(kColumns), std::end(kColumns)}, {}, expected, expected);
-      continue;
-    }
-    if (f.size() != column.size())
-      throw FitError(where + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(column.size()));
+  read_csv_rows(text, source, spec, [&](const std::vector<std::string>& f, const std::string& where,
+                                        std::map<std::string, int>& column) {
     FitMeasurement m;
     m.where = where;
     const std::string& q = f[column["quantity"]];
@@ -238,8 +260,7 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
     m.sigma = parse_number(f[column["sigma"]], where, "sigma");
     if (m.sigma <= 0.0) throw FitError(where + ": sigma " + f[column["sigma"]] + " must be > 0");
     out.push_back(m);
-  }
-  if (column.empty()) throw FitError(source + ": empty (expected the header quantity,channel,theta_i_deg,value,sigma)");
+  });
   if (out.empty()) throw FitError(source + ": no measurements after the header");
   return out;
 }
@@ -250,31 +271,17 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
     throw FitError(source + ": the table's incidence " + number_text(theta_i_deg) + " is not in [0, 90)");
   if (!(sigma_floor >= 0.0) || !std::isfinite(sigma_floor))
     throw FitError(source + ": the sigma floor " + number_text(sigma_floor) + " must be finite and >= 0");
-  static const char* const kRequired[] = {"side", "channel", "theta_o_deg", "phi_o_deg", "value", "stderr"};
-  static const char* const kIgnored[] = {"single", "multiple"};
-  std::istringstream in(text);
-  std::string line;
-  int line_no = 0;
-  std::map<std::string, int> column;
+  const CsvHeaderSpec spec{{"side", "channel", "theta_o_deg", "phi_o_deg", "value", "stderr"}, {"single", "multiple"},
+                           "expected lamina brdf's side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple",
+                           "a lamina brdf table", "empty (expected lamina brdf's table header)"};
   struct Row {
     FitMeasurement m;
     double theta_o, phi_o;
   };
   std::vector<Row> rows;
   std::vector<double> thetas, phis;  // distinct values
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const std::vector<std::string> f = csv_fields(line, source, line_no);
-    const std::string where = source + ": line " + std::to_string(line_no);
-    if (column.empty()) {  // the header
-      column = csv_header(f, where, {std::begin(kRequired), std::end(kRequired)}, {std::begin(kIgnored), std::end(kIgnored)},
-                          "expected lamina brdf's side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple",
-                          "a lamina brdf table");
-      continue;
-    }
-    if (f.size() != column.size())
-      throw FitError(where + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(column.size()));
+  read_csv_rows(text, source, spec, [&](const std::vector<std::string>& f, const std::string& where,
+                                        std::map<std::string, int>& column) {
     Row r;
     r.m.where = where;
     r.m.quantity = FitQuantity::kBin;
@@ -305,8 +312,7 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
     add_distinct(thetas, r.theta_o);
     add_distinct(phis, r.phi_o);
     rows.push_back(r);
-  }
-  if (column.empty()) throw FitError(source + ": empty (expected lamina brdf's table header)");
+  });
   if (rows.empty()) throw FitError(source + ": no bins after the header");
   const int K = static_cast<int>(thetas.size()), M = static_cast<int>(phis.size());
   std::vector<FitMeasurement> out;
