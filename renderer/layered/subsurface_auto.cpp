@@ -303,6 +303,17 @@ const char* short_name(SubsurfaceMode m) { return subsurface_mode_name(m); }
 // A prediction's reference, per side (i) and incidence (j).
 using ReferenceGrid = std::vector<std::vector<Binned>>;
 
+// The table's interpolation bias near incidence j of a row of n >= 3 incidences spaced `stride`
+// table nodes apart: h^2 P'' / 8 at the midpoint between nodes (spacing h), with P'' from the
+// second difference centred on an inner incidence (the end ones take their neighbour's),
+// (P_{c-1} - 2 P_c + P_{c+1}) / (8 stride^2).
+Difference interpolation_bias(const std::vector<Binned>& row, int j, int stride) {
+  const int n = static_cast<int>(row.size());
+  const int c = std::clamp(j, 1, n - 2);
+  const double k = 1.0 / (8.0 * stride * stride);
+  return combine({{&row[c - 1], k}, {&row[c], -2.0 * k}, {&row[c + 1], k}});
+}
+
 // The models' errors over the views (every side and incidence) against `reference`: lambert,
 // first order (`first`, per view) and the table, whose interpolation error at view j comes from
 // the reference's second difference over the incidences (spacing `stride` table nodes).
@@ -317,17 +328,10 @@ ViewErrors errors_against(const ReferenceGrid& reference, const ReferenceGrid& f
       acc.shape_ref += rl.shape_ref2;
       record(rl, 0, &acc);
       record(relative_to(combine({{&first[i][j], 1.0}, {&walk, -1.0}}), walk), 1, &acc);
-      // The table's interpolation error at the midpoints between its nodes (spacing h) near
-      // incidence j: h^2 |P''| / 8, with P'' from the second difference over the prediction's
-      // incidences (spacing stride h), centred on an inner one (the end ones take their
-      // neighbour's): (P_{j-1} - 2 P_j + P_{j+1}) / (8 stride^2). Its statistics: a half-half
-      // mix of two nodes (the typical view between nodes).
+      // The table's interpolation error (interpolation_bias). Its statistics: a half-half mix of
+      // two nodes (the typical view between nodes).
       if (n >= 3) {
-        const int c = std::clamp(j, 1, n - 2);
-        const double k = 1.0 / (8.0 * stride * stride);
-        const Difference bias =
-            combine({{&reference[i][c - 1], k}, {&reference[i][c], -2.0 * k}, {&reference[i][c + 1], k}});
-        record_table(bias, walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
+        record_table(interpolation_bias(reference[i], j, stride), walk, {{&walk, 0.5}, {&walk, 0.5}}, settings, 0.0, &acc);
       } else {
         record_table(combine({{&walk, 0.0}}), walk, {{&walk, 1.0}}, settings, 0.0, &acc);
       }
@@ -381,11 +385,7 @@ ModeErrors reference_discretisation(const ReferenceGrid& P, const ReferenceGrid&
       const Relative r = relative_to(combine({{&dP[i][j], 1.0}}), P[i][j]);
       acc.shape_ref += r.shape_ref2;
       record(r, 0, &acc);
-      if (n >= 3) {
-        const int c = std::clamp(j, 1, n - 2);
-        const double k = 1.0 / (8.0 * stride * stride);
-        record(relative_to(combine({{&dP[i][c - 1], k}, {&dP[i][c], -2.0 * k}, {&dP[i][c + 1], k}}), P[i][j]), 2, &acc);
-      }
+      if (n >= 3) record(relative_to(interpolation_bias(dP[i], j, stride), P[i][j]), 2, &acc);
     }
   }
   const ViewErrors rel = finish(acc);
