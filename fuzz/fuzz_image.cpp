@@ -1,4 +1,4 @@
-// The image reader of `lamina compare` (renderer/image/image_io, OpenImageIO underneath): EXR,
+// The image reader of `lamina compare` (renderer/image/image_io: OpenEXR, stb_image): EXR,
 // PNG or HDR by content.
 #include "fuzz/fuzz_input.h"
 #include "renderer/image/image_io.h"

@@ -5,7 +5,7 @@ Layers, bottom first: materials/ (pure physics), then renderer/util, image, scen
 layered, render, batch, cli. Two independent checks:
   1. includes: every `#include "materials/..."` or `#include "renderer/<folder>/..."` in
      materials/ and renderer/ names its own folder or one below it (materials/ names nothing of
-     renderer/, and no Embree, OpenImageIO or tinygltf header);
+     renderer/, and no Embree, image-library or tinygltf header);
   2. link graph (with --build DIR): `cmake --graphviz` of the configured build, each
      lamina_<folder> library links only libraries of folders below it.
 Prints every violation as FILE:LINE: message and exits 1 if there is one.
@@ -21,7 +21,7 @@ import tempfile
 LAYERS = ["materials", "util", "image", "scene", "surfaces", "layered", "render", "batch", "cli"]
 RANK = {name: i for i, name in enumerate(LAYERS)}
 # Third-party headers that materials/ must not see (it is testable alone, without a renderer).
-FORBIDDEN_IN_MATERIALS = ("embree", "OpenImageIO", "tiny_gltf", "tinygltf")
+FORBIDDEN_IN_MATERIALS = ("embree", "OpenImageIO", "OpenEXR", "stb_image", "png.h", "ft2build", "tiny_gltf", "tinygltf")
 
 
 def folder_of(path):

@@ -72,7 +72,6 @@ run() {
   [ "$target" = fuzz_image ] && unwind=0
   (cd scenes/batch && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:fast_unwind_on_malloc=$unwind \
     LSAN_OPTIONS=suppressions=$OLDPWD/scripts/lsan.supp:print_suppressions=0 UBSAN_OPTIONS=halt_on_error=1 \
-    LAMINA_IMAGE_IO_STDERR=1 \
     "$OLDPWD/$DIR/fuzz/$target" -max_total_time="$SECONDS_PER_TARGET" -timeout=20 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix="$OLDPWD/$DIR/findings/$target/" \
     "$OLDPWD/$DIR/corpus/$target" >"$OLDPWD/$DIR/logs/$target.log" 2>&1) || true

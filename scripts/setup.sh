@@ -7,8 +7,11 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libembree-dev            # Embree 3: ray tracing kernels
-  libopenimageio-dev openimageio-tools  # EXR/PNG/HDR I/O, contact sheets
-  libopenexr-dev
+  libopenexr-dev           # EXR reading and writing
+  libpng-dev               # PNG writing (previews, 16-bit data maps)
+  libstb-dev               # stb_image: reading PNG, JPEG, HDR and the other integer formats
+  libfreetype-dev          # text in contact sheets and false-colour legends
+  openimageio-tools        # oiiotool for scripts (demo mosaics, scene maps); never linked
   fonts-dejavu-core        # legend text in `lamina compare --png` (a bitmap font is the fallback)
   libtinygltf-dev          # glTF 2.0 loader (with stb_image and nlohmann-json)
   nlohmann-json3-dev       # material files and manifests

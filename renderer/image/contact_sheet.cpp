@@ -5,17 +5,16 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
+#include <vector>
+
+#include "renderer/image/text.h"
 
 namespace lamina {
 namespace {
 
-namespace OIIO = OIIO_NAMESPACE;
-
 const char* const kFont = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";  // Debian fonts-dejavu-core
 constexpr float kBackground = 0.02f;  // linear; about 0.15 once sRGB-encoded
-constexpr float kTextColour[3] = {1.0f, 1.0f, 1.0f};
+constexpr std::array<float, 3> kTextColour = {1.0f, 1.0f, 1.0f};
 
 int thumbnail_height(const Image& image, int thumbnail_width) {
   if (image.width <= 0 || image.height <= 0) throw std::invalid_argument("contact sheet: an empty image");
@@ -27,11 +26,57 @@ std::string fit_text(const std::string& text, int width) {
   std::string t = text;
   while (!t.empty()) {
     const std::string shown = t.size() == text.size() ? t : t + "..";
-    const OIIO::ROI size = OIIO::ImageBufAlgo::text_size(shown, kSheetFontSize, kFont);
-    if (!size.defined() || size.width() <= width) return shown;
+    const int shown_width = text_width(shown, kSheetFontSize, kFont);
+    if (shown_width < 0 || shown_width <= width) return shown;
     t.pop_back();
   }
   return t;
+}
+
+// Per destination pixel along one axis, the source pixels its footprint [i s, (i + 1) s)
+// overlaps (s = source / destination size) and their shares of it.
+struct AxisWeights {
+  std::vector<int> first, count;
+  std::vector<double> weight;  // count[i] entries from offset[i]
+  std::vector<std::size_t> offset;
+};
+
+AxisWeights area_weights(int source, int destination) {
+  AxisWeights a;
+  const double scale = static_cast<double>(source) / destination;
+  for (int i = 0; i < destination; ++i) {
+    const double lo = i * scale, hi = (i + 1) * scale;
+    const int j0 = static_cast<int>(std::floor(lo));
+    const int j1 = std::min(source - 1, static_cast<int>(std::ceil(hi)) - 1);
+    a.first.push_back(j0);
+    a.offset.push_back(a.weight.size());
+    for (int j = j0; j <= j1; ++j)
+      a.weight.push_back((std::min(hi, j + 1.0) - std::max(lo, static_cast<double>(j))) / scale);
+    a.count.push_back(j1 - j0 + 1);
+  }
+  return a;
+}
+
+// The image resampled to width x height by area averaging (each thumbnail pixel the mean
+// radiance of the source area it covers, as a camera with fewer pixels would record).
+Image resize_by_area(const Image& source, int width, int height) {
+  const AxisWeights ax = area_weights(source.width, width), ay = area_weights(source.height, height);
+  Image out(width, height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      double sum[3] = {0.0, 0.0, 0.0};
+      for (int v = 0; v < ay.count[y]; ++v) {
+        const double wy = ay.weight[ay.offset[y] + v];
+        for (int u = 0; u < ax.count[x]; ++u) {
+          const double w = wy * ax.weight[ax.offset[x] + u];
+          const float* p = source.pixel(ax.first[x] + u, ay.first[y] + v);
+          for (int c = 0; c < 3; ++c) sum[c] += w * (std::isfinite(p[c]) ? std::max(p[c], 0.0f) : 0.0f);
+        }
+      }
+      float* o = out.pixel(x, y);
+      for (int c = 0; c < 3; ++c) o[c] = static_cast<float>(sum[c]);
+    }
+  return out;
 }
 
 }  // namespace
@@ -55,9 +100,7 @@ Image make_contact_sheet(const std::vector<ContactCell>& cells, int columns, int
   const ContactSheetLayout l = contact_sheet_layout(cells, columns, thumbnail_width);
   Image sheet(l.width, l.height);
   std::fill(sheet.rgb.begin(), sheet.rgb.end(), kBackground);
-  OIIO::ImageBuf canvas(OIIO::ImageSpec(l.width, l.height, 3, OIIO::TypeDesc::FLOAT), sheet.rgb.data());
-  const bool have_font = OIIO::ImageBufAlgo::text_size("Ag", kSheetFontSize, kFont).defined();
-  OIIO::geterror();  // a missing font leaves an error message pending
+  const bool have_font = text_width("Ag", kSheetFontSize, kFont) >= 0;
   if (labelled) *labelled = have_font;
 
   for (std::size_t i = 0; i < cells.size(); ++i) {
@@ -67,27 +110,17 @@ Image make_contact_sheet(const std::vector<ContactCell>& cells, int columns, int
     const int y0 = kSheetPadding + row * (l.cell_height + kSheetPadding);
     const int th = thumbnail_height(cell.image, thumbnail_width);
 
-    // Resize in linear light (averaging radiance, as a camera with fewer pixels would), one
-    // thread so the result never depends on scheduling.
-    OIIO::ImageBuf src(OIIO::ImageSpec(cell.image.width, cell.image.height, 3, OIIO::TypeDesc::FLOAT),
-                       const_cast<float*>(cell.image.rgb.data()));
-    OIIO::ImageBuf thumb = OIIO::ImageBufAlgo::resize(src, "", 0.0f, OIIO::ROI(0, thumbnail_width, 0, th, 0, 1, 0, 3), 1);
-    if (thumb.has_error()) throw std::runtime_error("contact sheet: resize failed: " + thumb.geterror());
+    // Resized in linear light (non-finite and negative values as black).
+    const Image thumb = resize_by_area(cell.image, thumbnail_width, th);
     for (int y = 0; y < th; ++y)
-      for (int x = 0; x < thumbnail_width; ++x) {
-        float px[3];
-        thumb.getpixel(x, y, px, 3);
-        float* out = sheet.pixel(x0 + x, y0 + y);
-        for (int c = 0; c < 3; ++c) out[c] = std::isfinite(px[c]) ? std::max(px[c], 0.0f) : 0.0f;
-      }
+      for (int x = 0; x < thumbnail_width; ++x) std::copy_n(thumb.pixel(x, y), 3, sheet.pixel(x0 + x, y0 + y));
     if (!have_font) continue;
     for (std::size_t line = 0; line < cell.label.size() && line < static_cast<std::size_t>(kSheetLabelLines); ++line) {
       const int baseline = y0 + th + static_cast<int>(line + 1) * kSheetLineHeight - 3;
-      OIIO::ImageBufAlgo::render_text(canvas, x0, baseline, fit_text(cell.label[line], l.cell_width), kSheetFontSize, kFont,
-                                      kTextColour);
+      draw_text(sheet.rgb.data(), l.width, l.height, x0, baseline, fit_text(cell.label[line], l.cell_width),
+                kSheetFontSize, kFont, kTextColour);
     }
   }
-  OIIO::geterror();
   return sheet;
 }
 

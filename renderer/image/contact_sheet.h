@@ -28,8 +28,8 @@ struct ContactSheetLayout {
 // Throws std::invalid_argument for no cells or non-positive sizes.
 ContactSheetLayout contact_sheet_layout(const std::vector<ContactCell>& cells, int columns, int thumbnail_width);
 
-// The sheet in linear RGB (ready for write_png): dark grey background, thumbnails (filtered
-// resize in linear light), labels in DejaVu Sans through OpenImageIO's render_text, cut to the
+// The sheet in linear RGB (ready for write_png): dark grey background, thumbnails (resized in
+// linear light by area averaging), labels in DejaVu Sans through FreeType (text.h), cut to the
 // cell width. Without that font the labels are left out (`labelled` says which happened).
 // Deterministic: the same cells give the same pixels.
 Image make_contact_sheet(const std::vector<ContactCell>& cells, int columns, int thumbnail_width, bool* labelled = nullptr);

@@ -6,18 +6,15 @@
 #include <cstdio>
 #include <string>
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-
 #include "renderer/image/image_io.h"
+#include "renderer/image/text.h"
 
 namespace lamina {
 namespace {
 
-namespace OIIO = OIIO_NAMESPACE;
-
 // Fonts tried in order; the system DejaVu (Debian fonts-dejavu-core) first.
-const char* const kFonts[] = {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "DejaVuSans"};
+const char* const kFonts[] = {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+                              "/usr/share/fonts/TTF/DejaVuSans.ttf"};
 
 // A 3x5 bitmap font for the tick labels when no TrueType font is available: five rows of
 // three bits each (most significant bit = left column).
@@ -59,18 +56,12 @@ void draw_bitmap_text(Canvas& canvas, int x_centre, int y_top, const std::string
   }
 }
 
-// Draws `text` centred on x with its baseline at y through OpenImageIO; false if no font works.
+// Draws `text` centred on x with its baseline at y in a TrueType font; false if none loads.
 bool draw_truetype_text(Canvas& canvas, int x_centre, int baseline, const std::string& text) {
-  OIIO::ImageSpec spec(canvas.w, canvas.h, 3, OIIO::TypeDesc::FLOAT);
-  OIIO::ImageBuf buf(spec, canvas.px.data());  // wraps the canvas: draws in place
-  const float black[3] = {0.0f, 0.0f, 0.0f};
-  for (const char* font : kFonts) {
-    if (!OIIO::ImageBufAlgo::text_size(text, 12, font).defined()) continue;
-    if (OIIO::ImageBufAlgo::render_text(buf, x_centre, baseline, text, 12, font, black,
-                                        OIIO::ImageBufAlgo::TextAlignX::Center))
+  for (const char* font : kFonts)
+    if (draw_text(canvas.px.data(), canvas.w, canvas.h, x_centre, baseline, text, 12, font, {0.0f, 0.0f, 0.0f},
+                  TextAlign::kCentre))
       return true;
-  }
-  OIIO::geterror();  // clear OpenImageIO's pending error message
   return false;
 }
 

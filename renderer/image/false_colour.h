@@ -17,7 +17,7 @@ std::array<float, 3> diverging_colour(double t);
 // The map of `relative` (width x height, row-major) scaled so +-range reach full red/blue,
 // above a legend strip: caption ("blue: TEST < REF, red: TEST > REF"), the colour bar and
 // tick labels at -range, -range/2, 0, +range/2, +range in percent. Text is rendered with
-// OpenImageIO's render_text (FreeType) in DejaVu Sans when that font is installed, else the
+// FreeType (text.h) in DejaVu Sans when that font is installed, else the
 // tick labels come from a built-in 3x5 bitmap font and the caption is left out.
 // The canvas is at least kMinLegendWidth wide; the map sits at its top-left corner.
 // Returns LINEAR values (the display colours decoded from sRGB), ready for write_png.

@@ -1,5 +1,5 @@
 // Image: a linear RGB float raster, row-major from the top-left pixel, 3 floats a pixel.
-// Reading and writing files (EXR, HDR, PNG) goes through OpenImageIO in image_io.h.
+// Reading and writing files (EXR, HDR, PNG, JPEG) is image_io.h.
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,6 @@
-// Image files through OpenImageIO: linear float EXR with metadata, sRGB PNG previews, and
-// reading EXR/HDR (environment maps, `lamina compare`).
+// Image files: linear float EXR with metadata (OpenEXR), sRGB PNG previews and 16-bit data maps
+// (libpng), and reading EXR, Radiance HDR and the integer formats PNG, JPEG, BMP, TGA, GIF, PSD,
+// PNM (stb_image): environment maps, parameter maps, textures for `lamina fit`, `lamina compare`.
 #pragma once
 
 #include <stdexcept>
@@ -48,8 +49,8 @@ struct ChannelImage {
 ChannelImage read_channels(const std::string& path);
 // Writes an 8-bit sRGB PNG (exposure 1, clamped), atomically as above.
 void write_png(const std::string& path, const Image& image);
-// Reads any image OpenImageIO reads (EXR, HDR, PNG, JPEG) as linear RGB (8-bit files are
-// decoded from sRGB). Alpha and extra channels are dropped; grey is expanded to RGB.
+// Reads an image (EXR, HDR, PNG, JPEG, BMP, TGA, GIF, PSD, PNM) as linear RGB (integer files
+// are decoded from sRGB unless a PNG is tagged linear: gAMA 1.0 and no sRGB chunk). Alpha and extra channels are dropped; grey is expanded to RGB.
 // `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
 Image read_image(const std::string& path, int* colour_channels = nullptr);
 // How an image file's stored values become linear: as the file says (read_image's rule:
@@ -70,7 +71,8 @@ constexpr std::size_t kMaxImageSamples = std::size_t(1) << 28;
 double srgb_encode(double linear);
 double srgb_decode(double encoded);
 
-// Reads the string attributes of an EXR header (e.g. a batch job's hash).
+// Reads the string attributes of an EXR header (e.g. a batch job's hash); none for other
+// formats (the file must still be a readable image).
 Metadata read_metadata(const std::string& path);
 
 }  // namespace lamina

@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
 #include "materials/sampling.h"
@@ -55,28 +54,23 @@ double ParameterMap::lookup(glm::dvec2 uv, int channel) const {
 }
 
 ParameterMap read_parameter_map(const std::string& path) {
-  // Unassociated alpha: a data map's channels are independent values, so OpenImageIO must not
-  // premultiply the colour channels by alpha on reading (its default for PNG).
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  auto in = OIIO::ImageInput::open(path, &config);
-  if (!in) throw SceneError(path + ": cannot read the parameter map (" + OIIO::geterror() + ")");
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
-    throw SceneError(path + ": unsupported parameter map (empty, or a volume)");
+  // The stored values with no colour transform and no alpha premultiplication (integer files
+  // as value / max, 0..255 -> 0..1): what a data map means.
+  ChannelImage image;
+  try {
+    image = read_channels(path);
+  } catch (const ImageIoError& e) {
+    throw SceneError(path + ": cannot read the parameter map (" + e.what() + ")");
+  }
+  const int nc = static_cast<int>(image.names.size());
   ParameterMap m;
-  m.width = spec.width;
-  m.height = spec.height;
-  m.channels = std::min(spec.nchannels, 4);
-  std::vector<float> all(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
-  // FLOAT conversion of integer files is value / max (0..255 -> 0..1) with no colour
-  // transform: the stored values, which is what a data map means.
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
-    throw SceneError(path + ": cannot decode the parameter map (" + in->geterror() + ")");
+  m.width = image.width;
+  m.height = image.height;
+  m.channels = std::min(nc, 4);
   m.values.resize(static_cast<std::size_t>(m.width) * m.height * m.channels);
   for (std::size_t p = 0; p < static_cast<std::size_t>(m.width) * m.height; ++p)
     for (int c = 0; c < m.channels; ++c) {
-      const float v = all[p * spec.nchannels + c];
+      const float v = image.values[p * nc + c];
       m.values[p * m.channels + c] = std::isfinite(v) ? v : 0.0f;
     }
   return m;

@@ -413,6 +413,21 @@ TEST(ContactSheet, LayoutAndSize) {
   ASSERT_EQ(sheet.height, l.height);
   EXPECT_NEAR(sheet.pixel(kSheetPadding + 40, kSheetPadding + 30)[1], 0.5f, 1e-5f);
   EXPECT_EQ(make_contact_sheet(cells, 3, 80).rgb, sheet.rgb);  // deterministic
+  // Thumbnails average the area they cover: a 4 x 2 checkerboard of 0 and 1 halved is 0.5
+  // everywhere, and a 3-pixel ramp 0, 1, 2 resized to 2 pixels gives (0 + 0.5) / 1.5 and
+  // (0.5 + 2) / 1.5 (each thumbnail pixel covers 1.5 source pixels).
+  Image checker(4, 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) std::fill_n(checker.pixel(x, y), 3, static_cast<float>((x + y) % 2));
+  const Image halved = make_contact_sheet({ContactCell{checker, {}}}, 1, 2);
+  EXPECT_FLOAT_EQ(halved.pixel(kSheetPadding, kSheetPadding)[0], 0.5f);
+  EXPECT_FLOAT_EQ(halved.pixel(kSheetPadding + 1, kSheetPadding)[2], 0.5f);
+  Image ramp(3, 3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 3; ++x) std::fill_n(ramp.pixel(x, y), 3, static_cast<float>(x));
+  const Image two = make_contact_sheet({ContactCell{ramp, {}}}, 1, 2);
+  EXPECT_NEAR(two.pixel(kSheetPadding, kSheetPadding)[0], 0.5 / 1.5, 1e-6);
+  EXPECT_NEAR(two.pixel(kSheetPadding + 1, kSheetPadding)[0], 2.5 / 1.5, 1e-6);
   EXPECT_THROW(contact_sheet_layout({}, 3, 80), std::invalid_argument);
 }
 

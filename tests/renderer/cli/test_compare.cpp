@@ -10,10 +10,10 @@
 #include <sstream>
 #include <string>
 
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/image_files.h"
 #include "renderer/cli/outputs.h"
 #include "renderer/image/image_io.h"
 #include "tests/renderer/cli/cli_runner.h"
@@ -82,27 +82,25 @@ TEST(CliCompare, MetricsDiffAndSign) {
   EXPECT_NEAR(diff.pixel(1, 1)[2], -0.5, 1e-7);
 
   // With the default range +-50%, +0.5 is full red and -0.5 full blue (the bytes, not decoded).
-  auto in = OIIO::ImageInput::open(png.string());
-  ASSERT_TRUE(in);
-  const OIIO::ImageSpec spec = in->spec();
-  std::vector<unsigned char> bytes(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
-  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, bytes.data()));
+  int width = 0, height = 0, channels = 0;
+  std::vector<unsigned char> bytes = test::read_png8(png.string(), &width, &height, &channels);
+  ASSERT_FALSE(bytes.empty());
   const unsigned char* left = &bytes[0];
-  const unsigned char* right = &bytes[spec.nchannels];
+  const unsigned char* right = &bytes[channels];
   EXPECT_EQ(left[0], 255);
   EXPECT_EQ(left[1], 0);
   EXPECT_EQ(left[2], 0);
   EXPECT_EQ(right[0], 0);
   EXPECT_EQ(right[1], 0);
   EXPECT_EQ(right[2], 255);
-  EXPECT_GT(spec.height, 2);  // the legend is below the map
+  EXPECT_GT(height, 2);  // the legend is below the map
 
   // --range 1: +0.5 is half way to red: (1, 0.5, 0.5) in display values -> bytes 255, 128, 128.
   const CommandResult r2 = lamina("compare " + ref + " " + test + " --png " + png.string() + " --range 1");
   ASSERT_EQ(r2.exit_code, 0) << r2.err;
-  EXPECT_EQ(read_image(png.string()).width, spec.width);
-  auto in2 = OIIO::ImageInput::open(png.string());
-  ASSERT_TRUE(in2->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, bytes.data()));
+  EXPECT_EQ(read_image(png.string()).width, width);
+  bytes = test::read_png8(png.string(), &width, &height, &channels);
+  ASSERT_FALSE(bytes.empty());
   EXPECT_EQ(bytes[0], 255);
   EXPECT_NEAR(bytes[1], 128, 1);
   EXPECT_NEAR(bytes[2], 128, 1);
@@ -155,14 +153,7 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
 
   // A one-channel image against an RGB one.
   const std::string one = (dir() / "one.exr").string();
-  {
-    auto out = OIIO::ImageOutput::create(one);
-    OIIO::ImageSpec spec(2, 2, 1, OIIO::TypeDesc::FLOAT);
-    ASSERT_TRUE(out->open(one, spec));
-    const float px[4] = {1, 1, 1, 1};
-    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
-    out->close();
-  }
+  test::write_exr_channels(one, 2, 2, {"Y"}, {1, 1, 1, 1});
   r = lamina("compare " + ref + " " + one);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("channel"), std::string::npos) << r.err;

@@ -7,8 +7,9 @@
 #include <string>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+
+#include "tests/support/image_files.h"
 
 namespace fs = std::filesystem;
 namespace lamina {
@@ -75,18 +76,15 @@ TEST(ImageIo, PngIsSrgbEncodedClampedAndDecodedOnRead) {
   // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354 -> byte round(187.5) = 188; pixel x = 63 * 0.5 is
   // not on the grid, so check x = 0 (0), x = 63 (255) and the clamped row.
   {
-    auto in = OIIO::ImageInput::open(path);
-    ASSERT_TRUE(in);
-    EXPECT_EQ(in->spec().format, OIIO::TypeDesc::UINT8);
-    std::vector<unsigned char> bytes(64 * 2 * 3);
-    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, bytes.data()));
+    int width = 0, height = 0, channels = 0;
+    const std::vector<unsigned char> bytes = test::read_png8(path, &width, &height, &channels);
+    ASSERT_EQ(bytes.size(), 64u * 2u * 3u) << "an 8-bit RGB PNG of 64 x 2";
     EXPECT_EQ(bytes[0], 0);
     EXPECT_EQ(bytes[63 * 3], 255);
     EXPECT_EQ(bytes[64 * 3 + 0], 255);  // 2.0 clamped
     EXPECT_EQ(bytes[64 * 3 + 1], 0);    // -1.0 clamped
     // x = 21: linear 1/3 encodes to 1.055 * (1/3)^(1/2.4) - 0.055 = 0.6125 -> byte round(156.19).
     EXPECT_EQ(bytes[21 * 3], 156);
-    in->close();
   }
   const Image back = read_image(path);
   ASSERT_EQ(back.width, 64);
@@ -104,32 +102,40 @@ TEST(ImageIo, GreyIsExpandedAndAlphaDropped) {
   const fs::path dir = fresh_dir("channels");
   // A one-channel 8-bit PNG of byte 128: decodes to ((128/255 + 0.055)/1.055)^2.4.
   const std::string grey = (dir / "grey.png").string();
-  {
-    auto out = OIIO::ImageOutput::create(grey);
-    OIIO::ImageSpec spec(2, 2, 1, OIIO::TypeDesc::UINT8);
-    ASSERT_TRUE(out->open(grey, spec));
-    const unsigned char bytes[4] = {128, 128, 128, 128};
-    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, bytes));
-    out->close();
-  }
+  test::write_png8(grey, 2, 2, 1, {128, 128, 128, 128});
   const Image g = read_image(grey);
   const double expected = std::pow((128.0 / 255.0 + 0.055) / 1.055, 2.4);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(g.pixel(1, 1)[c], expected, 1e-6);
 
   // An RGBA float EXR: alpha dropped, colours unchanged.
   const std::string rgba = (dir / "rgba.exr").string();
-  {
-    auto out = OIIO::ImageOutput::create(rgba);
-    OIIO::ImageSpec spec(1, 1, 4, OIIO::TypeDesc::FLOAT);
-    ASSERT_TRUE(out->open(rgba, spec));
-    const float px[4] = {0.25f, 3.5f, 0.125f, 0.5f};
-    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
-    out->close();
-  }
+  test::write_exr_channels(rgba, 1, 1, {"R", "G", "B", "A"}, {0.25f, 3.5f, 0.125f, 0.5f});
   const Image a = read_image(rgba);
   EXPECT_EQ(a.pixel(0, 0)[0], 0.25f);
   EXPECT_EQ(a.pixel(0, 0)[1], 3.5f);
   EXPECT_EQ(a.pixel(0, 0)[2], 0.125f);
+}
+
+TEST(ImageIo, SixteenBitDataPngIsTaggedLinearAndReadBackAsStored) {
+  // write_data_png16 tags the file linear (gAMA 1.0): read as the file says, no sRGB decoding,
+  // every value back to 1/65535. An untagged 8-bit PNG (stb_image_write) is decoded from sRGB.
+  const fs::path dir = fresh_dir("png16");
+  const std::string path = (dir / "data.png").string();
+  const std::vector<float> values = {0.0f, 0.25f, 0.5f, 0.999f, 1.0f, 1e-4f};
+  write_data_png16(path, 3, 2, values);
+  bool decoded = true;
+  const Image back = read_image(path, StoredEncoding::kAsFile, &decoded);
+  EXPECT_FALSE(decoded) << "a linear-tagged PNG is read as stored";
+  for (int i = 0; i < 6; ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.rgb[i * 3 + c], values[i], 0.5 / 65535.0 + 1e-7) << i;
+  const ChannelImage raw = read_channels(path);
+  EXPECT_EQ(raw.names, std::vector<std::string>{"Y"});
+
+  const std::string untagged = (dir / "untagged.png").string();
+  test::write_png8(untagged, 1, 1, 3, {128, 128, 128});
+  read_image(untagged, StoredEncoding::kAsFile, &decoded);
+  EXPECT_TRUE(decoded) << "an untagged integer PNG is sRGB";
+  EXPECT_FLOAT_EQ(read_channels(untagged).values[0], 128.0f / 255.0f);  // read_channels: stored values
 }
 
 TEST(ImageIo, RadianceHdrIsReadAsLinear) {
@@ -138,14 +144,7 @@ TEST(ImageIo, RadianceHdrIsReadAsLinear) {
   const fs::path dir = fresh_dir("hdr");
   const std::string path = (dir / "sky.hdr").string();
   const float px[3] = {3.0f, 2.5f, 1.75f};
-  {
-    auto out = OIIO::ImageOutput::create(path);
-    ASSERT_TRUE(out);
-    OIIO::ImageSpec spec(1, 1, 3, OIIO::TypeDesc::FLOAT);
-    ASSERT_TRUE(out->open(path, spec));
-    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
-    out->close();
-  }
+  test::write_hdr(path, 1, 1, {px[0], px[1], px[2]});
   const Image back = read_image(path);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.pixel(0, 0)[c], px[c], px[c] / 128.0) << c;
 }

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <string>
 
-#include <OpenImageIO/imageio.h>
+#include "tests/support/image_files.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -45,10 +45,7 @@ std::string write_ramp_png(const fs::path& dir, int channels = 1) {
   std::vector<unsigned char> px;
   for (int i = 0; i < 4; ++i)
     for (int c = 0; c < channels; ++c) px.push_back(c == 0 ? v[i] : static_cast<unsigned char>(255 - v[i]));
-  auto out = OIIO::ImageOutput::create(path);
-  OIIO::ImageSpec spec(4, 1, channels, OIIO::TypeDesc::UINT8);
-  spec.attribute("oiio:UnassociatedAlpha", 1);  // store the values as given
-  EXPECT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close());
+  test::write_png8(path, 4, 1, channels, px);  // the values as given (no premultiplication)
   return path;
 }
 

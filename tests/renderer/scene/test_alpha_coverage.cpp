@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
+#include "tests/support/image_files.h"
 #include <gtest/gtest.h>
 
 #include "materials/sampling.h"
@@ -28,13 +28,9 @@ using test::stats_of;
 using testing::GltfBuilder;
 using testing::TempDir;
 
-// An 8-bit RGBA PNG (OpenImageIO; Lamina's own write_png writes RGB only).
+// An 8-bit RGBA PNG (stb_image_write; Lamina's own write_png writes RGB only).
 void write_rgba_png(const std::string& path, int w, int h, const std::vector<unsigned char>& rgba) {
-  auto out = OIIO::ImageOutput::create(path);
-  ASSERT_TRUE(out);
-  ASSERT_TRUE(out->open(path, OIIO::ImageSpec(w, h, 4, OIIO::TypeDesc::UINT8)));
-  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, rgba.data()));
-  out->close();
+  lamina::test::write_png8(path, w, h, 4, rgba);
 }
 
 // A texture of alpha values (colour white), row-major from the top row.

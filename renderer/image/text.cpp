@@ -1,0 +1,102 @@
+// Text through FreeType (see text.h).
+#include "renderer/image/text.h"
+
+#include <ft2build.h>
+#include FT_FREETYPE_H
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+
+namespace lamina {
+namespace {
+
+// One FreeType library and one face per font file, for the process; FreeType objects are not
+// thread-safe, so every use holds the mutex (text is drawn once per picture, never per sample).
+struct Fonts {
+  std::mutex mutex;
+  FT_Library library = nullptr;
+  bool library_failed = false;
+  std::map<std::string, FT_Face> faces;  // nullptr: the file could not be loaded
+
+  FT_Face face(const std::string& path, int pixel_size) {
+    if (!library && !library_failed) library_failed = FT_Init_FreeType(&library) != 0;
+    if (library_failed) return nullptr;
+    auto it = faces.find(path);
+    if (it == faces.end()) {
+      FT_Face f = nullptr;
+      if (FT_New_Face(library, path.c_str(), 0, &f) != 0) f = nullptr;
+      it = faces.emplace(path, f).first;
+    }
+    if (it->second && FT_Set_Pixel_Sizes(it->second, 0, static_cast<FT_UInt>(pixel_size)) != 0) return nullptr;
+    return it->second;
+  }
+};
+
+Fonts& fonts() {
+  static Fonts f;
+  return f;
+}
+
+// The pen advance of `text` in pixels (26.6 fixed point rounded), with kerning.
+int advance_width(FT_Face face, const std::string& text) {
+  long pen = 0;
+  FT_UInt previous = 0;
+  for (unsigned char c : text) {
+    const FT_UInt glyph = FT_Get_Char_Index(face, c);
+    if (previous && glyph && FT_HAS_KERNING(face)) {
+      FT_Vector kern;
+      if (FT_Get_Kerning(face, previous, glyph, FT_KERNING_DEFAULT, &kern) == 0) pen += kern.x;
+    }
+    if (FT_Load_Glyph(face, glyph, FT_LOAD_DEFAULT) == 0) pen += face->glyph->advance.x;
+    previous = glyph;
+  }
+  return static_cast<int>((pen + 32) >> 6);
+}
+
+}  // namespace
+
+int text_width(const std::string& text, int pixel_size, const std::string& font_path) {
+  Fonts& f = fonts();
+  const std::lock_guard<std::mutex> lock(f.mutex);
+  FT_Face face = f.face(font_path, pixel_size);
+  return face ? advance_width(face, text) : -1;
+}
+
+bool draw_text(float* rgb, int width, int height, int x, int baseline, const std::string& text, int pixel_size,
+               const std::string& font_path, const std::array<float, 3>& colour, TextAlign align) {
+  Fonts& f = fonts();
+  const std::lock_guard<std::mutex> lock(f.mutex);
+  FT_Face face = f.face(font_path, pixel_size);
+  if (!face) return false;
+  long pen = static_cast<long>(align == TextAlign::kCentre ? x - advance_width(face, text) / 2 : x) << 6;
+  FT_UInt previous = 0;
+  for (unsigned char c : text) {
+    const FT_UInt glyph = FT_Get_Char_Index(face, c);
+    if (previous && glyph && FT_HAS_KERNING(face)) {
+      FT_Vector kern;
+      if (FT_Get_Kerning(face, previous, glyph, FT_KERNING_DEFAULT, &kern) == 0) pen += kern.x;
+    }
+    previous = glyph;
+    if (FT_Load_Glyph(face, glyph, FT_LOAD_RENDER) != 0) continue;
+    const FT_GlyphSlot slot = face->glyph;
+    const FT_Bitmap& bitmap = slot->bitmap;
+    const int left = static_cast<int>((pen + 32) >> 6) + slot->bitmap_left;
+    const int top = baseline - slot->bitmap_top;
+    for (unsigned row = 0; row < bitmap.rows; ++row) {
+      const int y = top + static_cast<int>(row);
+      if (y < 0 || y >= height) continue;
+      for (unsigned col = 0; col < bitmap.width; ++col) {
+        const int px = left + static_cast<int>(col);
+        if (px < 0 || px >= width) continue;
+        const float a = bitmap.buffer[row * static_cast<unsigned>(std::abs(bitmap.pitch)) + col] / 255.0f;
+        float* p = rgb + (static_cast<std::size_t>(y) * width + px) * 3;
+        for (int k = 0; k < 3; ++k) p[k] = p[k] * (1.0f - a) + colour[k] * a;
+      }
+    }
+    pen += slot->advance.x;
+  }
+  return true;
+}
+
+}  // namespace lamina
