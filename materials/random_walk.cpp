@@ -561,6 +561,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     Spectrum sigma_t, sigma_s;
     Spectrum log_sigma_t;  // -inf where sigma_t = 0
     bool grey_phase;
+    // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
+    // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
+    // uniform is drawn all the same).
+    Spectrum g;
+    bool one_g[kChannels];
     Spectrum v0;           // guided walks: Dwivedi's v0 per channel (0: not guided)
     double guiding;        // the probability of the guided technique for flights from here
   };
@@ -576,6 +581,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.sigma_s = layer.sigma_s();
     for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
     c.grey_phase = phase_is_grey(layer);
+    for (int ch = 0; ch < kChannels; ++ch) {
+      c.g[ch] = layer.lobes.empty() ? 0.0 : layer.lobes[0].g[ch];
+      c.one_g[ch] = !layer.lobes.empty();
+      for (const PhaseLobe& lobe : layer.lobes) c.one_g[ch] = c.one_g[ch] && lobe.g[ch] == c.g[ch];
+    }
     c.guiding = layer_guiding(layer, settings.guiding);
     c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
   }
@@ -895,8 +905,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     } else if (flight_guided) {
       d_new = sample_uniform_sphere({u1, u2});  // no channel guided here: the isotropic technique
     } else if (sigma_s[hero] > 0.0) {
-      const int lobe = layer.choose_lobe(hero, u0);
-      d_new = sample_henyey_greenstein(d, layer.lobes[lobe].g[hero], u1, u2);
+      const double g = cache[l].one_g[hero] ? cache[l].g[hero] : layer.lobes[layer.choose_lobe(hero, u0)].g[hero];
+      d_new = sample_henyey_greenstein(d, g, u1, u2);
     } else {
       d_new = sample_uniform_sphere({u1, u2});
     }
