@@ -663,7 +663,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     return result;
   };
   auto emit = [&](ScatterEvent::Kind kind, const Spectrum& throughput) {
-    ScatterEvent event;
+    // Volume events count one interaction each (the collision); any more since the previous
+    // volume event were interfaces. A guided flight has another direction density.
+    const bool from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
+                               result.interactions == interactions_at_event + 1 &&
+                               last_event.layer == l && last_event.similar == similar && !last_flight_guided;
+    // Built in place (every field is set): a copy of an event just stored field by field was a
+    // visible share of an event's time.
+    ScatterEvent& event = last_event;
     event.kind = kind;
     event.order = result.scatter_count;
     event.layer = l;
@@ -672,14 +679,9 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     event.throughput = throughput;
     event.hero = hero;
     event.similar = similar;
-    // Volume events count one interaction each (the collision); any more since the previous
-    // volume event were interfaces. A guided flight has another direction density.
-    event.flight_from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
-                                 result.interactions == interactions_at_event + 1 &&
-                                 last_event.layer == l && last_event.similar == similar && !last_flight_guided;
+    event.flight_from_previous = from_previous;
     interactions_at_event = kind == ScatterEvent::Kind::Volume ? result.interactions : -1;
     if (on_event) on_event(event);
-    last_event = event;
     reflected_since_event = false;
   };
 
