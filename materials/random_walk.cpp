@@ -153,7 +153,9 @@ struct PathWeight {
     // three exponentials instead of nine, and none overflows (the largest is 1).
     const double top = std::max(lr[0], std::max(lr[1], lr[2]));
     Spectrum e;
-    for (int k = 0; k < kChannels; ++k) e[k] = std::exp(lr[k] - top);
+    // The largest is exp(0) = 1 exactly: no call for it. (top >= lr of the hero = 0, and no lr is
+    // +inf: the hero's density is positive on the paths it samples.)
+    for (int k = 0; k < kChannels; ++k) e[k] = lr[k] == top ? 1.0 : std::exp(lr[k] - top);
     const double sum = e[0] + e[1] + e[2];
     auto weigh = [&](const Spectrum& weights, Spectrum* w) {
       *w = Spectrum(0.0);
