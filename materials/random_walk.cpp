@@ -153,7 +153,9 @@ struct PathWeight {
     // three exponentials instead of nine, and none overflows (the largest is 1).
     const double top = std::max(lr[0], std::max(lr[1], lr[2]));
     Spectrum e;
-    for (int k = 0; k < kChannels; ++k) e[k] = std::exp(lr[k] - top);
+    // The largest is exp(0) = 1 exactly: no call for it. (top >= lr of the hero = 0, and no lr is
+    // +inf: the hero's density is positive on the paths it samples.)
+    for (int k = 0; k < kChannels; ++k) e[k] = lr[k] == top ? 1.0 : std::exp(lr[k] - top);
     const double sum = e[0] + e[1] + e[2];
     auto weigh = [&](const Spectrum& weights, Spectrum* w) {
       *w = Spectrum(0.0);
@@ -561,6 +563,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     Spectrum sigma_t, sigma_s;
     Spectrum log_sigma_t;  // -inf where sigma_t = 0
     bool grey_phase;
+    // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
+    // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
+    // uniform is drawn all the same).
+    Spectrum g;
+    bool one_g[kChannels];
     Spectrum v0;           // guided walks: Dwivedi's v0 per channel (0: not guided)
     double guiding;        // the probability of the guided technique for flights from here
   };
@@ -576,6 +583,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.sigma_s = layer.sigma_s();
     for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
     c.grey_phase = phase_is_grey(layer);
+    for (int ch = 0; ch < kChannels; ++ch) {
+      c.g[ch] = layer.lobes.empty() ? 0.0 : layer.lobes[0].g[ch];
+      c.one_g[ch] = !layer.lobes.empty();
+      for (const PhaseLobe& lobe : layer.lobes) c.one_g[ch] = c.one_g[ch] && lobe.g[ch] == c.g[ch];
+    }
     c.guiding = layer_guiding(layer, settings.guiding);
     c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
   }
@@ -653,7 +665,14 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     return result;
   };
   auto emit = [&](ScatterEvent::Kind kind, const Spectrum& throughput) {
-    ScatterEvent event;
+    // Volume events count one interaction each (the collision); any more since the previous
+    // volume event were interfaces. A guided flight has another direction density.
+    const bool from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
+                               result.interactions == interactions_at_event + 1 &&
+                               last_event.layer == l && last_event.similar == similar && !last_flight_guided;
+    // Built in place (every field is set): a copy of an event just stored field by field was a
+    // visible share of an event's time.
+    ScatterEvent& event = last_event;
     event.kind = kind;
     event.order = result.scatter_count;
     event.layer = l;
@@ -662,14 +681,9 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     event.throughput = throughput;
     event.hero = hero;
     event.similar = similar;
-    // Volume events count one interaction each (the collision); any more since the previous
-    // volume event were interfaces. A guided flight has another direction density.
-    event.flight_from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
-                                 result.interactions == interactions_at_event + 1 &&
-                                 last_event.layer == l && last_event.similar == similar && !last_flight_guided;
+    event.flight_from_previous = from_previous;
     interactions_at_event = kind == ScatterEvent::Kind::Volume ? result.interactions : -1;
     if (on_event) on_event(event);
-    last_event = event;
     reflected_since_event = false;
   };
 
@@ -895,8 +909,8 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     } else if (flight_guided) {
       d_new = sample_uniform_sphere({u1, u2});  // no channel guided here: the isotropic technique
     } else if (sigma_s[hero] > 0.0) {
-      const int lobe = layer.choose_lobe(hero, u0);
-      d_new = sample_henyey_greenstein(d, layer.lobes[lobe].g[hero], u1, u2);
+      const double g = cache[l].one_g[hero] ? cache[l].g[hero] : layer.lobes[layer.choose_lobe(hero, u0)].g[hero];
+      d_new = sample_henyey_greenstein(d, g, u1, u2);
     } else {
       d_new = sample_uniform_sphere({u1, u2});
     }

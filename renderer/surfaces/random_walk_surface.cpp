@@ -137,12 +137,13 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     return bound <= roulette_depth ? 1.0 : std::exp(roulette_depth - bound);
   };
 
+  // The walk's previous event while an event is connected, its last one afterwards. Updated at the
+  // end of the callback, not copied to a `previous` first: two copies of an event whose fields the
+  // walk had just stored were a visible share of the callback's time.
   ScatterEvent last{};
   std::uint64_t events = 0;
   const EventCallback on_event = [&](const ScatterEvent& e) {
     ++events;
-    const ScatterEvent previous = last;
-    last = e;
     double p_a_event = -1.0;  // next-flight technique A's p_A, computed once per event
     // Technique B never starts from the event after which the walk switches to the similar
     // stack: its next flight is not the exact stack's.
@@ -169,7 +170,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       // every light).
       double p_a = -1.0;
       if (split && e.flight_from_previous) {
-        if (!(p_a_event >= 0.0)) p_a_event = next_flight_direction_pdf(previous, e, exit.layers[e.layer].single_g);
+        if (!(p_a_event >= 0.0)) p_a_event = next_flight_direction_pdf(last, e, exit.layers[e.layer].single_g);
         p_a = p_a_event;
       }
       lights[k].f_cos += contribution(e, exit, lights[k], scale[k] / p, p_a);
@@ -183,6 +184,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
         if (!c.is_black()) per_event->add(c);
       }
     }
+    last = e;
   };
   const WalkResult walk = random_walk(stack_, wo, rng, on_event, settings, hero_);
   if (events_) *events_ += events;
