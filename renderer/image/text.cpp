@@ -38,9 +38,10 @@ Fonts& fonts() {
   return f;
 }
 
-// The pen advance of `text` in pixels (26.6 fixed point rounded), with kerning.
-int advance_width(FT_Face face, const std::string& text) {
-  long pen = 0;
+// Sets `text` from pen position `pen` (26.6 fixed point) with kerning: calls each(slot, pen)
+// for every glyph loaded with `flags`, at the pen where it starts. Returns the pen after it.
+template <typename Each>
+long set_glyphs(FT_Face face, const std::string& text, FT_Int32 flags, long pen, Each each) {
   FT_UInt previous = 0;
   for (unsigned char c : text) {
     const FT_UInt glyph = FT_Get_Char_Index(face, c);
@@ -48,10 +49,17 @@ int advance_width(FT_Face face, const std::string& text) {
       FT_Vector kern;
       if (FT_Get_Kerning(face, previous, glyph, FT_KERNING_DEFAULT, &kern) == 0) pen += kern.x;
     }
-    if (FT_Load_Glyph(face, glyph, FT_LOAD_DEFAULT) == 0) pen += face->glyph->advance.x;
     previous = glyph;
+    if (FT_Load_Glyph(face, glyph, flags) != 0) continue;
+    each(face->glyph, pen);
+    pen += face->glyph->advance.x;
   }
-  return static_cast<int>((pen + 32) >> 6);
+  return pen;
+}
+
+// The pen advance of `text` in whole pixels.
+int advance_width(FT_Face face, const std::string& text) {
+  return static_cast<int>((set_glyphs(face, text, FT_LOAD_DEFAULT, 0, [](FT_GlyphSlot, long) {}) + 32) >> 6);
 }
 
 }  // namespace
@@ -69,17 +77,8 @@ bool draw_text(float* rgb, int width, int height, int x, int baseline, const std
   const std::lock_guard<std::mutex> lock(f.mutex);
   FT_Face face = f.face(font_path, pixel_size);
   if (!face) return false;
-  long pen = static_cast<long>(align == TextAlign::kCentre ? x - advance_width(face, text) / 2 : x) << 6;
-  FT_UInt previous = 0;
-  for (unsigned char c : text) {
-    const FT_UInt glyph = FT_Get_Char_Index(face, c);
-    if (previous && glyph && FT_HAS_KERNING(face)) {
-      FT_Vector kern;
-      if (FT_Get_Kerning(face, previous, glyph, FT_KERNING_DEFAULT, &kern) == 0) pen += kern.x;
-    }
-    previous = glyph;
-    if (FT_Load_Glyph(face, glyph, FT_LOAD_RENDER) != 0) continue;
-    const FT_GlyphSlot slot = face->glyph;
+  const long start = static_cast<long>(align == TextAlign::kCentre ? x - advance_width(face, text) / 2 : x) << 6;
+  set_glyphs(face, text, FT_LOAD_RENDER, start, [&](FT_GlyphSlot slot, long pen) {
     const FT_Bitmap& bitmap = slot->bitmap;
     const int left = static_cast<int>((pen + 32) >> 6) + slot->bitmap_left;
     const int top = baseline - slot->bitmap_top;
@@ -94,8 +93,7 @@ bool draw_text(float* rgb, int width, int height, int x, int baseline, const std
         for (int k = 0; k < 3; ++k) p[k] = p[k] * (1.0f - a) + colour[k] * a;
       }
     }
-    pen += slot->advance.x;
-  }
+  });
   return true;
 }
 
