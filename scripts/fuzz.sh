@@ -28,10 +28,11 @@ done
 [ ${#TARGETS[@]} -gt 0 ] || TARGETS=(fuzz_gltf fuzz_material fuzz_manifest fuzz_image)
 
 scripts/setup.sh
-# Debian bookworm's clang 14 and its libFuzzer (pinned by the release, like every package of
-# scripts/setup.sh); only this script needs them.
+# Debian bookworm's clang 14, its libFuzzer and its sanitizer runtimes (pinned by the release,
+# like every package of scripts/setup.sh; libclang-rt-14-dev is only "recommended" by clang-14,
+# so --no-install-recommends leaves ASan's libraries out); only this script needs them.
 missing=()
-for p in clang-14 libfuzzer-14-dev; do
+for p in clang-14 libfuzzer-14-dev libclang-rt-14-dev; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -gt 0 ]; then

@@ -27,7 +27,22 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <png.h>
+// stb_image compiled here, static to this file: the formats Lamina reads and no others (TGA has no
+// signature and would accept almost any file; PSD and PIC are not images a user brings), and
+// instrumented with the rest of Lamina when scripts/fuzz.sh builds it with sanitizers (a shared
+// libstb would be a blind spot of the fuzzer).
+#define STB_IMAGE_STATIC
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
+#define STBI_ONLY_HDR
+#define STBI_ONLY_BMP
+#define STBI_ONLY_GIF
+#define STBI_ONLY_PNM
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"  // the parts of stb_image Lamina does not call
 #include <stb_image.h>
+#pragma GCC diagnostic pop
 
 #include "renderer/util/atomic_file.h"
 
@@ -306,7 +321,7 @@ RawImage read_exr(const std::string& path) {
   return raw;
 }
 
-// The integer formats (PNG, JPEG, BMP, TGA, GIF, PSD, PNM) and Radiance HDR through stb_image.
+// The integer formats (PNG, JPEG, BMP, GIF, PNM) and Radiance HDR through stb_image.
 RawImage read_stb(const std::string& path, bool png_linear) {
   // stb_image keeps its failure reason in a global: one reader at a time.
   static std::mutex mutex;
@@ -316,7 +331,7 @@ RawImage read_stb(const std::string& path, bool png_linear) {
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw ImageIoError("cannot read '" + path + "': " + std::strerror(errno));
     std::fclose(f);
-    throw ImageIoError("cannot read '" + path + "': not an image Lamina reads (EXR, PNG, JPEG, HDR, BMP, TGA, GIF, PSD, PNM)" +
+    throw ImageIoError("cannot read '" + path + "': not an image Lamina reads (EXR, PNG, JPEG, HDR, BMP, GIF, PNM)" +
                        std::string(stbi_failure_reason() ? std::string(": ") + stbi_failure_reason() : ""));
   }
   check_samples(path, width, height, channels);

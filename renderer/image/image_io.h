@@ -1,6 +1,6 @@
 // Image files: linear float EXR with metadata (OpenEXR), sRGB PNG previews and 16-bit data maps
-// (libpng), and reading EXR, Radiance HDR and the integer formats PNG, JPEG, BMP, TGA, GIF, PSD,
-// PNM (stb_image): environment maps, parameter maps, textures for `lamina fit`, `lamina compare`.
+// (libpng), and reading EXR, Radiance HDR and the integer formats PNG, JPEG, BMP, GIF, PNM
+// (stb_image): environment maps, parameter maps, textures for `lamina fit`, `lamina compare`.
 #pragma once
 
 #include <stdexcept>
@@ -49,7 +49,7 @@ struct ChannelImage {
 ChannelImage read_channels(const std::string& path);
 // Writes an 8-bit sRGB PNG (exposure 1, clamped), atomically as above.
 void write_png(const std::string& path, const Image& image);
-// Reads an image (EXR, HDR, PNG, JPEG, BMP, TGA, GIF, PSD, PNM) as linear RGB (integer files
+// Reads an image (EXR, HDR, PNG, JPEG, BMP, GIF, PNM) as linear RGB (integer files
 // are decoded from sRGB unless a PNG is tagged linear: gAMA 1.0 and no sRGB chunk). Alpha and extra channels are dropped; grey is expanded to RGB.
 // `colour_channels` (if given) receives 1 for a grey file, 3 for a colour one.
 Image read_image(const std::string& path, int* colour_channels = nullptr);
