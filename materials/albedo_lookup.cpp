@@ -7,10 +7,10 @@
 #include <limits>
 
 #include <nlopt.h>
-
-#include "materials/albedo.h"
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include "materials/albedo.h"
 
 namespace lamina {
 
