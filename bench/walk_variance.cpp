@@ -11,11 +11,13 @@
 //                    a different, approximate medium: its mean is shown for comparison)
 //   next-flight MIS: the connections of materials/next_flight_connection.h (the renderer's default
 //                    for delta lights)
+//   + roulette 0.5 : and the renderer's walk roulette (RandomWalkOptions: below half the entering
+//                    weight, survival 1/2)
 //   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
 //   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
 //   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
 // and the share of the mean and of the second moment by event order.
-//   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first two rows only)
+//   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first three rows only)
 // Not run by the test suite.
 #include <cmath>
 #include <cstdio>
@@ -133,7 +135,11 @@ int main(int argc, char** argv) {
   const glm::dvec3 wo{std::sin(a), 0.0, std::cos(a)}, wl{-std::sin(b), 0.0, std::cos(b)};
   print("as given", run(stack, wo, wl, walks, kRandomHero));
   print("next-flight MIS", run(stack, wo, wl, walks, kRandomHero, {}, true));
-  if (argc > 5) return 0;  // quick: the two above only
+  WalkSettings render_roulette;  // RandomWalkOptions::walk_roulette_threshold and _survival
+  render_roulette.roulette_threshold = 0.5;
+  render_roulette.roulette_survival = 0.5;
+  print("+ roulette 0.5", run(stack, wo, wl, walks, kRandomHero, render_roulette, true));
+  if (argc > 5) return 0;  // quick: the three above only
   for (int k = 0; k < 3; ++k) {
     char label[32];
     std::snprintf(label, sizeof label, "hero fixed %d", k);

@@ -54,6 +54,8 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
   WalkSettings settings;
   settings.guiding = options_.guiding;
+  settings.roulette_threshold = options_.walk_roulette_threshold;
+  settings.roulette_survival = options_.walk_roulette_survival;
   thread_local LayerStack similar;
   if (options_.similarity_after >= 0) {
     similarity_transform_into(stack_, &similar);
