@@ -103,6 +103,7 @@ struct WalkResult {
 struct WalkSettings {
   // Roulette once the largest channel of the weight is below this fraction of the weight the
   // walk entered with (1 - R(wi)), at scattering events, with survival `roulette_survival`.
+  // (The renderer uses 0.5 and 0.5: RandomWalkOptions, docs/layered_rendering.md.)
   double roulette_threshold = 0.01;
   double roulette_survival = 0.1;
   // Guaranteed termination, unbiased, for walks that would not end by themselves (albedo 1 in a
