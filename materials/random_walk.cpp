@@ -562,6 +562,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   struct LayerCache {
     Spectrum sigma_t, sigma_s;
     Spectrum log_sigma_t;  // -inf where sigma_t = 0
+    Spectrum albedo, absorbed_share;  // sigma_s / sigma_t and sigma_a / sigma_t (0 where sigma_t = 0)
     bool grey_phase;
     // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
     // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
@@ -581,7 +582,12 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     LayerCache& c = caches[k];
     c.sigma_t = layer.sigma_t();
     c.sigma_s = layer.sigma_s();
-    for (int ch = 0; ch < kChannels; ++ch) c.log_sigma_t[ch] = c.sigma_t[ch] > 0.0 ? std::log(c.sigma_t[ch]) : -kInf;
+    for (int ch = 0; ch < kChannels; ++ch) {
+      const bool extinct = c.sigma_t[ch] > 0.0;
+      c.log_sigma_t[ch] = extinct ? std::log(c.sigma_t[ch]) : -kInf;
+      c.albedo[ch] = extinct ? c.sigma_s[ch] / c.sigma_t[ch] : 0.0;
+      c.absorbed_share[ch] = extinct ? layer.sigma_a[ch] / c.sigma_t[ch] : 0.0;
+    }
     c.grey_phase = phase_is_grey(layer);
     for (int ch = 0; ch < kChannels; ++ch) {
       c.g[ch] = layer.lobes.empty() ? 0.0 : layer.lobes[0].g[ch];
@@ -724,7 +730,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       pw.lr[k] += lr;
       absorbed.lr[k] += lr;
     }
-    if (collision) result.absorbed += absorbed.value();
+    if (collision && settings.tally_absorbed) result.absorbed += absorbed.value();
     flight_q = 0.0;
     flight_guided = false;
   };
@@ -821,7 +827,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
           weight = pw.value();
           emit(ScatterEvent::Kind::Substrate, weight);
           // Lambert reflection sampled by cosine: f cos / pdf = (a/pi) cos / (cos/pi) = a.
-          result.absorbed += weight * (Spectrum(1.0) - stack.below.albedo);
+          if (settings.tally_absorbed) result.absorbed += weight * (Spectrum(1.0) - stack.below.albedo);
           pw.a *= stack.below.albedo;
           weight = pw.value();
           if (weight.is_black()) {
@@ -876,14 +882,16 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     }
     // What the collision absorbs (direct tally) and scatters: the albedo splits the weight (one
     // set of spectral MIS factors for both).
-    Spectrum absorbed_a;
-    for (int c = 0; c < kChannels; ++c) {
-      absorbed_a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (layer.sigma_a[c] / sigma_t[c]) : 0.0;
-      pw.a[c] = sigma_t[c] > 0.0 ? pw.a[c] * (sigma_s[c] / sigma_t[c]) : 0.0;
+    if (settings.tally_absorbed) {
+      Spectrum absorbed_a, absorbed;
+      for (int c = 0; c < kChannels; ++c) absorbed_a[c] = pw.a[c] * cache[l].absorbed_share[c];
+      pw.a *= cache[l].albedo;
+      pw.values(pw.a, &weight, &absorbed_a, &absorbed);
+      result.absorbed += absorbed;
+    } else {
+      pw.a *= cache[l].albedo;
+      pw.values(pw.a, &weight, nullptr, nullptr);
     }
-    Spectrum absorbed;
-    pw.values(pw.a, &weight, &absorbed_a, &absorbed);
-    result.absorbed += absorbed;
     }
     ++result.scatter_count;
     ++result.interactions;

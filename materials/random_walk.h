@@ -81,7 +81,7 @@ struct WalkResult {
   bool straight_from_last_event = false;
   double exit_pdf = 0.0;
   // Direct estimate of the absorbed power (what collisions and the substrate removed), for
-  // energy-balance checks; its expectation equals 1 - R - T.
+  // energy-balance checks; its expectation equals 1 - R - T. 0 unless WalkSettings::tally_absorbed.
   Spectrum absorbed;
   // The walk's weight when it passed WalkSettings::forced_exponential_after interactions (0 if
   // it never did). From there a constant survival decides its fate: unbiased, but the few
@@ -136,6 +136,9 @@ struct WalkSettings {
   // already is), so the walk stays unbiased. Exits and connection pdfs account for it
   // (connection_pdf, prepare_exit with the same guiding).
   double guiding = 0.0;
+  // Tally WalkResult::absorbed (energy-balance checks, `lamina brdf`'s direct absorbed estimate).
+  // The renderer does not read it and skips its share of every collision's weighting.
+  bool tally_absorbed = true;
   // Fill WalkResult::exit_pdf. It costs a prepared exit (the refracted direction in every layer)
   // per walk, and neither the renderer (which needs the mean over heroes, exit_pdf_for_mis) nor
   // `lamina brdf` reads it: on the MCML slab it was a tenth of a walk's time.

@@ -56,6 +56,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   settings.guiding = options_.guiding;
   settings.roulette_threshold = options_.walk_roulette_threshold;
   settings.roulette_survival = options_.walk_roulette_survival;
+  settings.tally_absorbed = false;
   thread_local LayerStack similar;
   if (options_.similarity_after >= 0) {
     similarity_transform_into(stack_, &similar);
@@ -133,11 +134,25 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   // than exp(-D) in every channel (exit_optical_depth_bound; D = connection_roulette_depth, 6)
   // is connected with probability p = exp(D - bound) and weight 1/p. Unbiased; it saves the
   // phase function and the exponentials of connections that contribute next to nothing.
-  const double roulette_depth = options_.connection_roulette_depth;
-  auto connect_probability = [&](const ScatterEvent& e, const ExitDirection& exit) {
-    const double bound = exit_optical_depth_bound(e.similar ? similar : stack_, e, exit);
-    return bound <= roulette_depth ? 1.0 : std::exp(roulette_depth - bound);
+  //
+  // survives_roulette(excess, &p): the roulette of a connection whose optical depth bound exceeds
+  // the roulette's depth by `excess`, survival p = exp(-excess) (1 when excess <= 0). A deep
+  // event is usually refused, and exp(-x) <= 1 / (1 + x + x^2 / 2) refuses most of those without
+  // the exponential: the decisions and the random numbers are the same as testing u < p. (From
+  // x = 1/2 on, where the two sides differ by far more than rounding.)
+  auto survives_roulette = [&](double excess, double* p) {
+    *p = 1.0;
+    if (!(excess > 0.0)) return true;
+    if (excess < 0.5) {
+      *p = std::exp(-excess);
+      return *p >= 1.0 || rng.uniform() < *p;
+    }
+    const double u = rng.uniform();
+    if (u * (1.0 + excess * (1.0 + 0.5 * excess)) >= 1.0) return false;
+    *p = std::exp(-excess);
+    return u < *p;
   };
+  const double roulette_depth = options_.connection_roulette_depth;
 
   // The walk's previous event while an event is connected, its last one afterwards. Updated at the
   // end of the callback, not copied to a `previous` first: two copies of an event whose fields the
@@ -157,16 +172,14 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       // Technique B from this event: the next flight's connection along a direction drawn
       // around the light's inside direction, with its own roulette on depth.
       if (split && e.kind == ScatterEvent::Kind::Volume && !switches_after) {
-        const double bound = next_flight_depth_bound(stack_of(e), e, exit);
-        const double depth = options_.next_flight_roulette_depth;
-        const double p = bound <= depth ? 1.0 : std::exp(depth - bound);
-        if (p >= 1.0 || rng.uniform() < p) {
+        double p;
+        if (survives_roulette(next_flight_depth_bound(stack_of(e), e, exit) - options_.next_flight_roulette_depth, &p)) {
           const double u1 = rng.uniform(), u2 = rng.uniform();
           lights[k].f_cos += e.throughput * next_flight_connection(stack_of(e), e, exit, u1, u2) * (scale[k] / p);
         }
       }
-      const double p = connect_probability(e, exit);
-      if (p < 1.0 && !(rng.uniform() < p)) continue;
+      double p;
+      if (!survives_roulette(exit_optical_depth_bound(stack_of(e), e, exit) - roulette_depth, &p)) continue;
       // Technique A: this event's own connection, weighted against B when its flight came
       // straight from the previous event (p_A, the density of its direction, is the same for
       // every light).

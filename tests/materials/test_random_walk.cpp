@@ -332,6 +332,34 @@ TEST(RandomWalk, CallerChosenHero) {
   }
 }
 
+// WalkSettings::tally_absorbed = false (the renderer) changes nothing but the absorbed tally:
+// the same events, exits and weights, bit for bit, and no absorbed power. Without the flag the
+// tally is there (the coloured stack absorbs in every layer and at the substrate).
+TEST(RandomWalk, AbsorbedTallyIsOptional) {
+  const LayerStack s = coloured_stack();
+  const glm::dvec3 wi = incident_direction(30.0, 0.0);
+  WalkSettings without;
+  without.tally_absorbed = false;
+  Spectrum tallied;
+  for (int i = 0; i < 300; ++i) {
+    std::vector<Spectrum> events, events_without;
+    Rng rng(9, i), rng_without(9, i);
+    const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { events.push_back(e.throughput); });
+    const WalkResult q = random_walk(s, wi, rng_without, [&](const ScatterEvent& e) { events_without.push_back(e.throughput); },
+                                     without);
+    ASSERT_EQ(r.end, q.end) << "walk " << i;
+    ASSERT_EQ(events.size(), events_without.size()) << "walk " << i;
+    for (std::size_t e = 0; e < events.size(); ++e)
+      for (int c = 0; c < kChannels; ++c) ASSERT_EQ(events[e][c], events_without[e][c]) << "walk " << i;
+    for (int c = 0; c < kChannels; ++c) {
+      ASSERT_EQ(r.weight[c], q.weight[c]) << "walk " << i;
+      ASSERT_EQ(q.absorbed[c], 0.0) << "walk " << i;
+    }
+    tallied += r.absorbed;
+  }
+  for (int c = 0; c < kChannels; ++c) EXPECT_GT(tallied[c], 0.0);
+}
+
 // ---- guided walks (WalkSettings::guiding) ----
 
 // With guiding the exit weight is no longer the last event's throughput (the mixture's weight
