@@ -31,6 +31,7 @@ double fresnel_dielectric(double cos_theta_i, double n_i, double n_t) {
 }
 
 bool refract_through_plane(glm::dvec3* d, double n_i, double n_t) {
+  if (n_i == n_t) return true;  // index-matched: no interface, the direction is kept exactly
   const double cos_t = refracted_cos(d->z, n_i, n_t);
   if (cos_t < 0.0) return false;
   const double eta = n_i / n_t;

@@ -22,7 +22,8 @@ double refracted_cos(double cos_theta_i, double n_i, double n_t);
 
 // The propagation direction d (unit) crossing a plane z = const from index n_i into n_t: the
 // tangential part scales by n_i/n_t and the z part keeps its sign (Snell's law in vector form).
-// Returns false under total internal reflection (d unchanged).
+// Returns false under total internal reflection (d unchanged). Index-matched (n_i == n_t): d
+// unchanged, true.
 bool refract_through_plane(glm::dvec3* d, double n_i, double n_t);
 
 // Mirror reflection of the propagation direction d at a plane z = const.
