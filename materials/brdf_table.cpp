@@ -112,8 +112,11 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   // single2].
   const std::size_t totals_at = 0, ends_at = kTotalSlots * kChannels * 2, bins_at = ends_at + kEndKinds + 1;
   const std::size_t size = bins_at + nb * kChannels * 4;
+  // A grey stack's walks carry equal channels: tally channel 0 only and copy it at the end.
+  const bool grey = stack.grey();
+  const int tallied = grey ? 1 : kChannels;
 
-  const std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
+  std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(options.seed, i);
     const WalkResult walk = random_walk(stack, wi, rng, {}, options.walk);
     Spectrum x[kTotalSlots];
@@ -142,11 +145,15 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
     x[kAbs] = Spectrum(1.0) - x[kRs] - x[kRd] - x[kTb] - x[kTd];
     x[kAbsDirect] = walk.absorbed;
     x[kUnresolved] = walk.cut_weight;
-    for (int s = 0; s < kTotalSlots; ++s)
-      for (int c = 0; c < kChannels; ++c) {
+    for (int s = 0; s < kTotalSlots; ++s) {
+      // The ballistic transmission, and the specular reflection of a smooth top, are reported
+      // from their closed forms below, not from these sums.
+      if (s == kTb || (s == kRs && !rough)) continue;
+      for (int c = 0; c < tallied; ++c) {
         a[totals_at + (s * kChannels + c) * 2] += x[s][c];
         a[totals_at + (s * kChannels + c) * 2 + 1] += x[s][c] * x[s][c];
       }
+    }
     a[ends_at + static_cast<int>(walk.end)] += 1.0;
     if (!walk.cut_weight.is_black()) a[ends_at + kEndKinds] += 1.0;
     if (!delta && walk.side != WalkResult::Side::None) {
@@ -154,7 +161,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       if (b >= 0) {
         const int k = (b / options.bins_phi) % options.bins_theta;
         const double scale = 1.0 / table.projected_solid_angle(k);
-        for (int c = 0; c < kChannels; ++c) {
+        for (int c = 0; c < tallied; ++c) {
           const double v = walk.weight[c] * scale;
           double* slot = &a[bins_at + (b * kChannels + c) * 4];
           slot[0] += v;
@@ -167,6 +174,14 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       }
     }
   }, options.on_progress);
+  if (grey) {
+    for (int s = 0; s < kTotalSlots; ++s)
+      for (int c = 1; c < kChannels; ++c)
+        for (int m = 0; m < 2; ++m) acc[totals_at + (s * kChannels + c) * 2 + m] = acc[totals_at + s * kChannels * 2 + m];
+    for (std::size_t b = 0; b < nb; ++b)
+      for (int c = 1; c < kChannels; ++c)
+        for (int m = 0; m < 4; ++m) acc[bins_at + (b * kChannels + c) * 4 + m] = acc[bins_at + b * kChannels * 4 + m];
+  }
 
   const std::uint64_t n = options.samples;
   Estimate* totals[kTotalSlots] = {&table.totals.R_specular, &table.totals.R_diffuse,

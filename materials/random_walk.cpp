@@ -584,7 +584,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.sigma_s = layer.sigma_s();
     for (int ch = 0; ch < kChannels; ++ch) {
       const bool extinct = c.sigma_t[ch] > 0.0;
-      c.log_sigma_t[ch] = extinct ? std::log(c.sigma_t[ch]) : -kInf;
+      // A grey layer (every channel's sigma_t the same, as in most measured slabs) takes one
+      // logarithm, not three: short walks pay this set-up per photon.
+      c.log_sigma_t[ch] = !extinct ? -kInf
+                          : ch > 0 && c.sigma_t[ch] == c.sigma_t[ch - 1] ? c.log_sigma_t[ch - 1]
+                                                                         : std::log(c.sigma_t[ch]);
       c.albedo[ch] = extinct ? c.sigma_s[ch] / c.sigma_t[ch] : 0.0;
       c.absorbed_share[ch] = extinct ? layer.sigma_a[ch] / c.sigma_t[ch] : 0.0;
     }

@@ -69,6 +69,16 @@ bool LayerStack::transmits() const {
   return true;
 }
 
+bool LayerStack::grey() const {
+  auto same = [](const Spectrum& x) { return x[0] == x[1] && x[1] == x[2]; };
+  for (const Layer& layer : layers) {
+    if (!same(layer.sigma_a)) return false;
+    for (const PhaseLobe& lobe : layer.lobes)
+      if (!same(lobe.sigma_s) || !same(lobe.g)) return false;
+  }
+  return below.kind != Below::Kind::Lambert || same(below.albedo);
+}
+
 double LayerStack::ior_above_interface(int k) const {
   return k == 0 ? above_ior : layers[k - 1].ior;
 }

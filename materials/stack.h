@@ -72,6 +72,10 @@ struct LayerStack {
   // True if light can leave through the bottom (a transmitting medium below, and no
   // semi-infinite layer).
   bool transmits() const;
+  // Every coefficient (absorption, each lobe's scattering and g, the substrate's albedo) is the
+  // same in all channels: the random walk's three channels are then equal bit for bit
+  // (test RandomWalk.GreyStackKeepsChannelsIdentical), and a tally need only keep one.
+  bool grey() const;
   // The top interface is rough: roughness > 0 and an index step there (an index-matched top is
   // no interface at all, rough or not).
   bool rough_top() const { return top_roughness > 0.0 && !layers.empty() && above_ior != layers[0].ior; }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 namespace lamina {
@@ -51,6 +52,20 @@ TEST(Fresnel, RefractionKeepsUnitLengthAndSnell) {
 }  // namespace lamina
 
 namespace lamina {
+
+// An index-matched plane is no interface: the direction passes bit for bit, not renormalised
+// (a walk's direction a rounding step off unit length stays as it is, as in a homogeneous layer).
+TEST(Fresnel, IndexMatchedRefractionKeepsTheDirection) {
+  const glm::dvec3 unit = glm::normalize(glm::dvec3(0.3, -0.5, -0.8));
+  for (double scale : {1.0, 1.0 + 1e-13, 1.0 - 3e-14}) {
+    glm::dvec3 d = unit * scale;
+    const glm::dvec3 before = d;
+    ASSERT_TRUE(refract_through_plane(&d, 1.4, 1.4));
+    EXPECT_EQ(d.x, before.x);
+    EXPECT_EQ(d.y, before.y);
+    EXPECT_EQ(d.z, before.z);
+  }
+}
 
 TEST(Fresnel, RefractedCosKeepsPrecisionAtGrazing) {
   // cos_t^2 = (1 - eta^2) + eta^2 cos_i^2 exactly; compare against that in long double for

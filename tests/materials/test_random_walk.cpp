@@ -105,6 +105,27 @@ TEST(RandomWalk, GreyStackKeepsChannelsIdentical) {
   }
 }
 
+// LayerStack::grey: what lets lamina brdf tally one channel of the walks above for three.
+TEST(LayerStackGrey, EveryCoefficientMustAgreeAcrossChannels) {
+  LayerStack s = one_layer(1.33, 0.4, Spectrum(0.3), Spectrum(7.0), Spectrum(0.7), 1.0, 1.2);
+  EXPECT_TRUE(s.grey());
+  s.below.kind = Below::Kind::Lambert;
+  s.below.albedo = Spectrum(0.5);
+  EXPECT_TRUE(s.grey());
+  s.below.albedo = Spectrum(0.5, 0.5, 0.4);
+  EXPECT_FALSE(s.grey());
+  s.below.albedo = Spectrum(0.5);
+  s.layers[0].lobes[0].g = Spectrum(0.7, 0.7, 0.6);
+  EXPECT_FALSE(s.grey());
+  s.layers[0].lobes[0].g = Spectrum(0.7);
+  s.layers[0].lobes.push_back({Spectrum(1.0, 2.0, 1.0), Spectrum(0.0)});
+  EXPECT_FALSE(s.grey());
+  s.layers[0].lobes.back().sigma_s = Spectrum(1.0);
+  s.layers[0].sigma_a = Spectrum(0.3, 0.3, 0.31);
+  EXPECT_FALSE(s.grey());
+  EXPECT_FALSE(coloured_stack().grey());
+}
+
 // Without roulette, each collision splits the weight w into w*albedo (scattered) and
 // w*(1-albedo) (absorbed), each substrate hit likewise, so for a grey stack every photon's exits
 // plus its direct absorption equal 1 - R_fresnel to rounding.
