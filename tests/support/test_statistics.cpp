@@ -2,6 +2,7 @@
 #include "tests/support/statistics.h"
 
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -57,8 +58,11 @@ TEST(Statistics, ChiSquareMergesSmallBins) {
   EXPECT_EQ(t.chi2, 0.0);
 }
 
+// 2,000,000 samples: at 200,000 the distorted sampler's p-value was 1e-5..1e-8 depending on the
+// random stream (another generator gave 1.5e-5), a verdict on the stream rather than the test.
+// Ten times the samples put it far below 1e-6 for any stream.
 TEST(Statistics, UniformSamplesPassAndBiasedSamplesFail) {
-  const int bins = 50, n = 200000;
+  const int bins = 50, n = 2000000;
   std::vector<double> fair(bins, 0.0), biased(bins, 0.0), expected(bins, double(n) / bins);
   Rng rng(7, 0);
   for (int i = 0; i < n; ++i) {
@@ -67,7 +71,9 @@ TEST(Statistics, UniformSamplesPassAndBiasedSamplesFail) {
     biased[static_cast<int>(std::pow(u, 1.02) * bins)] += 1;  // a 2% distortion
   }
   EXPECT_GT(chi_square_test(fair, expected).p_value, 1e-3);
-  EXPECT_LT(chi_square_test(biased, expected).p_value, 1e-6);
+  const double p_biased = chi_square_test(biased, expected).p_value;
+  std::printf("distorted sampler: p = %.3g\n", p_biased);
+  EXPECT_LT(p_biased, 1e-6);
 }
 
 TEST(Statistics, RunningStatsMatchesClosedForm) {
