@@ -11,8 +11,8 @@
 //                    a different, approximate medium: its mean is shown for comparison)
 //   next-flight MIS: the connections of materials/next_flight_connection.h (the renderer's default
 //                    for delta lights)
-//   + roulette 0.5 : and the renderer's walk roulette (RandomWalkOptions: below half the entering
-//                    weight, survival 1/2)
+//   + render roulette: and the renderer's walk roulette (RandomWalkOptions' defaults: below half
+//                    the entering weight, survival 1/2)
 //   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
 //   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
 //   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
@@ -27,6 +27,7 @@
 #include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
 #include "materials/stack_file.h"
+#include "renderer/surfaces/random_walk_surface.h"
 
 using namespace lamina;
 
@@ -135,10 +136,10 @@ int main(int argc, char** argv) {
   const glm::dvec3 wo{std::sin(a), 0.0, std::cos(a)}, wl{-std::sin(b), 0.0, std::cos(b)};
   print("as given", run(stack, wo, wl, walks, kRandomHero));
   print("next-flight MIS", run(stack, wo, wl, walks, kRandomHero, {}, true));
-  WalkSettings render_roulette;  // RandomWalkOptions::walk_roulette_threshold and _survival
-  render_roulette.roulette_threshold = 0.5;
-  render_roulette.roulette_survival = 0.5;
-  print("+ roulette 0.5", run(stack, wo, wl, walks, kRandomHero, render_roulette, true));
+  WalkSettings render_roulette;  // the renderer's walk roulette
+  render_roulette.roulette_threshold = RandomWalkOptions{}.walk_roulette_threshold;
+  render_roulette.roulette_survival = RandomWalkOptions{}.walk_roulette_survival;
+  print("+ render roulette", run(stack, wo, wl, walks, kRandomHero, render_roulette, true));
   if (argc > 5) return 0;  // quick: the three above only
   for (int k = 0; k < 3; ++k) {
     char label[32];

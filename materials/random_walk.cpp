@@ -51,8 +51,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // For a grey stack every lr_k is exactly 0 and W = a: the scalar walk, bit for bit.
 // ---------------------------------------------------------------------------------------------
 
-bool all_equal(const Spectrum& s) { return s[0] == s[1] && s[1] == s[2]; }
-
 // Phase function identical in all channels, so that the phase sampling ratios are 1 and need
 // not be computed. The lobes' shares of the scattering must agree across channels; to 1e-12
 // relative, not exactly: a composite layer's shares are products and sums of its components'
@@ -65,7 +63,7 @@ bool phase_is_grey(const Layer& layer) {
   for (int c = 0; c < kChannels; ++c)
     if (!(total[c] > 0.0)) return false;
   for (const PhaseLobe& lobe : layer.lobes) {
-    if (!all_equal(lobe.g)) return false;
+    if (!lobe.g.is_grey()) return false;
     for (int c = 1; c < kChannels; ++c) {
       const double a = lobe.sigma_s[c] * total[0], b = lobe.sigma_s[0] * total[c];
       if (std::abs(a - b) > 1e-12 * std::max(std::abs(a), std::abs(b))) return false;

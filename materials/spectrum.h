@@ -42,6 +42,8 @@ struct Spectrum {
   double min() const { return std::min({c[0], c[1], c[2]}); }
   double average() const { return (c[0] + c[1] + c[2]) / kChannels; }
   bool is_black() const { return c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0; }
+  // The same value in every channel, exactly.
+  bool is_grey() const { return c[0] == c[1] && c[1] == c[2]; }
   bool is_finite() const { return std::isfinite(c[0]) && std::isfinite(c[1]) && std::isfinite(c[2]); }
 };
 

@@ -70,13 +70,12 @@ bool LayerStack::transmits() const {
 }
 
 bool LayerStack::grey() const {
-  auto same = [](const Spectrum& x) { return x[0] == x[1] && x[1] == x[2]; };
   for (const Layer& layer : layers) {
-    if (!same(layer.sigma_a)) return false;
+    if (!layer.sigma_a.is_grey()) return false;
     for (const PhaseLobe& lobe : layer.lobes)
-      if (!same(lobe.sigma_s) || !same(lobe.g)) return false;
+      if (!lobe.sigma_s.is_grey() || !lobe.g.is_grey()) return false;
   }
-  return below.kind != Below::Kind::Lambert || same(below.albedo);
+  return below.kind != Below::Kind::Lambert || below.albedo.is_grey();
 }
 
 double LayerStack::ior_above_interface(int k) const {
