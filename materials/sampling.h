@@ -67,28 +67,30 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInvPi = 1.0 / kPi;
 constexpr double kInv4Pi = 1.0 / (4.0 * kPi);
 
-// 1 - y/(m (m+1)) (1 - y/((m+2)(m+3)) (1 - ... (1 - y/(last (last+1))))), by Horner from the
-// innermost factor: with y = x^2, m = 2 it is sin(x)/x up to the term x^(last+1), with m = 1
-// cos(x) up to x^(last+1) (their Taylor series, each term -x^2/(m (m+1)) times the one before).
-// The bounds are constants at every call, so the loop unrolls into the polynomial.
-inline double alternating_taylor(double y, int m, int last) {
-  double r = 1.0;
-  for (int j = last; j >= m; j -= 2) r = 1.0 - y * (1.0 / (j * (j + 1.0))) * r;
-  return r;
-}
-
 // (cos 2 pi u, sin 2 pi u) for u in [0, 1]: the azimuth of a uniformly sampled direction.
 // Every scattering event of a walk draws one, and the library's sincos, which reduces any
 // argument, was 7-8 % of a render's time. Here the reduction is exact: u = k/4 + r with
-// |r| <= 1/8 (u - k/4 is representable: Sterbenz), x = 2 pi r in [-pi/4, pi/4], then Taylor
+// |r| <= 1/8 (u - k/4 is representable: Sterbenz), x = 2 pi r in [-pi/4, pi/4], then the Taylor
 // polynomials to x^15 and x^16, whose first omitted terms are below 5e-17 there (|x|^17/17!,
 // |x|^18/18!), and the quarter turns k map (cos x, sin x) to the quadrant.
+// Evaluation order: the walk's next flight waits for this direction, so the polynomials'
+// latency, not their operation count, is what an event pays. A Horner chain of eight
+// multiply-subtract steps was 13 % of a render's time (profile of head_skin_smooth); here the
+// small high-order terms go by Estrin's scheme in y = x^2 (independent pairs combined by powers
+// of y) and only the two leading steps, where the rounding to 1 happens, are Horner's: the
+// rounding of every earlier step is scaled down by y / 6 or y / 2.
 inline glm::dvec2 unit_circle(double u) {
   const double k = static_cast<double>(static_cast<long long>(4.0 * u + 0.5));  // nearest, u >= 0
   const double x = 2.0 * kPi * (u - 0.25 * k);
-  const double x2 = x * x;
-  const double s = x * alternating_taylor(x2, 2, 14);
-  const double c = alternating_taylor(x2, 1, 15);
+  const double y = x * x, y2 = y * y, y4 = y2 * y2;
+  // sin x / x = 1 - y (1/3! - y Q(y)), Q = 1/5! - y/7! + y^2/9! - y^3/11! + y^4/13! - y^5/15!
+  const double q = (1.0 / 120.0 - y * (1.0 / 5040.0)) + y2 * (1.0 / 362880.0 - y * (1.0 / 39916800.0)) +
+                   y4 * (1.0 / 6227020800.0 - y * (1.0 / 1307674368000.0));
+  // cos x = 1 - y (1/2! - y P(y)), P = 1/4! - y/6! + y^2/8! - y^3/10! + y^4/12! - y^5/14! + y^6/16!
+  const double p = (1.0 / 24.0 - y * (1.0 / 720.0)) + y2 * (1.0 / 40320.0 - y * (1.0 / 3628800.0)) +
+                   y4 * ((1.0 / 479001600.0 - y * (1.0 / 87178291200.0)) + y2 * (1.0 / 20922789888000.0));
+  const double s = x * (1.0 - y * (1.0 / 6.0 - y * q));
+  const double c = 1.0 - y * (0.5 - y * p);
   switch (static_cast<int>(k) & 3) {
     case 0: return {c, s};
     case 1: return {-s, c};
