@@ -599,6 +599,11 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     c.guiding = layer_guiding(layer, settings.guiding);
     c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
   }
+  // A grey stack (every channel's coefficients equal, LayerStack::grey) samples the same densities
+  // in every channel: the channels' optical depths are equal, every lr_k stays exactly 0 and the
+  // weight is the scalar walk's. Such a walk skips the per-channel optical depths and density
+  // ratios (the same numbers, bit for bit: `lamina brdf`'s measured slabs are grey).
+  const bool spectral = !stack.grey() || (may_switch && !settings.similar->grey()) || settings.guiding > 0.0;
   const LayerCache* cache = caches.data();  // switches to the similar half
   const std::vector<Layer>* layers = &stack.layers;
   bool similar = false;
@@ -756,7 +761,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
       const double rate = flight_guided ? sigma_g[hero] : sigma_t[hero];
       const double s = rate > 0.0 ? tau_left / rate : kInf;
       if (s < to_boundary) {
-        add_optical_depth(&tau, sigma_t, s);
+        if (spectral) add_optical_depth(&tau, sigma_t, s);
         if (flight_q > 0.0) add_optical_depth(&tau_g, sigma_g, s);
         z = std::clamp(z - s * d.z, 0.0, layer.thickness);
         collided = true;
@@ -766,7 +771,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
         if (d.z < 0.0 && layer.semi_infinite()) {
           // Lost into the depth of a semi-infinite layer that is clear in the hero channel:
           // power transmitted downwards for good.
-          add_optical_depth(&tau, sigma_t, kInf);
+          if (spectral) add_optical_depth(&tau, sigma_t, kInf);
           if (flight_q > 0.0) {
             add_optical_depth(&tau_g, sigma_g, kInf);
             guided_flight_end(tau, tau_g, false);
@@ -778,7 +783,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
         result.end = WalkResult::End::Lost;  // parallel to the layers: never returns
         return result;
       }
-      add_optical_depth(&tau, sigma_t, to_boundary);
+      if (spectral) add_optical_depth(&tau, sigma_t, to_boundary);
       if (flight_q > 0.0) add_optical_depth(&tau_g, sigma_g, to_boundary);
       tau_left = std::max(0.0, tau_left - rate * to_boundary);
       ++result.interactions;
@@ -878,7 +883,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     } else {
     // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
     const Spectrum& log_sigma_t = cache[l].log_sigma_t;
-    for (int k = 0; k < kChannels; ++k) {
+    for (int k = 0; k < kChannels && spectral; ++k) {
       if (k == hero) continue;
       pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
     }
