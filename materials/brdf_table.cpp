@@ -116,9 +116,12 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const bool grey = stack.grey();
   const int tallied = grey ? 1 : kChannels;
 
+  WalkPlan plan;  // once for all photons: a thin slab's walk is only a few events long
+  prepare_walk(stack, options.walk, &plan);
+
   std::vector<double> acc = run_photons(options.samples, size, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(options.seed, i);
-    const WalkResult walk = random_walk(stack, wi, rng, {}, options.walk);
+    const WalkResult walk = random_walk(plan, wi, rng);
     Spectrum x[kTotalSlots];
     x[kRs] = zeroth.R_specular;
     x[kTb] = zeroth.T_ballistic;

@@ -520,15 +520,67 @@ double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const 
   return connect_direct(stack, event, prepare_exit(stack, w, guiding)).pdf_hero;
 }
 
+void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPlan* plan) {
+  plan->stack = &stack;
+  plan->settings = settings;
+  const int n_layers = static_cast<int>(stack.layers.size());
+  plan->may_switch = settings.similarity_after >= 0 && settings.similar != nullptr &&
+                     settings.similar->layers.size() == stack.layers.size();
+  plan->rough = stack.rough_top();
+  plan->top = plan->rough ? top_interface(stack) : RoughDielectric{};
+  // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
+  plan->layers.resize(plan->may_switch ? 2 * n_layers : n_layers);
+  for (int k = 0; k < static_cast<int>(plan->layers.size()); ++k) {
+    const Layer& layer = k < n_layers ? stack.layers[k] : settings.similar->layers[k - n_layers];
+    WalkPlan::LayerCache& c = plan->layers[k];
+    c.sigma_t = layer.sigma_t();
+    c.sigma_s = layer.sigma_s();
+    for (int ch = 0; ch < kChannels; ++ch) {
+      const bool extinct = c.sigma_t[ch] > 0.0;
+      // A grey layer (every channel's sigma_t the same, as in most measured slabs) takes one
+      // logarithm, not three.
+      c.log_sigma_t[ch] = !extinct ? -kInf
+                          : ch > 0 && c.sigma_t[ch] == c.sigma_t[ch - 1] ? c.log_sigma_t[ch - 1]
+                                                                         : std::log(c.sigma_t[ch]);
+      c.albedo[ch] = extinct ? c.sigma_s[ch] / c.sigma_t[ch] : 0.0;
+      c.absorbed_share[ch] = extinct ? layer.sigma_a[ch] / c.sigma_t[ch] : 0.0;
+    }
+    c.grey_phase = phase_is_grey(layer);
+    for (int ch = 0; ch < kChannels; ++ch) {
+      c.g[ch] = layer.lobes.empty() ? 0.0 : layer.lobes[0].g[ch];
+      c.one_g[ch] = !layer.lobes.empty();
+      for (const PhaseLobe& lobe : layer.lobes) c.one_g[ch] = c.one_g[ch] && lobe.g[ch] == c.g[ch];
+    }
+    c.guiding = layer_guiding(layer, settings.guiding);
+    c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
+  }
+  // A grey stack (every channel's coefficients equal, LayerStack::grey) samples the same densities
+  // in every channel: the channels' optical depths are equal, every lr_k stays exactly 0 and the
+  // weight is the scalar walk's. Such a walk skips the per-channel optical depths and density
+  // ratios (the same numbers, bit for bit: `lamina brdf`'s measured slabs are grey).
+  plan->spectral = !stack.grey() || (plan->may_switch && !settings.similar->grey()) || settings.guiding > 0.0;
+}
+
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event, const WalkSettings& settings, int chosen_hero) {
+  thread_local WalkPlan plan;
+  prepare_walk(stack, settings, &plan);
+  return random_walk(plan, wi, rng, on_event, chosen_hero);
+}
+
+WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event,
+                       int chosen_hero) {
+  const LayerStack& stack = *plan.stack;
+  const WalkSettings& settings = plan.settings;
   WalkResult result;
   const int n_layers = static_cast<int>(stack.layers.size());
+  const bool rough = plan.rough;
+  const RoughDielectric& top = plan.top;
+  const bool may_switch = plan.may_switch;
+  const bool spectral = plan.spectral;
 
   // Entry: the light arrives along -wi; the walk carries the refracted part (1 - R).
   const double n_top = stack.layers[0].ior;
-  const bool rough = stack.rough_top();
-  const RoughDielectric top = rough ? top_interface(stack) : RoughDielectric{};
   PathWeight pw;
   glm::dvec3 d = -wi;
   if (rough) {
@@ -556,55 +608,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
     }
   }
   const double entry_weight = pw.scale;
-  // Per-layer coefficients, summed over the lobes once per walk instead of at every step.
-  struct LayerCache {
-    Spectrum sigma_t, sigma_s;
-    Spectrum log_sigma_t;  // -inf where sigma_t = 0
-    Spectrum albedo, absorbed_share;  // sigma_s / sigma_t and sigma_a / sigma_t (0 where sigma_t = 0)
-    bool grey_phase;
-    // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
-    // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
-    // uniform is drawn all the same).
-    Spectrum g;
-    bool one_g[kChannels];
-    Spectrum v0;           // guided walks: Dwivedi's v0 per channel (0: not guided)
-    double guiding;        // the probability of the guided technique for flights from here
-  };
-  // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
-  const bool may_switch = settings.similarity_after >= 0 && settings.similar != nullptr &&
-                          settings.similar->layers.size() == stack.layers.size();
-  thread_local std::vector<LayerCache> caches;
-  caches.resize(may_switch ? 2 * n_layers : n_layers);
-  for (int k = 0; k < static_cast<int>(caches.size()); ++k) {
-    const Layer& layer = k < n_layers ? stack.layers[k] : settings.similar->layers[k - n_layers];
-    LayerCache& c = caches[k];
-    c.sigma_t = layer.sigma_t();
-    c.sigma_s = layer.sigma_s();
-    for (int ch = 0; ch < kChannels; ++ch) {
-      const bool extinct = c.sigma_t[ch] > 0.0;
-      // A grey layer (every channel's sigma_t the same, as in most measured slabs) takes one
-      // logarithm, not three: short walks pay this set-up per photon.
-      c.log_sigma_t[ch] = !extinct ? -kInf
-                          : ch > 0 && c.sigma_t[ch] == c.sigma_t[ch - 1] ? c.log_sigma_t[ch - 1]
-                                                                         : std::log(c.sigma_t[ch]);
-      c.albedo[ch] = extinct ? c.sigma_s[ch] / c.sigma_t[ch] : 0.0;
-      c.absorbed_share[ch] = extinct ? layer.sigma_a[ch] / c.sigma_t[ch] : 0.0;
-    }
-    c.grey_phase = phase_is_grey(layer);
-    for (int ch = 0; ch < kChannels; ++ch) {
-      c.g[ch] = layer.lobes.empty() ? 0.0 : layer.lobes[0].g[ch];
-      c.one_g[ch] = !layer.lobes.empty();
-      for (const PhaseLobe& lobe : layer.lobes) c.one_g[ch] = c.one_g[ch] && lobe.g[ch] == c.g[ch];
-    }
-    c.guiding = layer_guiding(layer, settings.guiding);
-    c.v0 = c.guiding > 0.0 ? layer_dwivedi_v0(layer) : Spectrum(0.0);
-  }
-  // A grey stack (every channel's coefficients equal, LayerStack::grey) samples the same densities
-  // in every channel: the channels' optical depths are equal, every lr_k stays exactly 0 and the
-  // weight is the scalar walk's. Such a walk skips the per-channel optical depths and density
-  // ratios (the same numbers, bit for bit: `lamina brdf`'s measured slabs are grey).
-  const bool spectral = !stack.grey() || (may_switch && !settings.similar->grey()) || settings.guiding > 0.0;
-  const LayerCache* cache = caches.data();  // switches to the similar half
+  const WalkPlan::LayerCache* cache = plan.layers.data();  // switches to the similar half
   const std::vector<Layer>* layers = &stack.layers;
   bool similar = false;
 
@@ -654,7 +658,7 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
   auto switch_if_due = [&] {
     if (may_switch && !similar && result.scatter_count >= settings.similarity_after) {
       similar = true;
-      cache = caches.data() + n_layers;
+      cache = plan.layers.data() + n_layers;
       layers = &settings.similar->layers;
     }
   };

@@ -163,6 +163,39 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event = {}, const WalkSettings& settings = {},
                        int hero = kRandomHero);
 
+// What a walk needs from its stack and settings that is the same for every walk: each layer's
+// coefficients summed over its lobes, their logarithms and ratios, the phase function's shape,
+// the guiding, whether the stack is grey (then the walk keeps no per-channel densities). Prepared
+// once (prepare_walk), a plan serves any number of walks on any thread: it is read only, and it
+// points to the stack (and to settings.similar), which must outlive it. The overload of
+// random_walk that takes a stack prepares a plan at every call, which a short walk pays per
+// photon (`lamina brdf` on a thin slab: about five events a walk) and a long one does not notice.
+struct WalkPlan {
+  struct LayerCache {
+    Spectrum sigma_t, sigma_s;
+    Spectrum log_sigma_t;             // -inf where sigma_t = 0
+    Spectrum albedo, absorbed_share;  // sigma_s / sigma_t and sigma_a / sigma_t (0 where sigma_t = 0)
+    bool grey_phase = false;
+    // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
+    // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
+    // uniform is drawn all the same).
+    Spectrum g;
+    bool one_g[kChannels] = {false, false, false};
+    Spectrum v0;          // guided walks: Dwivedi's v0 per channel (0: not guided)
+    double guiding = 0.0; // the probability of the guided technique for flights from here
+  };
+  const LayerStack* stack = nullptr;
+  WalkSettings settings;
+  std::vector<LayerCache> layers;  // [0, n): the stack's layers; [n, 2n): the similar stack's, if may_switch
+  bool may_switch = false;         // settings.similarity_after applies (a similar stack of as many layers)
+  bool spectral = true;            // false: a grey stack (and no guiding), whose channels never differ
+  bool rough = false;              // stack->rough_top(), and then its top interface
+  RoughDielectric top;
+};
+void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPlan* plan);
+WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event = {},
+                       int hero = kRandomHero);
+
 // Everything about the unscattered path from a layer straight out to the outside direction w
 // that does not depend on where in the layer the event is or where it came from: Snell's law
 // fixes the direction in every layer, so per layer the inside direction, the Fresnel
