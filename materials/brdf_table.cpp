@@ -116,6 +116,8 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   const bool grey = stack.grey();
   const int tallied = grey ? 1 : kChannels;
 
+  std::vector<double> bin_scale(options.bins_theta);  // 1 / projected solid angle of a bin in row k
+  for (int k = 0; k < options.bins_theta; ++k) bin_scale[k] = 1.0 / table.projected_solid_angle(k);
   WalkPlan plan;  // once for all photons: a thin slab's walk is only a few events long
   prepare_walk(stack, options.walk, &plan);
 
@@ -163,7 +165,7 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       const int b = bin_of(table, walk.direction, phi_i);
       if (b >= 0) {
         const int k = (b / options.bins_phi) % options.bins_theta;
-        const double scale = 1.0 / table.projected_solid_angle(k);
+        const double scale = bin_scale[k];
         for (int c = 0; c < tallied; ++c) {
           const double v = walk.weight[c] * scale;
           double* slot = &a[bins_at + (b * kChannels + c) * 4];

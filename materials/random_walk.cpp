@@ -681,7 +681,11 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
     }
     return result;
   };
+  // Nobody reads the events of a walk with no callback that computes no exit pdf (`lamina brdf`).
+  const bool keep_events = static_cast<bool>(on_event) || settings.compute_exit_pdf;
   auto emit = [&](ScatterEvent::Kind kind, const Spectrum& throughput) {
+    reflected_since_event = false;
+    if (!keep_events) return;
     // Volume events count one interaction each (the collision); any more since the previous
     // volume event were interfaces. A guided flight has another direction density.
     const bool from_previous = kind == ScatterEvent::Kind::Volume && interactions_at_event >= 0 &&
@@ -701,7 +705,6 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
     event.flight_from_previous = from_previous;
     interactions_at_event = kind == ScatterEvent::Kind::Volume ? result.interactions : -1;
     if (on_event) on_event(event);
-    reflected_since_event = false;
   };
 
   // ---- guided walks (WalkSettings::guiding): the current flight's mixture ----
