@@ -917,7 +917,10 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
 
     // ---- phase sampling in the hero channel: lobe, then HG (isotropic if h does not scatter) ----
     glm::dvec3 d_new;
-    const double u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    // The lobe's uniform only where the lobes differ in g (skin's two lobes share one g: the
+    // choice could not change the direction).
+    const double u0 = cache[l].one_g[hero] ? 0.0 : rng.uniform();
+    const double u1 = rng.uniform(), u2 = rng.uniform();
     // Guided walks: the technique of the next flight (direction and distance), then its
     // densities for every channel, to be combined when the flight ends (guided_flight_end).
     const double q = cache[l].guiding;

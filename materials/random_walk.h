@@ -177,8 +177,8 @@ struct WalkPlan {
     Spectrum albedo, absorbed_share;  // sigma_s / sigma_t and sigma_a / sigma_t (0 where sigma_t = 0)
     bool grey_phase = false;
     // Every lobe has this g in channel c (one_g[c]; skin's composite layers: two lobes, one g):
-    // then the lobe choice cannot change the sampled direction and choose_lobe is skipped (its
-    // uniform is drawn all the same).
+    // then the lobe choice cannot change the sampled direction: no lobe is chosen and no uniform
+    // drawn for it.
     Spectrum g;
     bool one_g[kChannels] = {false, false, false};
     Spectrum v0;          // guided walks: Dwivedi's v0 per channel (0: not guided)

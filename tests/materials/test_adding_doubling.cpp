@@ -173,9 +173,14 @@ TEST(AddingDoubling, ConvergesInQuadratureOrder) {
 }
 
 // The Monte Carlo walk (materials/brdf_table.h) on stacks with what the published cases lack.
-// R_diffuse, T_diffuse and absorbed agree within 3 standard errors of the walk plus the
+// R_diffuse, T_diffuse and absorbed agree within kWalkZ standard errors of the walk plus the
 // solver's own discretisation error estimate; R_specular and T_ballistic are the same analytic
-// zeroth order in both.
+// zeroth order in both. kWalkZ: the tests below make 63 such comparisons (7 stacks and angles,
+// 3 channels, 3 totals), so at 3 standard errors one random stream in six or so would fail one
+// of them by chance (63 x 0.27 %; a new stream did, by 3.02 standard errors, and passed with 12
+// other seeds). 4.3 keeps the chance of a false alarm over all of them below 1e-3 (Bonferroni:
+// two-sided 1.6e-5 each); a bias of the walk of a few per cent still fails it.
+constexpr double kWalkZ = 4.3;
 void expect_matches_walk(const LayerStack& s, double theta_deg, std::uint64_t samples) {
   BrdfOptions o;
   o.theta_i_deg = theta_deg;
@@ -188,7 +193,7 @@ void expect_matches_walk(const LayerStack& s, double theta_deg, std::uint64_t sa
     const EnergyTotals& m = mc.totals;
     const double unresolved = m.unresolved.value[c];
     auto near = [&](double a, double e, const Estimate& x, const char* what) {
-      EXPECT_NEAR(a, x.value[c], 3.0 * x.stderr_[c] + e + unresolved)
+      EXPECT_NEAR(a, x.value[c], kWalkZ * x.stderr_[c] + e + unresolved)
           << s.name << " theta " << theta_deg << " channel " << c << " " << what << " stderr " << x.stderr_[c];
     };
     near(ad.totals.R_diffuse[c], ad.error.R_diffuse[c], m.R_diffuse, "R_diffuse");
