@@ -24,8 +24,13 @@ inline std::uint64_t mix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-// PCG32 (O'Neill, "PCG: A family of simple fast space-efficient statistically good algorithms
-// for random number generation", 2014): 64-bit state, 32-bit output, selectable stream.
+// A PCG generator (O'Neill, "PCG: A family of simple fast space-efficient statistically good
+// algorithms for random number generation", 2014): a 64-bit linear congruential state with a
+// selectable stream (the increment), and the RXS M XS output permutation of the whole 64-bit
+// state (the paper's section 6.3.4; pcg64_once_insecure in its C library): one step per
+// uniform. (The first generator, PCG32, took two 32-bit steps per 53-bit uniform, and the
+// random numbers were a tenth of a walk's instructions.) The output is a bijection of the state,
+// so a stream repeats no value within its period of 2^64 steps, far beyond any walk.
 class Rng {
  public:
   // The stream for (seed, a, b): e.g. (seed, pixel, sample) in the renderer, (seed, photon, 0)
@@ -36,25 +41,19 @@ class Rng {
     const std::uint64_t key = mix64(mix64(mix64(seed) ^ a) ^ (b * 0xd1342543de82ef95ull));
     state_ = 0;
     inc_ = (mix64(key ^ 0x5851f42d4c957f2dull) << 1u) | 1u;
-    next_u32();
+    next_u64();
     state_ += key;
-    next_u32();
+    next_u64();
   }
 
-  std::uint32_t next_u32() {
+  std::uint64_t next_u64() {
     const std::uint64_t old = state_;
     state_ = old * 6364136223846793005ull + inc_;
-    const auto xorshifted = static_cast<std::uint32_t>(((old >> 18u) ^ old) >> 27u);
-    const auto rot = static_cast<std::uint32_t>(old >> 59u);
-    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31u));
+    const std::uint64_t word = ((old >> ((old >> 59u) + 5u)) ^ old) * 12605985483714917081ull;
+    return (word >> 43u) ^ word;
   }
   // Uniform in [0, 1): 53 random bits, so never exactly 1 and fine enough for -log(u) tails.
-  double uniform() {
-    const std::uint64_t hi = next_u32();
-    const std::uint64_t lo = next_u32();
-    const std::uint64_t bits = ((hi << 32) | lo) >> 11;  // 53 bits
-    return static_cast<double>(bits) * 0x1.0p-53;
-  }
+  double uniform() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
   // Uniform in (0, 1]: safe as the argument of log().
   double uniform_open0() { return 1.0 - uniform(); }
 
