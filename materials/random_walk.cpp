@@ -895,16 +895,23 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
       pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
     }
     // What the collision absorbs (direct tally) and scatters: the albedo splits the weight (one
-    // set of spectral MIS factors for both).
+    // set of spectral MIS factors for both; a grey walk's factors are 1, which values() would
+    // find out by testing them).
     if (settings.tally_absorbed) {
       Spectrum absorbed_a, absorbed;
       for (int c = 0; c < kChannels; ++c) absorbed_a[c] = pw.a[c] * cache[l].absorbed_share[c];
       pw.a *= cache[l].albedo;
-      pw.values(pw.a, &weight, &absorbed_a, &absorbed);
+      if (spectral) {
+        pw.values(pw.a, &weight, &absorbed_a, &absorbed);
+      } else {
+        weight = pw.a * pw.scale;
+        absorbed = absorbed_a * pw.scale;
+      }
       result.absorbed += absorbed;
     } else {
       pw.a *= cache[l].albedo;
-      pw.values(pw.a, &weight, nullptr, nullptr);
+      if (spectral) pw.values(pw.a, &weight, nullptr, nullptr);
+      else weight = pw.a * pw.scale;
     }
     }
     ++result.scatter_count;
