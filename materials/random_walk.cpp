@@ -752,7 +752,7 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
   switch_if_due();  // similarity_after 0: the whole walk
   for (;;) {
     // ---- one free flight in the hero's coefficients, possibly across several interfaces ----
-    double tau_left = -std::log(rng.uniform_open0());
+    double tau_left = sample_exponential(rng);
     Spectrum tau;    // optical depth of the flight so far, per channel
     Spectrum tau_g;  // guided flights: the stretched optical depth
     bool collided = false;
