@@ -367,7 +367,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
   // density is the mixture of the two techniques' direction densities times their escape
   // probabilities.
   const double q = event.kind == ScatterEvent::Kind::Volume && !exit.guided.empty() ? exit.guided[event.layer].guiding : 0.0;
-  double pdf_sum = 0.0;
+  double pdf_sum = 0.0, pdf[kChannels];
   for (int c = 0; c < kChannels; ++c) {
     const double tau = path.tau_beyond[c] + (path.depth_rate[c] > 0.0 ? path.depth_rate[c] * distance : 0.0);
     const double transmittance = std::exp(-tau);
@@ -380,10 +380,11 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
       const double tau_g = g.tau_beyond[c] + (g.depth_rate[c] > 0.0 ? g.depth_rate[c] * distance : 0.0);
       technique = (1.0 - q) * technique + q * g.direction_pdf[c] * std::exp(-tau_g);
     }
-    const double pdf = technique * path.jacobian * path.fresnel_t;
-    pdf_sum += pdf;
-    if (c == event.hero) out.pdf_hero = pdf;
+    pdf[c] = technique * path.jacobian * path.fresnel_t;
+    pdf_sum += pdf[c];
   }
+  // Indexed, not tested per channel: the hero is random, and `c == hero` was mispredicted.
+  out.pdf_hero = pdf[event.hero];
   out.pdf_for_mis = pdf_sum / kChannels;
   return out;
 }
