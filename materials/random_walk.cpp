@@ -943,7 +943,9 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
       d_new = sample_uniform_sphere({u1, u2});  // no channel guided here: the isotropic technique
     } else if (sigma_s[hero] > 0.0) {
       const double g = cache[l].one_g[hero] ? cache[l].g[hero] : layer.lobes[layer.choose_lobe(hero, u0)].g[hero];
-      d_new = sample_henyey_greenstein(d, g, u1, u2);
+      // g = 0 is isotropic: a direction on the sphere, with no frame about d to rotate into (the
+      // same density 1 / (4 pi); Giovanelli's half-space, every event).
+      d_new = g == 0.0 ? sample_uniform_sphere({u1, u2}) : sample_henyey_greenstein(d, g, u1, u2);
     } else {
       d_new = sample_uniform_sphere({u1, u2});
     }

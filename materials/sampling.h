@@ -5,6 +5,7 @@
 // scheduling (docs/architecture.md, "Rules of thumb").
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -130,7 +131,12 @@ inline double sample_exponential(Rng& rng) {
 // Cosine-weighted hemisphere about +z (Malley's method); pdf = cos(theta)/pi.
 glm::dvec3 sample_cosine_hemisphere(glm::dvec2 u);
 // Uniform sphere; pdf = 1/(4 pi).
-glm::dvec3 sample_uniform_sphere(glm::dvec2 u);
+inline glm::dvec3 sample_uniform_sphere(glm::dvec2 u) {
+  const double z = 1.0 - 2.0 * u.x;
+  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const glm::dvec2 azimuth = unit_circle(u.y);
+  return {r * azimuth.x, r * azimuth.y, z};
+}
 
 // An orthonormal basis (t, b, n) around the unit vector n, continuous except on a set of
 // measure zero and exact at n = +-z (Duff et al., "Building an Orthonormal Basis, Revisited",
