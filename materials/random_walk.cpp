@@ -154,11 +154,11 @@ struct PathWeight {
     // The largest is exp(0) = 1 exactly: no call for it. (top >= lr of the hero = 0, and no lr is
     // +inf: the hero's density is positive on the paths it samples.)
     for (int k = 0; k < kChannels; ++k) e[k] = lr[k] == top ? 1.0 : std::exp(lr[k] - top);
-    const double sum = e[0] + e[1] + e[2];
+    const double factor = scale * kChannels / (e[0] + e[1] + e[2]);  // one division, not one per channel
     auto weigh = [&](const Spectrum& weights, Spectrum* w) {
       *w = Spectrum(0.0);
       for (int c = 0; c < kChannels; ++c)
-        if (weights[c] != 0.0 && e[c] > 0.0) (*w)[c] = scale * weights[c] * kChannels * e[c] / sum;  // else c cannot produce this path
+        if (weights[c] != 0.0 && e[c] > 0.0) (*w)[c] = weights[c] * e[c] * factor;  // else c cannot produce this path
     };
     weigh(a_first, first);
     if (second) weigh(*a_second, second);
