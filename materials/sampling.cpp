@@ -44,5 +44,4 @@ glm::dvec3 sample_cosine_hemisphere(glm::dvec2 u) {
   return {r * azimuth.x, r * azimuth.y, z};
 }
 
-
 }  // namespace lamina
