@@ -42,6 +42,11 @@ struct BrdfOptions {
 // The direction towards the light for (theta_i, phi_i) in degrees.
 glm::dvec3 incident_direction(double theta_i_deg, double phi_i_deg);
 
+// The azimuth bin (0..bins-1) of an outside direction (x, y, .) relative to phi_i (radians):
+// phi = atan2(y, x) - phi_i reduced to [0, 2 pi), bin floor(phi / (2 pi) bins). Computed with an
+// approximate atan2 wherever that cannot change the bin (every photon of `lamina brdf` is binned).
+int azimuth_bin(double x, double y, double phi_i, int bins);
+
 struct Estimate {
   Spectrum value;
   Spectrum stderr_;  // standard error of value
