@@ -100,22 +100,21 @@ glm::dvec3 incident_direction(double theta_i_deg, double phi_i_deg) {
 }
 
 int azimuth_bin(double x, double y, double phi_i, int bins) {
-  // The definition: phi = atan2(y, x) - phi_i reduced to [0, 2 pi), bin floor(phi / (2 pi) M).
-  auto bin_at = [&](double atan2_yx, double* position) {
-    double phi = atan2_yx - phi_i;
-    phi -= 2.0 * kPi * std::floor(phi / (2.0 * kPi));
-    *position = phi / (2.0 * kPi) * bins;
-    return std::clamp(static_cast<int>(*position), 0, bins - 1);
-  };
   // A photon's azimuth is only rarely within the approximation's error of a bin's edge: there
-  // the library decides, so that every bin is the one the definition gives. (The margin, 1e-6
-  // radians as a fraction of a bin, is 30 times the approximation's error.)
-  double position;
-  const int m = bin_at(approximate_atan2(y, x), &position);
-  const double margin = 1e-6 * bins / (2.0 * kPi);
-  const double to_edge = position - std::floor(position);
-  if (to_edge > margin && to_edge < 1.0 - margin) return m;
-  return bin_at(std::atan2(y, x), &position);
+  // the definition decides, with the library's atan2, so that every bin is the definition's.
+  // Elsewhere the approximation in turns (multiplications where the definition divides) gives
+  // the same bin: the margin, 1e-6 radians, is 30 times its error.
+  constexpr double kInv2Pi = 1.0 / (2.0 * kPi);
+  double turns = (approximate_atan2(y, x) - phi_i) * kInv2Pi;
+  turns -= std::floor(turns);
+  const double position = turns * bins;
+  const int m = static_cast<int>(position);
+  const double to_edge = position - m, margin = 1e-6 * kInv2Pi * bins;
+  if (to_edge > margin && to_edge < 1.0 - margin && m < bins) return m;
+  // The definition: phi = atan2(y, x) - phi_i reduced to [0, 2 pi), bin floor(phi / (2 pi) M).
+  double phi = std::atan2(y, x) - phi_i;
+  phi -= 2.0 * kPi * std::floor(phi / (2.0 * kPi));
+  return std::clamp(static_cast<int>(phi / (2.0 * kPi) * bins), 0, bins - 1);
 }
 
 double BrdfTable::theta_centre_deg(int k) const {
