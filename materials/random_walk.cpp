@@ -760,21 +760,26 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
     while (!collided) {
       const Layer& layer = (*layers)[l];
       const Spectrum& sigma_t = cache[l].sigma_t;
-      const double to_boundary = d.z < 0.0 ? (layer.thickness - z) / -d.z
-                                 : d.z > 0.0 ? z / d.z
-                                             : kInf;
       Spectrum sigma_g;  // the stretched extinction of this segment (guided flights)
       if (flight_q > 0.0)
         for (int k = 0; k < kChannels; ++k) sigma_g[k] = guided_sigma(sigma_t[k], cache[l].v0[k], d.z);
       const double rate = flight_guided ? sigma_g[hero] : sigma_t[hero];
-      const double s = rate > 0.0 ? tau_left / rate : kInf;
-      if (s < to_boundary) {
+      // The flight collides before the boundary ahead iff s = tau_left / rate < room / |d.z|
+      // (room: the depth left to the boundary; a flight parallel to the layers never reaches
+      // one). Compared as tau_left |d.z| < room rate: the branch, which no predictor can guess,
+      // then waits for two multiplications, not two divisions. (Both sides are products of
+      // non-negative numbers; room = inf in a semi-infinite layer gives inf, rate = 0 false.)
+      const double room = d.z < 0.0 ? layer.thickness - z : z;
+      const double mu = std::abs(d.z);
+      if (rate > 0.0 && (tau_left * mu < room * rate || mu == 0.0)) {
+        const double s = tau_left / rate;
         if (spectral) add_optical_depth(&tau, sigma_t, s);
         if (flight_q > 0.0) add_optical_depth(&tau_g, sigma_g, s);
         z = std::clamp(z - s * d.z, 0.0, layer.thickness);
         collided = true;
         break;
       }
+      const double to_boundary = mu > 0.0 ? room / mu : kInf;
       if (to_boundary == kInf) {
         if (d.z < 0.0 && layer.semi_infinite()) {
           // Lost into the depth of a semi-infinite layer that is clear in the hero channel:
