@@ -663,6 +663,8 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
       layers = &settings.similar->layers;
     }
   };
+  // Fills in the exit; the caller then returns `result` itself (named, so that it is built in
+  // the caller's return slot: a lambda returning a copy of it copied the whole result per walk).
   auto finish_exit = [&](WalkResult::Side side, const glm::dvec3& out) {
     result.side = side;
     result.end = side == WalkResult::Side::Top ? WalkResult::End::ExitTop : WalkResult::End::ExitBottom;
@@ -670,7 +672,7 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
-      if (!settings.compute_exit_pdf) return result;
+      if (!settings.compute_exit_pdf) return;
       const LayerStack& last_stack = last_event.similar ? *settings.similar : stack;
       if (rough && side == WalkResult::Side::Top) {
         ExitDirection exit;
@@ -680,7 +682,6 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
         result.exit_pdf = connection_pdf(last_stack, last_event, out, settings.guiding);
       }
     }
-    return result;
   };
   // Nobody reads the events of a walk with no callback that computes no exit pdf (`lamina brdf`).
   const bool keep_events = static_cast<bool>(on_event) || settings.compute_exit_pdf;
@@ -791,7 +792,8 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
           } else {
             flight_escaped(&pw, tau, hero);
           }
-          return finish_exit(WalkResult::Side::Bottom, d);
+          finish_exit(WalkResult::Side::Bottom, d);
+          return result;
         }
         result.end = WalkResult::End::Lost;  // parallel to the layers: never returns
         return result;
@@ -824,7 +826,8 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
           if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
           else flight_escaped(&pw, tau, hero);
           result.top_inside = d;
-          return finish_exit(WalkResult::Side::Top, sample.wi);
+          finish_exit(WalkResult::Side::Top, sample.wi);
+          return result;
         }
         d = sample.wi;
         reflected_since_event = true;
@@ -834,7 +837,8 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.above_ior)) {
           if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
           else flight_escaped(&pw, tau, hero);
-          return finish_exit(WalkResult::Side::Top, out);
+          finish_exit(WalkResult::Side::Top, out);
+          return result;
         }
         d = reflect_at_plane(d);
         reflected_since_event = true;
@@ -864,7 +868,8 @@ WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, con
         if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.below.ior)) {
           if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
           else flight_escaped(&pw, tau, hero);
-          return finish_exit(WalkResult::Side::Bottom, out);
+          finish_exit(WalkResult::Side::Bottom, out);
+          return result;
         }
         d = reflect_at_plane(d);
         reflected_since_event = true;
