@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "materials/brdf_table.h"
+#include "materials/brdf_table.h"
 #include "materials/sampling.h"
 
 namespace lamina {
@@ -35,14 +37,11 @@ Spectrum TableSurface::value(int node, int bin) const {
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  // As materials/brdf_table: |cos| bins, azimuth from the incidence's (here the viewer's).
+  // As materials/brdf_table: |cos| bins, azimuth_bin from the incidence's azimuth (here the viewer's).
   const int K = table_.settings.bins_theta, M = table_.settings.bins_phi;
   const int side = wi.z > 0.0 ? 0 : 1;
   const int k = std::clamp(static_cast<int>(std::abs(wi.z) * K), 0, K - 1);
-  double phi = std::atan2(wi.y, wi.x) - std::atan2(wo.y, wo.x);
-  phi -= 2.0 * kPi * std::floor(phi / (2.0 * kPi));
-  const int m = std::clamp(static_cast<int>(phi / (2.0 * kPi) * M), 0, M - 1);
-  return (side * K + k) * M + m;
+  return (side * K + k) * M + azimuth_bin(wi.x, wi.y, std::atan2(wo.y, wo.x), M);
 }
 
 Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
