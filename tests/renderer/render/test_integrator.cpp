@@ -239,6 +239,16 @@ TEST(Integrator, DeterministicAcrossThreadCounts) {
   EXPECT_EQ(s1.rays.closest, s2.rays.closest);
   EXPECT_EQ(s1.rays.shadow, s2.rays.shadow);
   EXPECT_EQ(s1.rays.camera, 40u * 36u * 4u);
+  // An image that 1 worker renders in 16x16 tiles and 3 workers in 8x8 ones (the tile side
+  // depends on the workers, integrator.cpp), neither dividing its size: the same image, and every
+  // pixel rendered exactly once.
+  RenderStats s3, s4;
+  const Image c = render(d, EnvironmentMap(), cam, 203, 151, 1, 64, 1, &s3);
+  const Image e = render(d, EnvironmentMap(), cam, 203, 151, 1, 64, 3, &s4);
+  ASSERT_EQ(c.rgb.size(), e.rgb.size());
+  EXPECT_EQ(0, std::memcmp(c.rgb.data(), e.rgb.data(), c.rgb.size() * sizeof(float)));
+  EXPECT_EQ(s3.rays.camera, 203u * 151u);
+  EXPECT_EQ(s4.rays.camera, 203u * 151u);
 }
 
 // ---- adaptive sampling and the time limit (render_image) ----
