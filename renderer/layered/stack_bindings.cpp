@@ -82,7 +82,7 @@ double freckle_profile_integral(double r) {
   return 2.0 * kPi * r * r * ((1.0 - kExpCut) - 0.5 * kCutSquared * kExpCut) / (1.0 - kExpCut);
 }
 
-void Freckles::prepare() {
+void Freckles::prepare(double max_tabulated) {
   if (!(radius > 0.0 && radius <= 1.0 / 6.0)) throw std::invalid_argument("radius must lie in (0, 1/6] (UV units)");
   if (!(density >= 0.0) || !std::isfinite(density)) throw std::invalid_argument("density must be >= 0");
   if (!std::isfinite(amplitude)) throw std::invalid_argument("amplitude must be finite");
@@ -93,13 +93,37 @@ void Freckles::prepare() {
   if (mean > kMaxSpotsPerCell)
     throw std::invalid_argument("density " + std::to_string(density) + " is too high for radius " +
                                 std::to_string(radius) + " (more than 64 spots per cell of side 3r)");
+  cell_start_.clear();
+  spots_.clear();
+  const double cell_count = static_cast<double>(cells) * cells;
+  if (cell_count > max_tabulated || density > max_tabulated) return;
+  cell_start_.reserve(static_cast<std::size_t>(cell_count) + 1);
+  for (int wy = 0; wy < cells; ++wy)
+    for (int wx = 0; wx < cells; ++wx) {
+      cell_start_.push_back(static_cast<std::uint32_t>(spots_.size()));
+      draw_cell(wx, wy, [&](const Spot& spot) { spots_.push_back(spot); });
+    }
+  cell_start_.push_back(static_cast<std::uint32_t>(spots_.size()));
+}
+
+template <class Visit>
+void Freckles::draw_cell(int wx, int wy, const Visit& visit) const {
+  const double mean = density / (static_cast<double>(cells) * cells);
+  Rng rng(seed, static_cast<std::uint64_t>(wy) * static_cast<std::uint64_t>(cells) + wx, 0xF4EC1E5ULL);
+  const int count = sample_poisson(mean, rng);
+  for (int k = 0; k < count; ++k) {
+    Spot spot;
+    spot.x = rng.uniform();
+    spot.y = rng.uniform();
+    spot.amplitude = amplitude * (0.5 + 0.5 * rng.uniform());
+    visit(spot);
+  }
 }
 
 double Freckles::value(glm::dvec2 uv) const {
   if (!std::isfinite(uv.x) || !std::isfinite(uv.y) || density <= 0.0) return 0.0;
   const int n = cells;
   const double side = 1.0 / n;
-  const double mean = density * side * side;
   const double u = uv.x - std::floor(uv.x), v = uv.y - std::floor(uv.y);
   const int cx = std::min(static_cast<int>(u * n), n - 1), cy = std::min(static_cast<int>(v * n), n - 1);
   const double inv_2r2 = 1.0 / (2.0 * radius * radius);
@@ -111,13 +135,16 @@ double Freckles::value(glm::dvec2 uv) const {
       // distances are measured across the seam.
       const int ix = cx + dx, iy = cy + dy;
       const int wx = (ix % n + n) % n, wy = (iy % n + n) % n;
-      Rng rng(seed, static_cast<std::uint64_t>(wy) * static_cast<std::uint64_t>(n) + wx, 0xF4EC1E5ULL);
-      const int count = sample_poisson(mean, rng);
-      for (int k = 0; k < count; ++k) {
-        const double px = (ix + rng.uniform()) * side, py = (iy + rng.uniform()) * side;
-        const double a = amplitude * (0.5 + 0.5 * rng.uniform());
+      auto add = [&](const Spot& spot) {
+        const double px = (ix + spot.x) * side, py = (iy + spot.y) * side;
         const double d2 = (u - px) * (u - px) + (v - py) * (v - py);
-        if (d2 < cut2) sum += a * (std::exp(-d2 * inv_2r2) - kExpCut) / (1.0 - kExpCut);
+        if (d2 < cut2) sum += spot.amplitude * (std::exp(-d2 * inv_2r2) - kExpCut) / (1.0 - kExpCut);
+      };
+      if (cell_start_.empty()) {
+        draw_cell(wx, wy, add);
+      } else {
+        const std::size_t c = static_cast<std::size_t>(wy) * static_cast<std::size_t>(n) + wx;
+        for (std::uint32_t k = cell_start_[c]; k < cell_start_[c + 1]; ++k) add(spots_[k]);
       }
     }
   return sum;
@@ -296,8 +323,9 @@ void StackBindings::values(glm::dvec2 uv, Spectrum* out) const {
     }
   }
   if (has_freckles_) {
-    double f = freckles_.value(uv);
-    if (has_mask_) f *= mask_.sample(uv, 0);
+    // The mask first: where it is 0 (most of a face) the spots are not summed at all.
+    const double mask = has_mask_ ? mask_.sample(uv, 0) : 1.0;
+    const double f = mask != 0.0 ? freckles_.value(uv) * mask : 0.0;
     out[freckle_parameter_] += Spectrum(f);
   }
 }

@@ -76,8 +76,27 @@ struct Freckles {
   // The freckle field at uv: sum_k a_k w(|uv - c_k|) (periodic in u and v).
   double value(glm::dvec2 uv) const;
   // Sets `cells` from radius; throws std::invalid_argument if radius is not in (0, 1/6] or the
-  // mean spot count per cell would exceed 64 (density far too high for the radius).
-  void prepare();
+  // mean spot count per cell would exceed 64 (density far too high for the radius). Then draws
+  // every cell's spots once into a table if there are at most `max_tabulated` cells and spots
+  // expected (a face's freckles: 83 x 83 cells, 2,500 spots; 24 bytes a spot); beyond that
+  // value() draws the spots of the nine cells around each point again (the same spots, bit for
+  // bit: a per-hit cost instead of memory).
+  static constexpr double kMaxTabulated = 1 << 20;
+  void prepare(double max_tabulated = kMaxTabulated);
+  bool tabulated() const { return !cell_start_.empty(); }
+
+  // One spot: its offset in its cell (in cells, [0, 1)) and its strength a_k.
+  struct Spot {
+    double x, y, amplitude;
+  };
+
+ private:
+  // Calls visit(spot) for each spot of cell (wx, wy) (indices in [0, cells)), drawn from the
+  // cell's own random stream.
+  template <class Visit>
+  void draw_cell(int wx, int wy, const Visit& visit) const;
+  std::vector<std::uint32_t> cell_start_;  // the table: cell c's spots are
+  std::vector<Spot> spots_;                //   spots_[cell_start_[c], cell_start_[c + 1])
 };
 
 // The integral of the spot profile over the plane, int w dA = 2 pi r^2 (1 - e^-4.5 (1 + 4.5))

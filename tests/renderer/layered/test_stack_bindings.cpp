@@ -96,6 +96,38 @@ TEST(Freckles, MeanFollowsTheIntensityAndTheProfileIntegral) {
   EXPECT_NEAR(estimate, expected, 4.0 * sigma) << "expected " << expected << ", sigma " << sigma;
 }
 
+// prepare() draws every cell's spots once into a table; without one (prepare(0), what radii too
+// small to tabulate get) value() draws the nine cells' spots per call. Both must give the same
+// field bit for bit, at the seams too.
+TEST(Freckles, TabulatedSpotsAreTheDrawnOnes) {
+  struct Config {
+    double density, radius;
+  };
+  for (const Config c : {Config{2500.0, 0.004}, Config{50.0, 0.05}, Config{3.0, 1.0 / 6.0}, Config{20000.0, 0.003}}) {
+    Freckles table, drawn;
+    for (Freckles* f : {&table, &drawn}) {
+      f->density = c.density;
+      f->radius = c.radius;
+      f->amplitude = 0.4;
+      f->seed = 11;
+    }
+    table.prepare();
+    drawn.prepare(0.0);
+    ASSERT_TRUE(table.tabulated());
+    ASSERT_FALSE(drawn.tabulated());
+    int nonzero = 0;
+    for (int i = 0; i < 20000; ++i) {
+      // Quasi-random points, and every tenth one on a seam of the unit square.
+      glm::dvec2 uv((i * 0.618034) - std::floor(i * 0.618034), (i * 0.414214) - std::floor(i * 0.414214));
+      if (i % 10 == 0) uv.x = (i % 20 == 0) ? 0.0 : 1.0 - 1e-12;
+      const double v = table.value(uv);
+      ASSERT_EQ(v, drawn.value(uv)) << "density " << c.density << " radius " << c.radius << " at " << uv.x << ", " << uv.y;
+      nonzero += v != 0.0;
+    }
+    EXPECT_GT(nonzero, 100) << "density " << c.density;  // the comparison saw spots
+  }
+}
+
 TEST(Freckles, ProfileIntegralMatchesQuadrature) {
   // Independent check of the closed form: midpoint rule in d on [0, 3r].
   const double r = 0.02, c = std::exp(-4.5);
