@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-scripts/build.sh
+LAMINA_BUILD_TARGET=lamina scripts/build.sh  # the renderer only; scripts/test.sh builds the tests
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
 LAMINA="$BUILD_DIR"/renderer/lamina
 SPP=${LAMINA_DEMO_SPP:-128}
