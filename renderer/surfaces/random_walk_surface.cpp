@@ -1,5 +1,7 @@
 #include "renderer/surfaces/random_walk_surface.h"
 
+#include "materials/random_walk_loop.h"
+
 #include <cmath>
 #include <vector>
 
@@ -159,7 +161,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   // walk had just stored were a visible share of the callback's time.
   ScatterEvent last{};
   std::uint64_t events = 0;
-  const EventCallback on_event = [&](const ScatterEvent& e) {
+  auto on_event = [&](const ScatterEvent& e) {
     ++events;
     double p_a_event = -1.0;  // next-flight technique A's p_A, computed once per event
     // Technique B never starts from the event after which the walk switches to the similar
@@ -201,7 +203,10 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     }
     last = e;
   };
-  const WalkResult walk = random_walk(stack_, wo, rng, on_event, settings, hero_);
+  // The walk's loop with this callback inlined into it (materials/random_walk_loop.h).
+  thread_local WalkPlan plan;
+  prepare_walk(stack_, settings, &plan);
+  const WalkResult walk = walk_detail::run_walk(plan, wo, rng, on_event, hero_);
   if (events_) *events_ += events;
   if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette
   next->wi = walk.direction;

@@ -1,6 +1,7 @@
 // The random walk itself: exactness of its bookkeeping (connection weight vs. the walk's own
 // straight exits, grey = scalar, energy balance per photon), termination, extremes.
 #include "materials/random_walk.h"
+#include "materials/random_walk_loop.h"
 
 #include <algorithm>
 #include <cmath>
@@ -103,6 +104,39 @@ TEST(RandomWalk, GreyStackKeepsChannelsIdentical) {
     ASSERT_EQ(r.weight[0], r.weight[1]);
     ASSERT_EQ(r.weight[0], r.weight[2]);
   }
+}
+
+// The walk's loop run with a plain callable (walk_detail::run_walk, as the renderer does) is the
+// walk that random_walk runs with a std::function: the same events and result, bit for bit, and
+// a callable is always called (a std::function only when it holds one).
+TEST(RandomWalk, LoopWithACallableIsTheWalkWithAStdFunction) {
+  const LayerStack s = test::skin_like_stack();
+  WalkSettings settings;
+  settings.roulette_threshold = 0.5;
+  settings.roulette_survival = 0.5;
+  WalkPlan plan;
+  prepare_walk(s, settings, &plan);
+  std::uint64_t events = 0;
+  for (std::uint64_t i = 0; i < 3000; ++i) {
+    std::vector<ScatterEvent> a, b;
+    Rng rng_a(5, i), rng_b(5, i);
+    const WalkResult ra = random_walk(plan, incident_direction(40.0, 0.0), rng_a,
+                                      EventCallback([&](const ScatterEvent& e) { a.push_back(e); }), 1);
+    const WalkResult rb =
+        walk_detail::run_walk(plan, incident_direction(40.0, 0.0), rng_b, [&](const ScatterEvent& e) { b.push_back(e); }, 1);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      ASSERT_EQ(a[k].depth, b[k].depth);
+      ASSERT_EQ(a[k].direction, b[k].direction);
+      for (int c = 0; c < kChannels; ++c) ASSERT_EQ(a[k].throughput[c], b[k].throughput[c]);
+    }
+    ASSERT_EQ(ra.side, rb.side);
+    ASSERT_EQ(ra.direction, rb.direction);
+    for (int c = 0; c < kChannels; ++c) ASSERT_EQ(ra.weight[c], rb.weight[c]);
+    ASSERT_EQ(rng_a.uniform(), rng_b.uniform());  // the same random numbers used
+    events += a.size();
+  }
+  EXPECT_GT(events, 10000u);
 }
 
 // LayerStack::grey: what lets lamina brdf tally one channel of the walks above for three.
