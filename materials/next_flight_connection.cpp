@@ -88,13 +88,5 @@ Spectrum next_flight_event_connection(const LayerStack& stack, const ScatterEven
   return event.throughput * own;
 }
 
-double next_flight_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
-  const ExitDirection::LayerExit& path = exit.layers[event.layer];
-  const Layer& layer = stack.layers[event.layer];
-  const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
-  double bound = std::numeric_limits<double>::infinity();
-  for (int c = 0; c < kChannels; ++c) bound = std::min(bound, path.sigma_t[c] * distance0 + path.tau_beyond[c]);
-  return bound;
-}
 
 }  // namespace lamina

@@ -34,6 +34,9 @@
 // similar one alike (pass the event's stack). Elsewhere, events connect as usual.
 #pragma once
 
+#include <algorithm>
+#include <limits>
+
 #include "materials/random_walk.h"
 #include "materials/spectrum.h"
 #include "materials/stack.h"
@@ -73,6 +76,14 @@ Spectrum next_flight_event_connection(const LayerStack& stack, const ScatterEven
 // A lower bound, over the channels, of the optical depth that attenuates every technique-B
 // connection of the event (sigma_t D0 + tau_beyond: any flight to depth D from D0 travels at
 // least D0 - D, and the exit path from D is at least D): exp(-bound) bounds it, for roulette.
-double next_flight_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
+// (Inline: the renderer asks it of every event for every delta light.)
+inline double next_flight_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
+  const ExitDirection::LayerExit& path = exit.layers[event.layer];
+  const Layer& layer = stack.layers[event.layer];
+  const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
+  double bound = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < kChannels; ++c) bound = std::min(bound, path.sigma_t[c] * distance0 + path.tau_beyond[c]);
+  return bound;
+}
 
 }  // namespace lamina

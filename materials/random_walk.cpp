@@ -273,13 +273,6 @@ ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double 
   return exit;
 }
 
-double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
-  if (exit.layers.empty() || !exit.layers[event.layer].exists) return kInf;
-  const ExitDirection::LayerExit& path = exit.layers[event.layer];
-  const double distance = exit.up ? event.depth : stack.layers[event.layer].thickness - event.depth;
-  return path.min_tau_beyond + (path.min_depth_rate > 0.0 ? path.min_depth_rate * distance : 0.0);
-}
-
 DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
   DirectExit out;
   if (exit.layers.empty()) return out;

@@ -17,6 +17,8 @@
 // see connection_weight() for the derivation.
 #pragma once
 
+#include <limits>
+
 #include <functional>
 #include <vector>
 
@@ -273,7 +275,13 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
 // A lower bound, over the channels, of the optical depth of the event's direct way out towards
 // the prepared direction (infinity where there is none): exp(-bound) bounds its attenuation.
 // Two multiplications, no exponential: for deciding cheaply which events are worth connecting.
-double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
+// (Inline: the renderer asks it of every event for every light.)
+inline double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
+  if (exit.layers.empty() || !exit.layers[event.layer].exists) return std::numeric_limits<double>::infinity();
+  const ExitDirection::LayerExit& path = exit.layers[event.layer];
+  const double distance = exit.up ? event.depth : stack.layers[event.layer].thickness - event.depth;
+  return path.min_tau_beyond + (path.min_depth_rate > 0.0 ? path.min_depth_rate * distance : 0.0);
+}
 
 // The weight that turns an event into its contribution to the BRDF (w.z > 0) or BTDF (w.z < 0)
 // (smooth top interfaces; through a rough one, one sample of it: see prepare_exit)
