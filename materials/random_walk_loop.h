@@ -325,6 +325,21 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       ++result.interactions;
       const bool down = d.z < 0.0;
       z = down ? layer.thickness : 0.0;
+      // A smooth outer interface (top or bottom) into the medium of index n_out: refracted out
+      // with probability 1 - R (the walk ends there: true), else reflected back in (false).
+      auto leave_or_reflect = [&](double n_out, WalkResult::Side side) __attribute__((always_inline)) {
+        const double r = fresnel_dielectric(d.z, layer.ior, n_out);
+        glm::dvec3 out = d;
+        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, n_out)) {
+          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+          else flight_escaped(&pw, tau, hero);
+          finish_exit(side, out);
+          return true;
+        }
+        d = reflect_at_plane(d);
+        reflected_since_event = true;
+        return false;
+      };
 
       if (!down && l == 0 && rough) {  // rough top interface, met from inside
         // The facets seen from -d (pointing away from the surface into layer 0): reflection with
@@ -353,16 +368,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
         d = sample.wi;
         reflected_since_event = true;
       } else if (!down && l == 0) {  // top interface
-        const double r = fresnel_dielectric(d.z, layer.ior, stack.above_ior);
-        glm::dvec3 out = d;
-        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.above_ior)) {
-          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
-          else flight_escaped(&pw, tau, hero);
-          finish_exit(WalkResult::Side::Top, out);
-          return result;
-        }
-        d = reflect_at_plane(d);
-        reflected_since_event = true;
+        if (leave_or_reflect(stack.above_ior, WalkResult::Side::Top)) return result;
       } else if (down && l == n_layers - 1) {  // bottom of the stack
         if (stack.below.kind == Below::Kind::Lambert) {
           // The flight ends at the substrate: a scattering event of its own kind.
@@ -384,16 +390,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
           switch_if_due();
           break;  // a new flight
         }
-        const double r = fresnel_dielectric(d.z, layer.ior, stack.below.ior);
-        glm::dvec3 out = d;
-        if (rng.uniform() >= r && refract_through_plane(&out, layer.ior, stack.below.ior)) {
-          if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
-          else flight_escaped(&pw, tau, hero);
-          finish_exit(WalkResult::Side::Bottom, out);
-          return result;
-        }
-        d = reflect_at_plane(d);
-        reflected_since_event = true;
+        if (leave_or_reflect(stack.below.ior, WalkResult::Side::Bottom)) return result;
       } else {  // between two layers
         const int next = down ? l + 1 : l - 1;
         const double n_next = (*layers)[next].ior;
