@@ -61,7 +61,7 @@ Spectrum next_flight_connection(const LayerStack& stack, const ScatterEvent& eve
   const double s_max = d.z < 0.0 ? (layer.semi_infinite() ? kInf : (layer.thickness - event.depth) / -d.z)
                        : d.z > 0.0 ? event.depth / d.z
                                    : kInf;
-  const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
+  const double distance0 = distance_to_exit_side(stack, event, exit);
   const double distance_rate = exit.up ? -d.z : d.z;  // d(distance to the exit side) / ds
   // W p_A p_B / (p_A + p_B) G(d_B) / p_B: the p_B of G cancels the 1/p_B of the sample.
   const double mis = next_flight_weight(p_a, p_b);

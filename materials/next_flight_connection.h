@@ -79,8 +79,7 @@ Spectrum next_flight_event_connection(const LayerStack& stack, const ScatterEven
 // (Inline: the renderer asks it of every event for every delta light.)
 inline double next_flight_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
   const ExitDirection::LayerExit& path = exit.layers[event.layer];
-  const Layer& layer = stack.layers[event.layer];
-  const double distance0 = exit.up ? event.depth : layer.thickness - event.depth;
+  const double distance0 = distance_to_exit_side(stack, event, exit);
   double bound = std::numeric_limits<double>::infinity();
   for (int c = 0; c < kChannels; ++c) bound = std::min(bound, path.sigma_t[c] * distance0 + path.tau_beyond[c]);
   return bound;

@@ -303,7 +303,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
       }
     }
   }
-  const double distance = exit.up ? event.depth : layer.thickness - event.depth;
+  const double distance = distance_to_exit_side(stack, event, exit);
   // A volume event's next flight is guided with probability q (WalkSettings::guiding): its
   // density is the mixture of the two techniques' direction densities times their escape
   // probabilities.
@@ -505,9 +505,7 @@ void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPla
 
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event, const WalkSettings& settings, int chosen_hero) {
-  thread_local WalkPlan plan;
-  prepare_walk(stack, settings, &plan);
-  return random_walk(plan, wi, rng, on_event, chosen_hero);
+  return walk_detail::run_walk(stack, wi, rng, on_event, settings, chosen_hero);
 }
 WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event,
                        int chosen_hero) {

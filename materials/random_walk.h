@@ -17,9 +17,8 @@
 // see connection_weight() for the derivation.
 #pragma once
 
-#include <limits>
-
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -272,6 +271,12 @@ struct DirectExit {
 };
 DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit);
 
+// The event's distance (mm) to the side of its layer that the way out towards the prepared
+// direction leaves through: its depth going up, the rest of the layer going down.
+inline double distance_to_exit_side(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
+  return exit.up ? event.depth : stack.layers[event.layer].thickness - event.depth;
+}
+
 // A lower bound, over the channels, of the optical depth of the event's direct way out towards
 // the prepared direction (infinity where there is none): exp(-bound) bounds its attenuation.
 // Two multiplications, no exponential: for deciding cheaply which events are worth connecting.
@@ -279,7 +284,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
 inline double exit_optical_depth_bound(const LayerStack& stack, const ScatterEvent& event, const ExitDirection& exit) {
   if (exit.layers.empty() || !exit.layers[event.layer].exists) return std::numeric_limits<double>::infinity();
   const ExitDirection::LayerExit& path = exit.layers[event.layer];
-  const double distance = exit.up ? event.depth : stack.layers[event.layer].thickness - event.depth;
+  const double distance = distance_to_exit_side(stack, event, exit);
   return path.min_tau_beyond + (path.min_depth_rate > 0.0 ? path.min_depth_rate * distance : 0.0);
 }
 

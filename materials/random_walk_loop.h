@@ -499,5 +499,15 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
 }
 
 
+// The same from the stack: its plan prepared for this walk in a per-thread buffer (stacks vary
+// from hit to hit on textured materials).
+template <class OnEvent>
+WalkResult run_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng, const OnEvent& on_event,
+                    const WalkSettings& settings, int chosen_hero) {
+  thread_local WalkPlan plan;
+  prepare_walk(stack, settings, &plan);
+  return run_walk(plan, wi, rng, on_event, chosen_hero);
+}
+
 }  // namespace walk_detail
 }  // namespace lamina

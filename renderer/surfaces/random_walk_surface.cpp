@@ -204,9 +204,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     last = e;
   };
   // The walk's loop with this callback inlined into it (materials/random_walk_loop.h).
-  thread_local WalkPlan plan;
-  prepare_walk(stack_, settings, &plan);
-  const WalkResult walk = walk_detail::run_walk(plan, wo, rng, on_event, hero_);
+  const WalkResult walk = walk_detail::run_walk(stack_, wo, rng, on_event, settings, hero_);
   if (events_) *events_ += events;
   if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette
   next->wi = walk.direction;

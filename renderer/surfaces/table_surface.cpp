@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "materials/brdf_table.h"
-#include "materials/brdf_table.h"
 #include "materials/sampling.h"
 
 namespace lamina {
