@@ -10,7 +10,10 @@
 # OLD_LAMINA: default, the parent commit of HEAD built into $EQ_OUT/baseline-<sha> (a git
 # worktree; built once and kept). NEW_LAMINA: default build/renderer/lamina.
 # Environment: EQ_SCENES (default "head_skin spheres_45 leaves_back"; or paths of .gltf files), EQ_SIZE (WxH, default
-# 64x80), EQ_SPP (default "4 16 64"), EQ_REF_SPP (default 1024), EQ_TARGET (default 0.05),
+# 64x80), EQ_SPP (default "16 64 256": at 5 % these builds need 1,000-2,000 spp, and a heavy-
+# tailed walk's variance is underestimated by renders far below that), EQ_REPEAT (renders of each
+# spp per build with seeds spp + 1000 r, default 2: the seed pairs measure each build's variance
+# without the reference), EQ_REF_SPP (default 4096), EQ_TARGET (default 0.05),
 # EQ_OUT (default out/equal_error), EQ_ARGS (extra arguments for the NEW build only, e.g.
 # "--similarity-after 0" to measure an approximate option against the exact old one).
 set -euo pipefail
@@ -20,8 +23,9 @@ OUT=${EQ_OUT:-out/equal_error}
 SCENES=${EQ_SCENES:-"head_skin spheres_45 leaves_back"}
 SIZE=${EQ_SIZE:-64x80}
 W=${SIZE%x*}; H=${SIZE#*x}
-SPPS=${EQ_SPP:-"4 16 64"}
-REF_SPP=${EQ_REF_SPP:-1024}
+SPPS=${EQ_SPP:-"16 64 256"}
+REPEAT=${EQ_REPEAT:-2}
+REF_SPP=${EQ_REF_SPP:-4096}
 TARGET=${EQ_TARGET:-0.05}
 read -r -a NEW_ARGS <<< "${EQ_ARGS:-}"
 mkdir -p "$OUT"
@@ -62,12 +66,15 @@ for scene in $SCENES; do
     "$NEW" render "$path" --width "$W" --height "$H" --spp "$REF_SPP" --seed 1000 -o "$ref" >/dev/null
   fi
   old_images=(); new_images=()
-  for spp in $SPPS; do
-    o="$OUT/${scene}_old_$spp.exr"; n="$OUT/${scene}_new_$spp.exr"
-    "$OLD" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$spp" -o "$o" >/dev/null
-    "$NEW" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$spp" "${NEW_ARGS[@]}" -o "$n" >/dev/null
-    old_images+=("$o"); new_images+=("$n")
+  for ((r = 0; r < REPEAT; ++r)); do
+    for spp in $SPPS; do
+      seed=$((spp + 1000 * r)); tag=$spp; [ "$r" -eq 0 ] || tag=${spp}_$r
+      o="$OUT/${scene}_old_$tag.exr"; n="$OUT/${scene}_new_$tag.exr"
+      "$OLD" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" -o "$o" >/dev/null
+      "$NEW" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" "${NEW_ARGS[@]}" -o "$n" >/dev/null
+      old_images+=("$o"); new_images+=("$n")
+    done
   done
-  echo "== $scene ${W}x${H}, spp $SPPS, reference $REF_SPP spp ${EQ_ARGS:+(new: $EQ_ARGS)}"
+  echo "== $scene ${W}x${H}, spp $SPPS x $REPEAT, reference $REF_SPP spp ${EQ_ARGS:+(new: $EQ_ARGS)}"
   "$METRIC" --target "$TARGET" "$ref" "${old_images[@]}" -- "${new_images[@]}"
 done
