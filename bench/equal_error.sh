@@ -12,8 +12,9 @@
 # Environment: EQ_SCENES (default "head_skin spheres_45 leaves_back"; or paths of .gltf files), EQ_SIZE (WxH, default
 # 64x80), EQ_SPP (default "16 64 256": at 5 % these builds need 1,000-2,000 spp, and a heavy-
 # tailed walk's variance is underestimated by renders far below that), EQ_REPEAT (renders of each
-# spp per build with seeds spp + 1000 r, default 2: the seed pairs measure each build's variance
-# without the reference), EQ_REF_SPP (default 4096), EQ_TARGET (default 0.05),
+# spp per build with the odd seeds 2 (spp + 1000 r) + 1, never the reference's 1000, default 2:
+# the seed pairs measure each build's variance without the reference), EQ_REF_SPP (default
+# 4096), EQ_TARGET (default 0.05),
 # EQ_OUT (default out/equal_error), EQ_ARGS (extra arguments for the NEW build only, e.g.
 # "--similarity-after 0" to measure an approximate option against the exact old one).
 set -euo pipefail
@@ -68,7 +69,7 @@ for scene in $SCENES; do
   old_images=(); new_images=()
   for ((r = 0; r < REPEAT; ++r)); do
     for spp in $SPPS; do
-      seed=$((spp + 1000 * r)); tag=$spp; [ "$r" -eq 0 ] || tag=${spp}_$r
+      seed=$((2 * (spp + 1000 * r) + 1)); tag=$spp; [ "$r" -eq 0 ] || tag=${spp}_$r
       o="$OUT/${scene}_old_$tag.exr"; n="$OUT/${scene}_new_$tag.exr"
       "$OLD" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" -o "$o" >/dev/null
       "$NEW" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" "${NEW_ARGS[@]}" -o "$n" >/dev/null
