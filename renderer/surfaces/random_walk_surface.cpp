@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "materials/fresnel.h"
+#include "materials/henyey_greenstein.h"
 #include "materials/microfacet.h"
 #include "materials/next_flight_connection.h"
 #include "materials/random_walk.h"
@@ -155,6 +156,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     return u < *p;
   };
   const double roulette_depth = options_.connection_roulette_depth;
+  const double phase_ref = options_.connection_phase_roulette * kInv4Pi;
 
   // The walk's previous event while an event is connected, its last one afterwards. Updated at the
   // end of the callback, not copied to a `previous` first: two copies of an event whose fields the
@@ -182,6 +184,16 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       }
       double p;
       if (!survives_roulette(exit_optical_depth_bound(stack_of(e), e, exit) - roulette_depth, &p)) continue;
+      // The phase roulette (RandomWalkOptions::connection_phase_roulette): below the isotropic
+      // value (times the option) a connection is made with probability p_phase / p_ref.
+      const ExitDirection::LayerExit& path = exit.layers[e.layer];
+      if (phase_ref > 0.0 && lights[k].delta && e.kind == ScatterEvent::Kind::Volume && path.single_lobe) {
+        const double q = henyey_greenstein(glm::dot(e.direction, path.inside), path.single_g) / phase_ref;
+        if (q < 1.0) {
+          if (!(rng.uniform() < q)) continue;
+          p *= q;
+        }
+      }
       // Technique A: this event's own connection, weighted against B when its flight came
       // straight from the previous event (p_A, the density of its direction, is the same for
       // every light).

@@ -807,6 +807,20 @@ TEST(LayeredLights, NextFlightSameMean) {
   expect_same_mean(forward_skin_like(), plain, next_flight, "plain", "next-flight", true, 64);
 }
 
+// The connection roulette on the phase function (RandomWalkOptions::connection_phase_roulette):
+// a connection below the isotropic phase value kept with probability p / p_ref and weight 1 / that.
+// Against the render without it, on the forward-scattering slab (g 0.8, where most connections are
+// rouletted) lit by the point light alone: the same mean. Without the 1 / q the mean falls by far
+// more than 3 standard errors (checked by removing it); with the roulette at 4x the isotropic
+// value as well, so that most connections go through it.
+TEST(LayeredLights, PhaseRouletteSameMean) {
+  RenderSetup plain, roulette, strong;
+  plain.walk.connection_phase_roulette = 0.0;
+  strong.walk.connection_phase_roulette = 4.0;
+  expect_same_mean(forward_skin_like(), plain, roulette, "no phase roulette", "phase roulette 1", true, 64);
+  expect_same_mean(forward_skin_like(), plain, strong, "no phase roulette", "phase roulette 4", true, 64);
+}
+
 // With the approximate similarity switch after 2 events, the event after which the walk switches
 // must not start a next flight through the exact stack (its flight is the similar stack's):
 // with and without next-flight connections the same (biased) mean.
