@@ -80,9 +80,9 @@ struct RandomWalkOptions {
   // through a layer with one HG lobe, whose phase function p towards the light's inside
   // direction is below this times the isotropic 1 / (4 pi), is made with probability
   // p / (this / (4 pi)) and weight 1 / that. Unbiased; through g = 0.8 most directions are far
-  // below isotropic and bring little (docs/layered_rendering.md, "The connections' roulettes": 1
-  // measured best on head_skin_smooth, 6 % fewer instructions for under 1 % more variance; 2 and
-  // 4 cost more variance than they save).
+  // below isotropic and bring little (docs/layered_rendering.md, "The connections' roulettes": at
+  // 1, 4-7 % fewer render instructions for 1-3 % more variance on the skin scenes; 2 and 4 cost
+  // more variance than they save).
   double connection_phase_roulette = 1.0;
   // The walk's own Russian roulette (WalkSettings::roulette_threshold and roulette_survival):
   // once every channel of a walk's weight has fallen below half of what entered, each further
