@@ -85,6 +85,11 @@ int main(int argc, char** argv) {
         ref_mean += ref_y[i];
       }
     ref_mean /= static_cast<double>(mask.size());
+    // A luminance difference at a measured pixel as the rmse counts it: as it is, or (--per-pixel)
+    // relative to the reference there, in units of the reference's mean.
+    auto counted = [&](double difference, std::size_t pixel) {
+      return per_pixel ? difference / ref_y[pixel] * ref_mean : difference;
+    };
     auto measure = [&](const std::string& path) {
       const lamina::Image im = lamina::read_image(path);
       if (im.width != ref.width || im.height != ref.height) throw std::runtime_error(path + ": size differs from the reference");
@@ -95,7 +100,7 @@ int main(int argc, char** argv) {
       double se2 = 0.0, sum = 0.0;
       for (std::size_t i : mask) {
         const double v = y[i];
-        const double d = per_pixel ? (v - ref_y[i]) / ref_y[i] * ref_mean : v - ref_y[i];
+        const double d = counted(v - ref_y[i], i);
         se2 += d * d;
         sum += v;
       }
@@ -140,7 +145,7 @@ int main(int argc, char** argv) {
     auto pair_variance = [&](const Measure& a, const Measure& b) {
       double d2 = 0.0;
       for (std::size_t i = 0; i < a.y.size(); ++i) {
-        const double d = per_pixel ? (a.y[i] - b.y[i]) / ref_y[mask[i]] * ref_mean : a.y[i] - b.y[i];
+        const double d = counted(a.y[i] - b.y[i], mask[i]);
         d2 += d * d;
       }
       return static_cast<double>(a.spp) * d2 / (2.0 * static_cast<double>(a.y.size())) / (ref_mean * ref_mean);
@@ -177,8 +182,7 @@ int main(int argc, char** argv) {
       std::printf("%s: per-sample variance %.4f (%s; against the reference %.4f), %.4f s per spp\n", names[b], v,
                   from_pairs[b] ? "from seed pairs" : "against the reference, its own noise removed", v_rmse / w_rmse, k);
     }
-    std::printf("reference: %g spp, its variance %.6f (new images' rmse^2 at 64 spp include %.1f %% of it)\n", n_ref, v_ref,
-                100.0 * v_ref / (v_ref + v_new / w_new / 64.0));
+    std::printf("reference: %g spp, its variance %.6f (the new build's per-sample variance / %g)\n", n_ref, v_ref, n_ref);
     if (!from_pairs[0] || !from_pairs[1])
       std::printf("note: a build without two renders of one spp is measured against the reference (EQ_REPEAT=2 for seed pairs)\n");
     std::printf("time to rmse %.3f: old %.1f s, new %.1f s: equal-error speed-up %.2fx (plain: %.1f s, %.1f s, %.2fx)\n",

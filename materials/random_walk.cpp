@@ -16,8 +16,6 @@ namespace lamina {
 using walk_detail::add_optical_depth;
 using walk_detail::guided_direction_pdf;
 using walk_detail::guided_sigma;
-using walk_detail::flight_escaped;
-using walk_detail::PathWeight;
 using walk_detail::phase_sampling_pdf;
 
 namespace {

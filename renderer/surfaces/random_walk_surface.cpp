@@ -199,7 +199,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
       // every light).
       double p_a = -1.0;
       if (split && e.flight_from_previous) {
-        if (!(p_a_event >= 0.0)) p_a_event = next_flight_direction_pdf(last, e, exit.layers[e.layer].single_g);
+        if (!(p_a_event >= 0.0)) p_a_event = next_flight_direction_pdf(last, e, path.single_g);
         p_a = p_a_event;
       }
       lights[k].f_cos += contribution(e, exit, lights[k], scale[k] / p, p_a);
