@@ -302,15 +302,22 @@ std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, con
                                                     std::uint64_t samples, std::uint64_t seed,
                                                     const WalkSettings& walk_settings) {
   const std::size_t nd = wo.size();
-  std::vector<ConnectionTarget> targets;
-  for (const glm::dvec3& w : wo) targets.push_back(prepare_connection(stack, w));
+  // With the similarity option, events after the switch connect through the similar stack.
+  const LayerStack* similar = walk_settings.similarity_after >= 0 ? walk_settings.similar : nullptr;
+  std::vector<ConnectionTarget> targets, similar_targets;
+  for (const glm::dvec3& w : wo) {
+    targets.push_back(prepare_connection(stack, w));
+    if (similar) similar_targets.push_back(prepare_connection(*similar, w));
+  }
   // Layout: [direction][channel][sum, sum2, single sum, single sum2].
   const std::vector<double> acc = run_photons(samples, nd * kChannels * 4, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(seed, i);
     std::vector<Spectrum> total(nd), single(nd);
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
+      const bool in_similar = event.similar && similar;
       for (std::size_t j = 0; j < nd; ++j) {
-        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[j]);
+        const Spectrum v = event.throughput * (in_similar ? connection_weight_all_paths(*similar, event, similar_targets[j])
+                                                          : connection_weight_all_paths(stack, event, targets[j]));
         total[j] += v;
         if (event.order == 1) single[j] += v;
       }
@@ -340,6 +347,7 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
   const double phi_i = options.phi_i_deg * kDegree;
   const int K = options.bins_theta, M = options.bins_phi;
   const std::size_t nb = table.value.size();
+  const LayerStack* similar = options.walk.similarity_after >= 0 ? options.walk.similar : nullptr;
   // Layout: [bin][channel][sum, sum2, single].
   const std::vector<double> acc = run_photons(options.samples, nb * kChannels * 3, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(options.seed, i);
@@ -348,7 +356,7 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
     // One direction per bin and photon, uniform in projected solid angle within the bin (mu^2
     // uniform in [lo^2, hi^2], phi uniform), drawn independently of the walk and shared by its
     // events: E over w of sum_e W_e c(w) = sum_e W_e (bin average of c), so unbiased.
-    std::vector<ConnectionTarget> targets(nb);
+    std::vector<ConnectionTarget> targets(nb), similar_targets(similar ? nb : 0);
     for (int side = 0; side < 2; ++side)
       for (int k = 0; k < K; ++k)
         for (int m = 0; m < M; ++m) {
@@ -357,11 +365,15 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
           const double phi = phi_i + 2.0 * kPi * (m + directions.uniform()) / M;
           const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
           const glm::dvec3 w{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
-          targets[table.bin_index(static_cast<BrdfSide>(side), k, m)] = prepare_connection(stack, w);
+          const int b = table.bin_index(static_cast<BrdfSide>(side), k, m);
+          targets[b] = prepare_connection(stack, w);
+          if (similar) similar_targets[b] = prepare_connection(*similar, w);
         }
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
+      const bool in_similar = event.similar && similar;
       for (std::size_t b = 0; b < nb; ++b) {
-        const Spectrum v = event.throughput * connection_weight_all_paths(stack, event, targets[b]);
+        const Spectrum v = event.throughput * (in_similar ? connection_weight_all_paths(*similar, event, similar_targets[b])
+                                                          : connection_weight_all_paths(stack, event, targets[b]));
         total[b] += v;
         if (event.order == 1) single[b] += v;
       }

@@ -108,7 +108,9 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
 
 // The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
 // directions: the average over walks of sum_events throughput * connection_weight_all_paths(wo).
-// An estimator independent of the bin counts (it never uses the exits).
+// An estimator independent of the bin counts (it never uses the exits). With the walk's
+// similarity option (WalkSettings::similarity_after, similar) the events after the switch connect
+// through the similar stack.
 struct PointEstimate {
   Estimate total, single;  // single: events of order 1 only
 };

@@ -49,8 +49,9 @@ struct ScatterEvent {
   // The walk's hero channel (it samples every decision in this channel's coefficients; see the
   // spectral MIS notes in random_walk.cpp). connection_pdf uses it.
   int hero = 0;
-  // The walk had switched to WalkSettings::similar when this event happened: its phase function
-  // and the attenuation of its way out are those of the similar stack.
+  // The walk had switched to WalkSettings::similar when this event scattered: its phase function
+  // and the attenuation of its way out are those of the similar stack (its collision, and the
+  // throughput, may still be the exact stack's: the switch's own event).
   bool similar = false;
   // The flight that ended here started at the walk's previous event, a volume event in the same
   // layer (and the same stack), along a direction sampled classically from its phase function
@@ -122,11 +123,13 @@ struct WalkSettings {
   int forced_after = 1000;
   int forced_exponential_after = 1000000;
   double forced_survival = 0.99;
-  // APPROXIMATE, off by default: after `similarity_after` scattering events (-1: never; 0: from
-  // the entry, the whole walk) the walk continues in `similar`, the stack's similarity transform (similarity_transform_into: g -> 0,
-  // sigma_s -> sigma_s (1 - g)), which needs about 1/(1 - g) times fewer events. Events after the
-  // switch have ScatterEvent::similar set: connect them through `similar`, not the stack. The
-  // result is biased (the renderer measures and prints how much: docs/layered_rendering.md).
+  // APPROXIMATE, off by default: after `similarity_after` exact collisions (-1: never; 0: from the
+  // entry, the whole walk) the walk continues in `similar`, the stack's similarity transform
+  // (similarity_transform_into: g -> 0, sigma_s -> sigma_s (1 - g)), which needs about 1/(1 - g)
+  // times fewer events. The switch falls between the similarity_after-th event's collision and
+  // its scattering: that event and the ones after it have ScatterEvent::similar set, scatter and
+  // fly in `similar`, and connect through it, not the stack. The result is biased (the renderer
+  // measures and prints how much: docs/layered_rendering.md).
   int similarity_after = -1;
   const LayerStack* similar = nullptr;
   // Guided walks (0: off, the default): every flight that starts at a volume scattering event in

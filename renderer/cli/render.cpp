@@ -223,7 +223,7 @@ int run_render(int argc, char** argv) {
       ->check(cli::real(0.0, 1.0, false, true));
   int similarity_after = -1;
   app.add_option("--similarity-after", similarity_after,
-                 "random-walk, APPROXIMATE: after N exact events (0: none) continue in the similarity-transformed "
+                 "random-walk, APPROXIMATE: after N exact collisions (0: none) continue in the similarity-transformed "
                  "medium (g -> 0, sigma_s (1 - g)); its bias is measured and printed (-1: exact)")
       ->capture_default_str()
       ->check(cli::integer(-1, 1000000));

@@ -166,9 +166,11 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   auto on_event = [&](const ScatterEvent& e) {
     ++events;
     double p_a_event = -1.0;  // next-flight technique A's p_A, computed once per event
-    // Technique B never starts from the event after which the walk switches to the similar
-    // stack: its next flight is not the exact stack's.
-    const bool switches_after = settings.similar && !e.similar && e.order >= settings.similarity_after;
+    // Technique B never starts from the last exact event before the walk switches to the similar
+    // stack: the collision its next flight ends in is the switch's event, which scatters and
+    // leaves through the similar stack, not the exact one that B integrates (the walk switches
+    // between that event's collision and its scattering: random_walk_loop.h).
+    const bool switches_after = settings.similar && !e.similar && e.order + 1 >= settings.similarity_after;
     for (int k = 0; k < light_count; ++k) {
       if (scale[k] == 0.0) continue;
       const ExitDirection& exit = e.similar ? similar_exits[k] : exits[k];

@@ -128,7 +128,7 @@ LightDesc sun(const glm::dvec3& wl, double irradiance) {
 // flipped stack when the light is below, as the library wants light from above).
 void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm::dvec3 wo_world, SubsurfaceMode mode,
                               double k_sigma, const char* what, int spp = 16, int size = 16,
-                              double connection_roulette_depth = 6.0) {
+                              double connection_roulette_depth = 6.0, int similarity_after = -1) {
   const double E = 3.0;
   SceneDesc d = make_scene({slab_plane(0)});
   d.lights.push_back(sun(wl_world, E));
@@ -139,6 +139,7 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
   setup.spp = spp;
   setup.width = setup.height = size;
   setup.walk.connection_roulette_depth = connection_roulette_depth;
+  setup.walk.similarity_after = similarity_after;
   if (mode == SubsurfaceMode::Table) {
     TableSettings ts;
     ts.walks_per_node = 40000;
@@ -190,7 +191,20 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
       f_se *= r * r;
     }
   } else {
-    const auto est = brdf_connection_estimate(ref_stack, wl, {wo}, 60000, 5);
+    LayerStack similar;  // the approximate similarity option: the library's walk switches too
+    WalkSettings ws;
+    if (similarity_after >= 0) {
+      similarity_transform_into(ref_stack, &similar);
+      ws.similarity_after = similarity_after;
+      ws.similar = &similar;
+    }
+    // The switched walk is not reciprocal (it is exact for its first events, whichever side it
+    // starts from), so with the switch the reference walks start where the renderer's do, from the
+    // viewer (reflection only: f(wo -> wl) = f(wl -> wo) needs no factor there).
+    const bool from_viewer = similarity_after > 0;
+    if (from_viewer) EXPECT_TRUE(wl.z > 0.0 && wo.z > 0.0) << what << ": reflection only";
+    const auto est = from_viewer ? brdf_connection_estimate(ref_stack, wo, {wl}, 60000, 5, ws)
+                                 : brdf_connection_estimate(ref_stack, wl, {wo}, 60000, 5, ws);
     f = est[0].total.value;
     f_se = est[0].total.stderr_;
   }
@@ -829,6 +843,19 @@ TEST(LayeredLights, NextFlightSameMeanAcrossTheSimilaritySwitch) {
   plain.walk.next_flight = false;
   plain.walk.similarity_after = next_flight.walk.similarity_after = 2;
   expect_same_mean(forward_skin_like(), plain, next_flight, "plain", "next-flight", true, 64);
+}
+
+// The approximate similarity option in the renderer against the library's connection estimator
+// with the same switch (whose connections agree with its exits: test
+// BrdfMonteCarlo.BinCountsAgreeWithConnectionEstimatorAcrossTheSimilaritySwitch): the events from
+// the switch on must connect through the similar stack, and next-flight technique B must not
+// start from the last exact event. On the forward-scattering slab, reflection, switching after
+// 1 and 3 events (the references' walks start from the viewer, as the renderer's do: the switched
+// walk is not reciprocal, and from the light's side it gives 6 % more at 1 and 2 % more at 3).
+TEST(LayeredSlab, SimilaritySwitchMatchesTheLibrary) {
+  for (int after : {1, 3})
+    expect_slab_matches_brdf(forward_skin_like(), world_dir(30, 0), world_dir(50, 180), SubsurfaceMode::RandomWalk, 3.0,
+                             ("similarity after " + std::to_string(after) + ", reflection").c_str(), 64, 16, 6.0, after);
 }
 
 // ---- stratified hero channel (integrator.cpp, HeroStrata) ----
