@@ -147,32 +147,34 @@ TEST(BrdfMonteCarlo, SpectralWalkMatchesGreyWalks) {
   }
 }
 
-// Two independent estimators of the same bin averages: the exits counted in bins, and the
-// connection ("next event") estimator averaged over each bin. Both sides, index-mismatched,
-// Lambert substrate.
+// Two independent estimators of the same bin averages: the exits counted in bins (o.samples
+// walks), and the connection ("next event") estimator averaged over each bin (connection_samples
+// other walks). Every bin and channel within 4 standard errors; more than 20 of them non-zero.
+void expect_bins_agree_with_connections(const LayerStack& s, const BrdfOptions& o, std::uint64_t connection_samples,
+                                        const std::string& what) {
+  const BrdfTable bins = brdf_table_monte_carlo(s, o);
+  BrdfOptions o2 = o;
+  o2.seed = 77;  // independent walks
+  o2.samples = connection_samples;
+  const BrdfTable conn = brdf_table_connection(s, o2);
+  int compared = 0;
+  for (std::size_t b = 0; b < bins.value.size(); ++b)
+    for (int c = 0; c < kChannels; ++c) {
+      const double se = hypot3(bins.stderr_[b][c], conn.stderr_[b][c]);
+      EXPECT_NEAR(bins.value[b][c], conn.value[b][c], 4.0 * se + 1e-12) << what << ", bin " << b << " channel " << c;
+      if (bins.value[b][c] > 0.0) ++compared;
+    }
+  EXPECT_GT(compared, 20) << what;
+}
+
+// Both sides, index-mismatched, Lambert substrate.
 TEST(BrdfMonteCarlo, BinCountsAgreeWithConnectionEstimator) {
-  std::vector<LayerStack> stacks;
-  stacks.push_back(one_layer(1.5, 0.3, Spectrum(0.5), Spectrum(4.0, 6.0, 8.0), Spectrum(0.5), 1.0, 1.2));
+  const LayerStack mismatched = one_layer(1.5, 0.3, Spectrum(0.5), Spectrum(4.0, 6.0, 8.0), Spectrum(0.5), 1.0, 1.2);
   LayerStack lam = one_layer(1.3, 0.2, Spectrum(0.2, 0.5, 1.0), Spectrum(5.0), Spectrum(-0.3));
   lam.below.kind = Below::Kind::Lambert;
   lam.below.albedo = Spectrum(0.8, 0.5, 0.2);
-  stacks.push_back(lam);
-  for (const LayerStack& s : stacks) {
-    const BrdfOptions o = options(50.0, 30000, 3, 4, 5);
-    const BrdfTable bins = brdf_table_monte_carlo(s, o);
-    BrdfOptions o2 = o;
-    o2.seed = 77;  // independent walks
-    o2.samples = 5000;
-    const BrdfTable conn = brdf_table_connection(s, o2);
-    int compared = 0;
-    for (std::size_t b = 0; b < bins.value.size(); ++b)
-      for (int c = 0; c < kChannels; ++c) {
-        const double se = hypot3(bins.stderr_[b][c], conn.stderr_[b][c]);
-        EXPECT_NEAR(bins.value[b][c], conn.value[b][c], 4.0 * se + 1e-12) << "bin " << b << " channel " << c;
-        if (bins.value[b][c] > 0.0) ++compared;
-      }
-    EXPECT_GT(compared, 20);
-  }
+  expect_bins_agree_with_connections(mismatched, options(50.0, 30000, 3, 4, 5), 5000, "index-mismatched slab");
+  expect_bins_agree_with_connections(lam, options(50.0, 30000, 3, 4, 5), 5000, "Lambert substrate");
 }
 
 // The same agreement for the approximate similarity option (WalkSettings::similarity_after): the
@@ -190,20 +192,7 @@ TEST(BrdfMonteCarlo, BinCountsAgreeWithConnectionEstimatorAcrossTheSimilaritySwi
     BrdfOptions o = options(30.0, 60000, 3, 4, 5);
     o.walk.similarity_after = after;
     o.walk.similar = &similar;
-    const BrdfTable bins = brdf_table_monte_carlo(s, o);
-    BrdfOptions o2 = o;
-    o2.seed = 77;  // independent walks
-    o2.samples = 10000;
-    const BrdfTable conn = brdf_table_connection(s, o2);
-    int compared = 0;
-    for (std::size_t b = 0; b < bins.value.size(); ++b)
-      for (int c = 0; c < kChannels; ++c) {
-        const double se = hypot3(bins.stderr_[b][c], conn.stderr_[b][c]);
-        EXPECT_NEAR(bins.value[b][c], conn.value[b][c], 4.0 * se + 1e-12)
-            << "similarity after " << after << ", bin " << b << " channel " << c;
-        if (bins.value[b][c] > 0.0) ++compared;
-      }
-    EXPECT_GT(compared, 20);
+    expect_bins_agree_with_connections(s, o, 10000, "similarity after " + std::to_string(after));
   }
 }
 
