@@ -140,8 +140,9 @@ int main(int argc, char** argv) {
     // mean over pixels of (y1 - y2)^2 / 2 is V / n with no reference in it (neither its noise nor
     // a difference between what the two builds render: on head_skin_smooth at 1024 spp 1a8a724's
     // image differs from the new build's by about 5 % per pixel (rms) beyond the noise of both,
-    // 3.6 % with the normal map, which 1a8a724 does not read, taken out of the scene: a floor
-    // under its rmse against the new reference that no number of samples removes).
+    // the normal map 1a8a724 does not read and freckles whose spots moved with the random-number
+    // generator: a floor under its rmse against the new reference that no number of samples
+    // removes).
     auto pair_variance = [&](const Measure& a, const Measure& b) {
       double d2 = 0.0;
       for (std::size_t i = 0; i < a.y.size(); ++i) {

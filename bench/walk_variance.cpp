@@ -58,7 +58,7 @@ Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, l
     ScatterEvent previous;
     random_walk(stack, wo, rng, [&](const ScatterEvent& e) {
       ++events;
-      const LayerStack& s = e.similar ? *settings.similar : stack;
+      const LayerStack& s = stack_of_event(stack, settings, e);
       const double u1 = rng_b.uniform(), u2 = rng_b.uniform();
       const Spectrum c = next_flight && !e.similar ? next_flight_event_connection(s, previous, e, exit, u1, u2)
                                                    : e.throughput * connection_weight(s, e, wl);

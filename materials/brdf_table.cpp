@@ -297,27 +297,39 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
   return table;
 }
 
+namespace {
+// A connection target in the walk's stack and, with the similarity switch, in its similar stack.
+struct SwitchedTarget {
+  ConnectionTarget own, similar;
+};
+SwitchedTarget prepare_switched_target(const LayerStack& stack, const WalkSettings& settings, const glm::dvec3& w) {
+  SwitchedTarget t;
+  t.own = prepare_connection(stack, w);
+  if (settings.similar && settings.similarity_after >= 0) t.similar = prepare_connection(*settings.similar, w);
+  return t;
+}
+// An event's connection through the stack it scattered in (stack_of_event).
+Spectrum switched_connection(const LayerStack& stack, const WalkSettings& settings, const ScatterEvent& event,
+                             const SwitchedTarget& target) {
+  const LayerStack& s = stack_of_event(stack, settings, event);
+  return connection_weight_all_paths(s, event, &s == &stack ? target.own : target.similar);
+}
+}  // namespace
+
 std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
                                                     const std::vector<glm::dvec3>& wo,
                                                     std::uint64_t samples, std::uint64_t seed,
                                                     const WalkSettings& walk_settings) {
   const std::size_t nd = wo.size();
-  // With the similarity option, events after the switch connect through the similar stack.
-  const LayerStack* similar = walk_settings.similarity_after >= 0 ? walk_settings.similar : nullptr;
-  std::vector<ConnectionTarget> targets, similar_targets;
-  for (const glm::dvec3& w : wo) {
-    targets.push_back(prepare_connection(stack, w));
-    if (similar) similar_targets.push_back(prepare_connection(*similar, w));
-  }
+  std::vector<SwitchedTarget> targets;
+  for (const glm::dvec3& w : wo) targets.push_back(prepare_switched_target(stack, walk_settings, w));
   // Layout: [direction][channel][sum, sum2, single sum, single sum2].
   const std::vector<double> acc = run_photons(samples, nd * kChannels * 4, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(seed, i);
     std::vector<Spectrum> total(nd), single(nd);
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
-      const bool in_similar = event.similar && similar;
       for (std::size_t j = 0; j < nd; ++j) {
-        const Spectrum v = event.throughput * (in_similar ? connection_weight_all_paths(*similar, event, similar_targets[j])
-                                                          : connection_weight_all_paths(stack, event, targets[j]));
+        const Spectrum v = event.throughput * switched_connection(stack, walk_settings, event, targets[j]);
         total[j] += v;
         if (event.order == 1) single[j] += v;
       }
@@ -347,7 +359,6 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
   const double phi_i = options.phi_i_deg * kDegree;
   const int K = options.bins_theta, M = options.bins_phi;
   const std::size_t nb = table.value.size();
-  const LayerStack* similar = options.walk.similarity_after >= 0 ? options.walk.similar : nullptr;
   // Layout: [bin][channel][sum, sum2, single].
   const std::vector<double> acc = run_photons(options.samples, nb * kChannels * 3, [&](std::uint64_t i, std::vector<double>& a) {
     Rng rng(options.seed, i);
@@ -356,7 +367,7 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
     // One direction per bin and photon, uniform in projected solid angle within the bin (mu^2
     // uniform in [lo^2, hi^2], phi uniform), drawn independently of the walk and shared by its
     // events: E over w of sum_e W_e c(w) = sum_e W_e (bin average of c), so unbiased.
-    std::vector<ConnectionTarget> targets(nb), similar_targets(similar ? nb : 0);
+    std::vector<SwitchedTarget> targets(nb);
     for (int side = 0; side < 2; ++side)
       for (int k = 0; k < K; ++k)
         for (int m = 0; m < M; ++m) {
@@ -365,15 +376,11 @@ BrdfTable brdf_table_connection(const LayerStack& stack, const BrdfOptions& opti
           const double phi = phi_i + 2.0 * kPi * (m + directions.uniform()) / M;
           const double sin_t = std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu)));
           const glm::dvec3 w{sin_t * std::cos(phi), sin_t * std::sin(phi), side == 0 ? mu : -mu};
-          const int b = table.bin_index(static_cast<BrdfSide>(side), k, m);
-          targets[b] = prepare_connection(stack, w);
-          if (similar) similar_targets[b] = prepare_connection(*similar, w);
+          targets[table.bin_index(static_cast<BrdfSide>(side), k, m)] = prepare_switched_target(stack, options.walk, w);
         }
     random_walk(stack, wi, rng, [&](const ScatterEvent& event) {
-      const bool in_similar = event.similar && similar;
       for (std::size_t b = 0; b < nb; ++b) {
-        const Spectrum v = event.throughput * (in_similar ? connection_weight_all_paths(*similar, event, similar_targets[b])
-                                                          : connection_weight_all_paths(stack, event, targets[b]));
+        const Spectrum v = event.throughput * switched_connection(stack, options.walk, event, targets[b]);
         total[b] += v;
         if (event.order == 1) single[b] += v;
       }

@@ -167,6 +167,13 @@ WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event = {}, const WalkSettings& settings = {},
                        int hero = kRandomHero);
 
+// The stack an event of a walk with these settings scattered in, whose phase function and way
+// out its connections use: the similar stack from the similarity switch on (ScatterEvent::
+// similar), else the walk's own.
+inline const LayerStack& stack_of_event(const LayerStack& stack, const WalkSettings& settings, const ScatterEvent& e) {
+  return e.similar && settings.similar ? *settings.similar : stack;
+}
+
 // What a walk needs from its stack and settings that is the same for every walk: each layer's
 // coefficients summed over its lobes, their logarithms and ratios, the phase function's shape,
 // the guiding, whether the stack is grey (then the walk keeps no per-channel densities). Prepared

@@ -200,7 +200,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
       if (!settings.compute_exit_pdf) return;
-      const LayerStack& last_stack = last_event.similar ? *settings.similar : stack;
+      const LayerStack& last_stack = stack_of_event(stack, settings, last_event);
       if (rough && side == WalkResult::Side::Top) {
         ExitDirection exit;
         prepare_exit_through(last_stack, out, result.top_inside, &exit, settings.guiding);

@@ -66,7 +66,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     settings.similarity_after = options_.similarity_after;
     settings.similar = &similar;
   }
-  auto stack_of = [&](const ScatterEvent& e) -> const LayerStack& { return e.similar ? similar : stack_; };
+  auto stack_of = [&](const ScatterEvent& e) -> const LayerStack& { return stack_of_event(stack_, settings, e); };
   // Per light direction: the prepared exit (through each stack) and the factor every event's
   // connection shares.
   thread_local std::vector<ExitDirection> exits, similar_exits;
