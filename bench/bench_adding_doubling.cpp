@@ -1,4 +1,4 @@
-// Cost of materials/adding_doubling per stack and quadrature order, and the Monte Carlo walk's
+// Cost of materials/adding_doubling/adding_doubling per stack and quadrature order, and the Monte Carlo walk's
 // cost to reach the same error (README, "Adding-doubling"). Stacks: the skin presets (two
 // composite layers over Lambert; skin_oily has three layers and two indices, its rough top made
 // smooth, but its top layer, sebum, neither scatters nor absorbs), a three-layer skin (a
@@ -10,7 +10,7 @@
 //     error of R_diffuse (green), the adding-doubling error estimate at 16 points, and the
 //     seconds the walk would need for a standard error equal to that estimate
 //     (t * (stderr / error)^2, the 1/N law of the variance).
-//   BM_Table/<stack>/<method>: the table mode's table (materials/layered_table: 9 incidence
+//   BM_Table/<stack>/<method>: the table mode's table (materials/tables/layered_table: 9 incidence
 //     nodes, 12 x 24 bins per side) by adding-doubling or by the walk (50000 walks per node).
 #include <benchmark/benchmark.h>
 
@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "materials/adding_doubling.h"
-#include "materials/brdf_table.h"
-#include "materials/layered_table.h"
-#include "materials/stack_file.h"
+#include "materials/adding_doubling/adding_doubling.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/tables/layered_table.h"
+#include "materials/stack/stack_file.h"
 
 namespace {
 

@@ -8,8 +8,8 @@
 
 #include <string>
 
-#include "materials/layered_table.h"
-#include "materials/stack_file.h"
+#include "materials/tables/layered_table.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/layered/subsurface_auto.h"
 

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/render/environment.h"
 #include "renderer/image/image_io.h"
 

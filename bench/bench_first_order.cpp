@@ -4,9 +4,9 @@
 
 #include <cmath>
 
-#include "materials/first_order.h"
-#include "materials/stack_file.h"
-#include "materials/zeroth_order.h"
+#include "materials/analytic/first_order.h"
+#include "materials/stack/stack_file.h"
+#include "materials/analytic/zeroth_order.h"
 
 namespace {
 

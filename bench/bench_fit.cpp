@@ -1,4 +1,4 @@
-// Cost of `lamina fit`'s library (materials/stack_fit): a single-slab inversion from R and T at
+// Cost of `lamina fit`'s library (materials/fit/stack_fit): a single-slab inversion from R and T at
 // normal incidence (iad's problem: the absorption and scattering coefficients of a slab of known
 // thickness, index and g), for one channel and for all three, and one forward evaluation.
 //   BM_FitSlab/<channels>/<quadrature points>/<coarse points>: fit_stack from a start away from the truth (sigma_a 1.5, sigma_s 20)
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "materials/stack_file.h"
-#include "materials/stack_fit.h"
+#include "materials/stack/stack_file.h"
+#include "materials/fit/stack_fit.h"
 
 namespace {
 

@@ -4,9 +4,9 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
-#include "materials/brdf_table.h"
-#include "materials/first_order.h"
-#include "materials/random_walk.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/analytic/first_order.h"
+#include "materials/walk/random_walk.h"
 
 namespace {
 

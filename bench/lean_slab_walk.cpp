@@ -4,7 +4,7 @@
 //
 // The slab is van de Hulst's (bench/mcml_compare.sh slab a): n 1 above, inside and below,
 // sigma_a 1, sigma_s 9 /mm, g 0.75, 0.2 mm, normal incidence. The walk is the general walk's
-// (materials/random_walk_loop.h) reduced to that case, with the same random numbers in the same
+// (materials/walk/walk_kernel.h) reduced to that case, with the same random numbers in the same
 // order (the hero's uniform, the ziggurat's flights, two uniforms per Henyey-Greenstein
 // direction, a uniform at each exit for its Fresnel test, WalkSettings' roulette below 1 % with
 // survival 0.1; the sqrt schedule after 1,000 interactions, which no photon of this slab
@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "materials/brdf_table.h"
-#include "materials/henyey_greenstein.h"
-#include "materials/sampling.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/phase/henyey_greenstein.h"
+#include "materials/base/sampling.h"
 
 namespace {
 using namespace lamina;

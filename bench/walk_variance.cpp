@@ -9,7 +9,7 @@
 //   grey <c>       : every channel given channel c's coefficients (no spectral weights at all)
 //   similarity     : g -> 0 with sigma_s (1 - g) in every layer (the phase-function factor gone;
 //                    a different, approximate medium: its mean is shown for comparison)
-//   next-flight MIS: the connections of materials/next_flight_connection.h (the renderer's default
+//   next-flight MIS: the connections of materials/walk/next_flight_connection.h (the renderer's default
 //                    for delta lights)
 //   + render roulette: and the renderer's walk roulette (RandomWalkOptions' defaults: below half
 //                    the entering weight, survival 1/2)
@@ -24,9 +24,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "materials/next_flight_connection.h"
-#include "materials/random_walk.h"
-#include "materials/stack_file.h"
+#include "materials/walk/next_flight_connection.h"
+#include "materials/walk/random_walk.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/surfaces/random_walk_surface.h"
 
 using namespace lamina;

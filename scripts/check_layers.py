@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Checks the floor plan of docs/architecture.md: each folder uses only the folders below it.
 
-Layers, bottom first: materials/ (pure physics), then renderer/util, image, scene, surfaces,
-layered, render, batch, cli. Two independent checks:
-  1. includes: every `#include "materials/..."` or `#include "renderer/<folder>/..."` in
+Layers, bottom first: the concept folders of materials/ (pure physics: base, interfaces, phase,
+stack, analytic, walk, brdf, adding_doubling, tables, fit), then renderer/util, image, scene,
+surfaces, layered, render, batch, cli. Two independent checks:
+  1. includes: every `#include "materials/<folder>/..."` or `#include "renderer/<folder>/..."` in
      materials/ and renderer/ names its own folder or one below it (materials/ names nothing of
      renderer/, and no Embree, image-library or tinygltf header);
   2. link graph (with --build DIR): `cmake --graphviz` of the configured build, each
-     lamina_<folder> library links only libraries of folders below it.
+     lamina_<folder> library (lamina_materials_<folder> for materials/) links only libraries of
+     folders below it.
 Prints every violation as FILE:LINE: message and exits 1 if there is one.
 usage: scripts/check_layers.py [--source DIR] [--build DIR]
 """
@@ -18,7 +20,9 @@ import subprocess
 import sys
 import tempfile
 
-LAYERS = ["materials", "util", "image", "scene", "surfaces", "layered", "render", "batch", "cli"]
+MATERIALS = ["base", "interfaces", "phase", "stack", "analytic", "walk", "brdf", "adding_doubling", "tables", "fit"]
+RENDERER = ["util", "image", "scene", "surfaces", "layered", "render", "batch", "cli"]
+LAYERS = ["materials/" + m for m in MATERIALS] + RENDERER
 RANK = {name: i for i, name in enumerate(LAYERS)}
 # Third-party headers that materials/ must not see (it is testable alone, without a renderer).
 FORBIDDEN_IN_MATERIALS = ("embree", "OpenImageIO", "OpenEXR", "stb_image", "png.h", "ft2build", "tiny_gltf", "tinygltf")
@@ -28,7 +32,7 @@ def folder_of(path):
     """The layer of a repository path such as renderer/scene/camera.h, or None."""
     parts = path.split("/")
     if parts[0] == "materials":
-        return "materials"
+        return "materials/" + parts[1] if len(parts) > 2 and "materials/" + parts[1] in RANK else None
     if parts[0] == "renderer" and len(parts) > 2 and parts[1] in RANK:
         return parts[1]
     return None
@@ -46,23 +50,29 @@ def check_includes(source):
                 if here is None:
                     problems.append(f"{path}:1: not in a layer folder ({', '.join(LAYERS)})")
                     continue
+                in_materials = here.startswith("materials/")
                 with open(os.path.join(source, path), encoding="utf-8") as f:
                     for number, line in enumerate(f, 1):
                         m = re.match(r'\s*#\s*include\s*[<"]([^>"]+)[>"]', line)
                         if not m:
                             continue
                         target = m.group(1)
-                        if here == "materials" and any(t in target for t in FORBIDDEN_IN_MATERIALS):
+                        if in_materials and any(t in target for t in FORBIDDEN_IN_MATERIALS):
                             problems.append(f"{path}:{number}: materials/ includes {target}")
-                        if target.startswith("renderer/") and here == "materials":
+                        if target.startswith("renderer/") and in_materials:
                             problems.append(f"{path}:{number}: materials/ includes {target}")
                             continue
                         there = folder_of(target)
-                        if target.startswith("renderer/") and there is None:
+                        if target.startswith(("renderer/", "materials/")) and there is None:
                             problems.append(f"{path}:{number}: {target} is not in a layer folder")
                         elif there is not None and RANK[there] > RANK[here]:
                             problems.append(f"{path}:{number}: {here}/ includes {target}, a layer above it")
     return problems
+
+
+def library(layer):
+    """The CMake library of a layer: lamina_materials_walk, lamina_scene, ..."""
+    return "lamina_" + layer.replace("/", "_")
 
 
 def check_links(build):
@@ -77,14 +87,15 @@ def check_links(build):
     edges = re.findall(r'"(node\d+)"\s*->\s*"(node\d+)"', text)
     layer_of = {}
     for node, label in names.items():
-        m = re.fullmatch(r"lamina_(\w+)", label)
-        if m and m.group(1) in RANK:
-            layer_of[node] = m.group(1)
+        m = re.fullmatch(r"lamina_materials_(\w+)", label)
+        name = "materials/" + m.group(1) if m else label[len("lamina_"):] if label.startswith("lamina_") else None
+        if name in RANK:
+            layer_of[node] = name
     if len(set(layer_of.values())) < len(LAYERS) - 1:  # cli is the executable `lamina`
         problems.append(f"{build}: the link graph has only {sorted(set(layer_of.values()))}")
     for a, b in edges:
         if a in layer_of and b in layer_of and RANK[layer_of[b]] >= RANK[layer_of[a]]:
-            problems.append(f"{build}: lamina_{layer_of[a]} links lamina_{layer_of[b]}, not below it")
+            problems.append(f"{build}: {library(layer_of[a])} links {library(layer_of[b])}, not below it")
     return problems
 
 

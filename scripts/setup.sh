@@ -17,7 +17,7 @@ packages=(
   nlohmann-json3-dev       # material files and manifests
   libcli11-dev             # command-line parsing
   libglm-dev libtbb-dev
-  libnlopt-dev             # lamina fit's optimiser (materials/stack_fit)
+  libnlopt-dev             # lamina fit's optimiser (materials/fit/stack_fit)
   libgtest-dev libbenchmark-dev
   python3 python3-pip python3-numpy python3-matplotlib  # figures and reports only, never the render path
   slurm-wlm munge          # a private local Slurm cluster for scripts/batch_slurm.sh's test (scripts/lib/local_slurm.sh)

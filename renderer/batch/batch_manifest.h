@@ -7,7 +7,7 @@
 // This header is the one to include; it gathers the parts: manifest.h (the schema, reading and
 // validating a manifest) and jobs.h (job expansion, hashes, stack overrides, comparisons,
 // shards). glTF files are read with renderer/scene/gltf_document.h, stack paths split with
-// materials/stack_parameters.h.
+// materials/stack/stack_parameters.h.
 #pragma once
 
 #include "renderer/batch/jobs.h"

@@ -8,7 +8,7 @@
 #include <set>
 #include <sstream>
 
-#include "materials/stack_parameters.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
 #include "renderer/util/version.h"

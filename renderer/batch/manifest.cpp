@@ -10,11 +10,11 @@
 #include <iterator>
 #include <set>
 
-#include "materials/stack_parameters.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
-#include "materials/json_keys.h"
-#include "materials/json_limits.h"
+#include "materials/stack/json_keys.h"
+#include "materials/stack/json_limits.h"
 
 namespace lamina {
 namespace batch_detail {
@@ -431,7 +431,7 @@ Manifest load_manifest(const std::string& path) {
   if (fs::is_directory(path, ec)) throw ManifestError(path + ": is a directory, not a manifest");
   std::ifstream in(path);
   if (!in) throw ManifestError(path + ": cannot open the manifest");
-  // Read whole, so that the nesting depth is checked before parsing (materials/json_limits.h):
+  // Read whole, so that the nesting depth is checked before parsing (materials/stack/json_limits.h):
   // no manifest nests more than a few levels, and deeper JSON would overflow the stack of the
   // recursive walks over the document.
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

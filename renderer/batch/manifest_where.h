@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "materials/stack_parameters.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/batch/manifest.h"
 
 namespace lamina {
@@ -24,7 +24,7 @@ struct Where {
 };
 
 // A "set" path such as "layers[1].components[0].fraction" split into keys and indices
-// (materials/stack_parameters.h split_stack_path); a ManifestError at `where` if it is malformed.
+// (materials/stack/stack_parameters.h split_stack_path); a ManifestError at `where` if it is malformed.
 std::vector<StackPathStep> stack_path_steps(const std::string& path, const Where& where);
 
 }  // namespace batch_detail

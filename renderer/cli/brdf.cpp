@@ -30,9 +30,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "materials/adding_doubling.h"
-#include "materials/brdf_table.h"
-#include "materials/stack_file.h"
+#include "materials/adding_doubling/adding_doubling.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/util/progress.h"
@@ -99,7 +99,7 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
     nlohmann::ordered_json ends;
     for (std::size_t e = 0; e < t.ends.size() && e < 5; ++e) ends[kEnds[e]] = t.ends[e];
     j["walk_ends"] = ends;
-    // Power still carried by walks past the forced roulette's last phase (materials/brdf_table.h):
+    // Power still carried by walks past the forced roulette's last phase (materials/brdf/brdf_table.h):
     // R and T may miss up to this much beyond their standard errors.
     put("unresolved", t.totals.unresolved);
     j["unresolved_walks"] = t.totals.unresolved_walks;
@@ -108,7 +108,7 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
 }
 
 // The summary of --method adding-doubling: the keys of totals_json with standard errors 0, the
-// diffuse-incidence totals, and the discretisation error estimate (materials/adding_doubling.h).
+// diffuse-incidence totals, and the discretisation error estimate (materials/adding_doubling/adding_doubling.h).
 std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const BrdfOptions& o, int quadrature_points,
                                  bool with_table) {
   nlohmann::ordered_json j;
@@ -232,7 +232,7 @@ int run_brdf(int argc, char** argv) {
       const double cos_theta_i = lamina::incident_direction(theta_i, phi_i).z;  // as the other methods
       lamina::AddingDoublingEstimate estimate = lamina::adding_doubling_with_error(stack, cos_theta_i, settings);
       std::string csv;
-      if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling.h)
+      if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling/adding_doubling.h)
         // Say when delta-M's truncation is too coarse for the bins (the totals are unaffected).
         const lamina::DeltaMTruncation tr = lamina::delta_m_truncation(stack, settings);
         if (tr.forward > 0.03)

@@ -1,6 +1,6 @@
 // lamina fit: the parameters of a material file from measured totals and/or BRDF/BTDF tables in
 // lamina brdf's CSV format (docs/contracts.md,
-// "lamina fit"). Parses, calls materials/stack_fit, prints; the physics and the statistics live
+// "lamina fit"). Parses, calls materials/fit/stack_fit, prints; the physics and the statistics live
 // in materials/.
 //
 // Outputs:
@@ -26,8 +26,8 @@
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
-#include "materials/stack_file.h"
-#include "materials/stack_fit.h"
+#include "materials/stack/stack_file.h"
+#include "materials/fit/stack_fit.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/cli/outputs.h"
@@ -40,7 +40,7 @@ namespace {
 
 namespace cli = lamina::cli;
 
-// "PATH=LO:HI" -> spec; the path itself is checked by the resolver (materials/stack_parameters).
+// "PATH=LO:HI" -> spec; the path itself is checked by the resolver (materials/stack/stack_parameters).
 lamina::FitParameterSpec parse_param(const std::string& text) {
   const std::size_t eq = text.rfind('=');
   const std::size_t colon = eq == std::string::npos ? std::string::npos : text.find(':', eq);

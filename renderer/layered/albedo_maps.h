@@ -1,6 +1,6 @@
 // From a colour texture to parameter maps (issue 13 item 6; `lamina fit --albedo-texture`,
 // docs/contracts.md): the texture as linear RGB, every texel matched through the albedo lookup
-// (materials/albedo_lookup.h: the physics), and the content of the outputs:
+// (materials/fit/albedo_lookup.h: the physics), and the content of the outputs:
 //   - one parameter map per lookup axis: a 16-bit grey PNG storing t = (value - lower) /
 //     (upper - lower) linearly (no transfer function), so that a binding with
 //     "range": [lower, upper] gives the value back (docs/stack_bindings.md, "Maps are data");
@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "materials/albedo_lookup.h"
-#include "materials/stack_parameters.h"
+#include "materials/fit/albedo_lookup.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/image/image.h"
 #include "renderer/image/image_io.h"
 
@@ -27,7 +27,7 @@ struct AlbedoMapsSettings {
   std::vector<FitParameterSpec> axes;  // two scalar parameters and their ranges
   int nodes = 33;                      // lookup nodes per axis
   int quadrature_points = 8;           // adding-doubling points of the lookup's solutions
-  AlbedoKind albedo = AlbedoKind::kDiffuse;  // which albedo the texture is (materials/albedo_lookup.h)
+  AlbedoKind albedo = AlbedoKind::kDiffuse;  // which albedo the texture is (materials/fit/albedo_lookup.h)
   // A texel whose match is farther than this (CIE76) is counted as not reachable by the two
   // parameters. 2.3 is the just-noticeable difference (Mahy et al. 1994); the lookup's own
   // error is far below it (0.05 at 33 nodes).

@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "materials/stack.h"
+#include "materials/stack/stack.h"
 #include "renderer/scene/scene_gltf.h"
 
 namespace lamina {

@@ -3,15 +3,15 @@
 #include <algorithm>
 #include <sstream>
 
-#include "materials/albedo.h"
-#include "materials/stack_parameters.h"
+#include "materials/tables/albedo.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/layered/stack_bindings.h"
 
 namespace lamina {
 namespace {
 
 // The lambert mode's albedo of a stack: by adding-doubling for a smooth top (no noise: standard
-// error 0; materials/albedo.h), by `walks` walks for a rough one (its facets are not in
+// error 0; materials/tables/albedo.h), by `walks` walks for a rough one (its facets are not in
 // adding-doubling).
 Spectrum albedo_of(const LayerStack& stack, int walks, Spectrum* standard_error = nullptr) {
   if (!stack.rough_top()) {
@@ -106,7 +106,7 @@ const LayerStack& LayeredMaterial::stack_at(const ShadingPoint& sp, StackScratch
     // allocation once its vectors have grown; stack_bindings.h).
     bindings_->evaluate(sp.uv, &scratch.stack);
     if (!(sp.from_below && stack_.transmits())) return scratch.stack;
-    // Seen from below, into the scratch's storage (materials/stack.h).
+    // Seen from below, into the scratch's storage (materials/stack/stack.h).
     flip_into(scratch.stack, &scratch.flipped);
     return scratch.flipped;
   }

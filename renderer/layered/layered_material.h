@@ -16,8 +16,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "materials/spectrum.h"
-#include "materials/stack.h"
+#include "materials/base/spectrum.h"
+#include "materials/stack/stack.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/subsurface_mode.h"
 

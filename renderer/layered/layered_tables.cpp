@@ -4,7 +4,7 @@
 #include <array>
 #include <optional>
 
-#include "materials/stack_parameters.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/walk_cache.h"
 

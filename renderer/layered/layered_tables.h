@@ -1,5 +1,5 @@
 // The table mode's tables of a scene: one per layered material (and one of its flipped stack if
-// it transmits), built by adding-doubling or the walk (materials/layered_table.h) or loaded from
+// it transmits), built by adding-doubling or the walk (materials/tables/layered_table.h) or loaded from
 // the walk cache; and for a material with texture-driven parameters, tables along each parameter.
 //
 // Texture-driven parameters (renderer/layered/stack_bindings.h) in the table mode: a separable
@@ -21,7 +21,7 @@
 #include <utility>
 #include <vector>
 
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/surfaces/table_surface.h"

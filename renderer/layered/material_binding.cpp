@@ -7,13 +7,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "materials/stack_file.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
-#include "materials/json_keys.h"
-#include "materials/json_limits.h"
+#include "materials/stack/json_keys.h"
+#include "materials/stack/json_limits.h"
 
 namespace lamina {
 
@@ -68,7 +68,7 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
     if (!in) throw SceneError(map_path + ": cannot read the material map");
     std::stringstream ss;
     ss << in.rdbuf();
-    // Bounded before parsing, like every JSON input (materials/json_limits.h).
+    // Bounded before parsing, like every JSON input (materials/stack/json_limits.h).
     if (const auto at = json_nesting_exceeds(ss.str())) throw SceneError(map_path + ": " + json_nesting_message(*at));
     nlohmann::json j;
     try {

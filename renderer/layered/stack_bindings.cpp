@@ -8,11 +8,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/image/image_io.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
-#include "materials/json_keys.h"
+#include "materials/stack/json_keys.h"
 
 namespace lamina {
 namespace {

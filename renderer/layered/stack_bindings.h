@@ -44,9 +44,9 @@
 #include <glm/vec2.hpp>
 #include <nlohmann/json_fwd.hpp>
 
-#include "materials/spectrum.h"
-#include "materials/stack.h"
-#include "materials/stack_parameters.h"
+#include "materials/base/spectrum.h"
+#include "materials/stack/stack.h"
+#include "materials/stack/stack_parameters.h"
 
 namespace lamina {
 

@@ -13,17 +13,17 @@
 
 #include <nlohmann/json.hpp>
 
-#include "materials/adding_doubling.h"
-#include "materials/brdf_table.h"
-#include "materials/sampling.h"
-#include "materials/layered_table.h"
+#include "materials/adding_doubling/adding_doubling.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/base/sampling.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/util/string_format.h"
 
 namespace lamina {
 namespace {
 
-// Projected solid angle of bin k of a K x M grid (materials/brdf_table.h: bin k spans |cos| in
+// Projected solid angle of bin k of a K x M grid (materials/brdf/brdf_table.h: bin k spans |cos| in
 // [k/K, (k+1)/K]): int |cos| dw = (hi^2 - lo^2) / 2 * (2 pi / M).
 double bin_projected_solid_angle(int k, int K, int M) {
   const double lo = static_cast<double>(k) / K, hi = (k + 1.0) / K;

@@ -68,7 +68,7 @@
 
 #include "renderer/scene/camera.h"
 #include "renderer/layered/layered_material.h"
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/scene/scene.h"
 #include "renderer/layered/walk_cache.h"
 #include "renderer/layered/subsurface_mode.h"

@@ -4,7 +4,7 @@
 // pure function of its stack, its settings and the code that computes it (deterministic walks),
 // so one computed once is reused bit for bit by later renders and batch jobs.
 //
-// Key: content_hash of what it is, the stack's fingerprint (materials/stack.h: every number that
+// Key: content_hash of what it is, the stack's fingerprint (materials/stack/stack.h: every number that
 // affects the light, exactly), the settings, the layout version below and the running
 // executable's GNU build id (so a rebuilt lamina never reads results of a different walk).
 // Files: DIR/tables/<key>.lamtable (binary, native byte order: the same machine type, a
@@ -18,9 +18,9 @@
 #include <optional>
 #include <string>
 
-#include "materials/stack.h"
+#include "materials/stack/stack.h"
 #include "renderer/layered/layered_material.h"
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 
 namespace lamina {
 

@@ -19,7 +19,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/render/distribution.h"
 #include "renderer/image/image_io.h"
 

@@ -19,7 +19,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "materials/spectrum.h"
+#include "materials/base/spectrum.h"
 
 namespace lamina {
 

@@ -11,7 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "materials/random_walk.h"
+#include "materials/walk/random_walk.h"
 #include "renderer/surfaces/first_order_surface.h"
 #include "renderer/surfaces/metallic_roughness_surface.h"
 #include "renderer/surfaces/random_walk_surface.h"
@@ -142,7 +142,7 @@ struct LightSamples {
 //    less (their offsets are still stratified per walk index).
 // Light samples at events need no change: connection_weight and the event's throughput are
 // conditional on the walk's hero, and exit_pdf_for_mis is the mean over the three heroes, which
-// does not depend on how the hero was chosen (materials/walk_estimator.h, exit_pdf_for_mis).
+// does not depend on how the hero was chosen (materials/walk/walk_estimator.h, exit_pdf_for_mis).
 int HeroStrata::hero(int walk_index) const {
   Rng offset_rng(seed, pixel, kHeroStream + static_cast<std::uint64_t>(walk_index));
   const int offset = std::min(kChannels - 1, static_cast<int>(offset_rng.uniform() * kChannels));

@@ -11,7 +11,7 @@
 #include <functional>
 #include <vector>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/scene/camera.h"
 #include "renderer/image/image.h"
 #include "renderer/layered/layered_shading.h"

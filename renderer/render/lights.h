@@ -13,7 +13,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "materials/spectrum.h"
+#include "materials/base/spectrum.h"
 #include "renderer/render/distribution.h"
 #include "renderer/render/environment.h"
 #include "renderer/scene/scene.h"

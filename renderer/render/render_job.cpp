@@ -8,8 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "materials/albedo.h"
-#include "materials/random_walk.h"
+#include "materials/tables/albedo.h"
+#include "materials/walk/random_walk.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/layered/subsurface_auto.h"

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/image/image_io.h"
 #include "renderer/image/tone_map.h"
 #include "renderer/layered/material_binding.h"
@@ -33,7 +33,7 @@ struct RenderRequest {
   std::string subsurface = "random-walk";  // a mode name (renderer/layered/subsurface_mode.h) or "auto"
   double tolerance = 0.0;  // with auto: the largest predicted relative error per material
   std::string cache_dir;   // "" for no walk cache (renderer/layered/walk_cache.h)
-  // How the table mode builds its tables (materials/layered_table.h): adding-doubling (falling
+  // How the table mode builds its tables (materials/tables/layered_table.h): adding-doubling (falling
   // back to the walk where it cannot resolve a lobe) or the walk.
   TableSettings::Method table_method = TableSettings::Method::AddingDoubling;
   // random-walk mode: the walk's options (LayeredShading::walk). With similarity_after >= 0

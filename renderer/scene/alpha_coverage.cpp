@@ -6,7 +6,7 @@
 
 #include <glm/vec2.hpp>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 
@@ -30,7 +30,7 @@ double stochastic_alpha_sample(const float origin[3], const float direction[3], 
   std::uint32_t w[6];
   std::memcpy(w, origin, 3 * sizeof(float));
   std::memcpy(w + 3, direction, 3 * sizeof(float));
-  // Chained SplitMix64 finalisers (materials/sampling.h) over the primitive and the ray's bits.
+  // Chained SplitMix64 finalisers (materials/base/sampling.h) over the primitive and the ray's bits.
   std::uint64_t h = mix64((static_cast<std::uint64_t>(geometry) << 32) | triangle);
   for (int i = 0; i < 6; i += 2) h = mix64(h ^ ((static_cast<std::uint64_t>(w[i]) << 32) | w[i + 1]));
   return static_cast<double>(h >> 11) * 0x1.0p-53;

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "materials/json_limits.h"
+#include "materials/stack/json_limits.h"
 
 namespace lamina {
 

@@ -40,7 +40,7 @@ enum class GltfFormat { kDetect, kText, kBinary };
 // GLB whose header or JSON chunk is cut short.
 GltfText read_gltf_text(const std::string& path, GltfFormat format = GltfFormat::kDetect);
 
-// The JSON of `text` as an object. The nesting depth is checked first (materials/json_limits.h:
+// The JSON of `text` as an object. The nesting depth is checked first (materials/stack/json_limits.h:
 // no parser or recursive walk sees JSON nested deeper than kMaxJsonNesting), the error naming
 // the byte of the file. Throws GltfDocumentError when the JSON nests too deep, is invalid, or is
 // not an object.

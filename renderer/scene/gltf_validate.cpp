@@ -11,7 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/scene/scene_gltf.h"
 
 namespace lamina {

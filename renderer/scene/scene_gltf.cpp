@@ -24,7 +24,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <tiny_gltf.h>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 namespace {

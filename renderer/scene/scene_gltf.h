@@ -21,7 +21,7 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
-#include "materials/spectrum.h"
+#include "materials/base/spectrum.h"
 
 namespace lamina {
 

@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "materials/first_order.h"
-#include "materials/sampling.h"
+#include "materials/analytic/first_order.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 
@@ -14,7 +14,7 @@ Spectrum FirstOrderSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) con
   // Reflection is reciprocal: f_r(wi -> wo) = first_order_brdf(light at wi, viewer at wo).
   if (wi.z > 0.0) return first_order_brdf(stack_, wi, wo);
   // Transmission: the library gives f_t(wo -> wi) (light from above at wo); reciprocity with
-  // indices (materials/walk_estimator.h) turns it into f_t(wi -> wo).
+  // indices (materials/walk/walk_estimator.h) turns it into f_t(wi -> wo).
   if (wi.z < 0.0 && lobes_.transmits) return first_order_btdf(stack_, wo, wi) * lobes_.t_factor;
   return Spectrum(0.0);
 }

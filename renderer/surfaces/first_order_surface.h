@@ -3,18 +3,18 @@
 //   event: the top interface's specular reflection is a delta lobe chosen with probability R(wo);
 //   otherwise the materials/ random walk runs from the viewer's direction wo and at each
 //   scattering event the integrator samples a light and connects to it with connection_weight();
-//   the walk's exits continue the path (the stack-only pieces: materials/walk_estimator.h, which
+//   the walk's exits continue the path (the stack-only pieces: materials/walk/walk_estimator.h, which
 //   also derives the reciprocity used here).
 // first-order: FirstOrderSurface (this file), the analytic zeroth order (delta lobes) and first order.
 // table: TableSurface (renderer/surfaces/table_surface.h), a BRDF/BTDF table from the walk
-//   (materials/layered_table.h).
-// lambert: LambertSurface with LayeredMaterial::lambert_albedo() (materials/albedo.h).
+//   (materials/tables/layered_table.h).
+// lambert: LambertSurface with LayeredMaterial::lambert_albedo() (materials/tables/albedo.h).
 #pragma once
 
 #include <glm/vec3.hpp>
 
-#include "materials/spectrum.h"
-#include "materials/stack.h"
+#include "materials/base/spectrum.h"
+#include "materials/stack/stack.h"
 #include "renderer/surfaces/surface.h"
 #include "renderer/surfaces/zeroth_order_lobes.h"
 

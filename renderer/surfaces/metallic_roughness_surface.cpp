@@ -5,7 +5,7 @@
 
 #include <glm/geometric.hpp>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 

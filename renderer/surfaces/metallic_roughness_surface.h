@@ -3,7 +3,7 @@
 // F0 = base colour) and a dielectric (GGX specular of F0 = 0.04 over a Lambert base, combined by
 // the Fresnel mix: f = (1 - F) diffuse + F specular):
 //   f = (1 - metallic) [ (1 - F_d) base / pi + F_d S ] + metallic F_m S,
-//   S = D(h) G2(wo, wi) / (4 |wo.z| |wi.z|) (materials/microfacet.h), alpha = roughness^2,
+//   S = D(h) G2(wo, wi) / (4 |wo.z| |wi.z|) (materials/interfaces/microfacet.h), alpha = roughness^2,
 //   F_d = 0.04 + 0.96 (1 - |wo.h|)^5,  F_m = base + (1 - base) (1 - |wo.h|)^5.
 // Reflection only (the upper hemisphere). As specified it is not energy conserving at grazing
 // views (the diffuse keeps 1 - F(wo.h) of a half vector that is near the normal for most wi):
@@ -12,7 +12,7 @@
 // probability that follows its expected share at wo, else the cosine; pdf() is the mixture.
 #pragma once
 
-#include "materials/microfacet.h"
+#include "materials/interfaces/microfacet.h"
 #include "renderer/surfaces/surface.h"
 
 namespace lamina {

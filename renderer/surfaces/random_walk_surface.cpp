@@ -1,16 +1,16 @@
 #include "renderer/surfaces/random_walk_surface.h"
 
-#include "materials/random_walk_loop.h"
+#include "materials/walk/walk_kernel.h"
 
 #include <cmath>
 #include <vector>
 
-#include "materials/fresnel.h"
-#include "materials/henyey_greenstein.h"
-#include "materials/microfacet.h"
-#include "materials/next_flight_connection.h"
-#include "materials/random_walk.h"
-#include "materials/walk_estimator.h"
+#include "materials/interfaces/fresnel.h"
+#include "materials/phase/henyey_greenstein.h"
+#include "materials/interfaces/microfacet.h"
+#include "materials/walk/next_flight_connection.h"
+#include "materials/walk/random_walk.h"
+#include "materials/walk/walk_estimator.h"
 
 namespace lamina {
 
@@ -22,7 +22,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   const double r_top = fresnel_dielectric(wo.z, stack_.above_ior, stack_.layers[0].ior);
   const bool rough = stack_.rough_top();
   if (rough) {
-    // The glossy lobe of a rough top (materials/microfacet.h): evaluated for every light
+    // The glossy lobe of a rough top (materials/interfaces/microfacet.h): evaluated for every light
     // direction, MIS against its own sampling, which is chosen with probability r_top.
     const RoughDielectric top = top_interface(stack_);
     for (int k = 0; k < light_count; ++k) {
@@ -217,7 +217,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     }
     last = e;
   };
-  // The walk's loop with this callback inlined into it (materials/random_walk_loop.h).
+  // The walk's loop with this callback inlined into it (materials/walk/walk_kernel.h).
   const WalkResult walk = walk_detail::run_walk(stack_, wo, rng, on_event, settings, hero_);
   if (events_) *events_ += events;
   if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette

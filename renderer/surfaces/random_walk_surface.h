@@ -14,7 +14,7 @@
 //    m_e the power heuristic of the light's density against the walk leaving straight from e
 //    along wl (exit_pdf_for_mis); 1 for a delta light. What depends only on wl (the refracted
 //    direction in each layer, the Fresnel transmissions, the n^2 factors, the optical depth of
-//    the layers crossed) is prepared once per light direction (materials/random_walk.h,
+//    the layers crossed) is prepared once per light direction (materials/walk/random_walk.h,
 //    ExitDirection); an event pays for its phase function and its own attenuation.
 //    With a LightSampler (RandomWalkOptions::per_event_pool_samples, off by default), every event
 //    also connects to a light sample of its own, with its own shadow ray: independent samples of
@@ -23,18 +23,18 @@
 //    grey HG lobe, each event's connection to a delta light is split by MIS over the direction
 //    of the flight that led to it: the event's own connection keeps the weight p_A / (p_A + p_B)
 //    and the previous event adds the same expectation estimated along a direction drawn around
-//    the light's inside direction (materials/next_flight_connection.h).
+//    the light's inside direction (materials/walk/next_flight_connection.h).
 //  * The continuation is the walk's exit, weight W_exit / (1 - R) [n factor]. An exit straight
 //    from the last event competes with that event's light connection: MIS with pdf
 //    exit_pdf_for_mis; any other exit (unscattered, or reflected inside since) cannot be found
 //    by a light connection: delta (full weight).
 // [n factor] is transmission_radiance_factor for directions on the far side (reciprocity,
-// materials/walk_estimator.h).
+// materials/walk/walk_estimator.h).
 #pragma once
 
 #include <cstdint>
 
-#include "materials/stack.h"
+#include "materials/stack/stack.h"
 #include "renderer/surfaces/surface.h"
 
 namespace lamina {
@@ -64,7 +64,7 @@ struct RandomWalkOptions {
   // stacks; an exact skin stack has none). Unbiased; off by default: it wins for long walks in
   // bright isotropic media and loses where walks are already short (docs/random_walk.md).
   double guiding = 0.0;
-  // Next-flight connections for delta lights (materials/next_flight_connection.h, `--next-flight
+  // Next-flight connections for delta lights (materials/walk/next_flight_connection.h, `--next-flight
   // off` to disable): each flight's direction by two techniques, the walk's phase sampling and
   // the phase function around the light's inside direction, combined by MIS. Unbiased; it
   // removes the spikes of forward-peaked connections.
@@ -98,7 +98,7 @@ struct RandomWalkOptions {
 class RandomWalkSurface final : public Surface {
  public:
   // stack: its top faces the viewer (wo.z > 0). hero: the walk's hero channel, or kRandomHero
-  // (materials/random_walk.h). events: if not null, counts the scattering events.
+  // (materials/walk/random_walk.h). events: if not null, counts the scattering events.
   RandomWalkSurface(const LayerStack& stack, int hero, const RandomWalkOptions& options,
                     std::uint64_t* events = nullptr)
       : stack_(stack), hero_(hero), options_(options), events_(events) {}

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 

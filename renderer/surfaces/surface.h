@@ -9,8 +9,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "materials/sampling.h"
-#include "materials/spectrum.h"
+#include "materials/base/sampling.h"
+#include "materials/base/spectrum.h"
 
 namespace lamina {
 

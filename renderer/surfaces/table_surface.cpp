@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "materials/brdf_table.h"
-#include "materials/sampling.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/base/sampling.h"
 
 namespace lamina {
 
@@ -36,7 +36,7 @@ Spectrum TableSurface::value(int node, int bin) const {
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
-  // As materials/brdf_table: |cos| bins, azimuth_bin from the incidence's azimuth (here the viewer's).
+  // As materials/brdf/brdf_table: |cos| bins, azimuth_bin from the incidence's azimuth (here the viewer's).
   const int K = table_.settings.bins_theta, M = table_.settings.bins_phi;
   const int side = wi.z > 0.0 ? 0 : 1;
   const int k = std::clamp(static_cast<int>(std::abs(wi.z) * K), 0, K - 1);
@@ -47,7 +47,7 @@ Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
   if (wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && !lobes_.transmits)) return Spectrum(0.0);
   const int b = bin_of(wo, wi);
   Spectrum f = value(node_[0], b) * weight_[0] + value(node_[1], b) * weight_[1];
-  // Reciprocity (materials/walk_estimator.h): the table holds f(wo -> wi).
+  // Reciprocity (materials/walk/walk_estimator.h): the table holds f(wo -> wi).
   if (wi.z < 0.0) f *= lobes_.t_factor;
   return f;
 }

@@ -1,11 +1,11 @@
-// table mode: the layered surface as a tabulated BRDF/BTDF (materials/layered_table.h: layout,
+// table mode: the layered surface as a tabulated BRDF/BTDF (materials/tables/layered_table.h: layout,
 // interpolation and sampling) plus the exact zeroth order's delta lobes.
 #pragma once
 
 #include <glm/vec3.hpp>
 
-#include "materials/layered_table.h"
-#include "materials/spectrum.h"
+#include "materials/tables/layered_table.h"
+#include "materials/base/spectrum.h"
 #include "renderer/surfaces/surface.h"
 #include "renderer/surfaces/zeroth_order_lobes.h"
 

@@ -1,6 +1,6 @@
 #include "renderer/surfaces/zeroth_order_lobes.h"
 
-#include "materials/walk_estimator.h"
+#include "materials/walk/walk_estimator.h"
 
 namespace lamina {
 

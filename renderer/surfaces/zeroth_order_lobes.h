@@ -6,9 +6,9 @@
 
 #include <glm/vec3.hpp>
 
-#include "materials/spectrum.h"
-#include "materials/stack.h"
-#include "materials/zeroth_order.h"
+#include "materials/base/spectrum.h"
+#include "materials/stack/stack.h"
+#include "materials/analytic/zeroth_order.h"
 #include "renderer/surfaces/surface.h"
 
 namespace lamina {

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/stack.h"
+#include "materials/stack/stack.h"
 
 namespace lamina::test {
 

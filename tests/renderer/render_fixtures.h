@@ -10,8 +10,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "materials/sampling.h"
-#include "materials/spectrum.h"
+#include "materials/base/sampling.h"
+#include "materials/base/spectrum.h"
 #include "renderer/render/integrator.h"
 #include "renderer/scene/scene_gltf.h"
 

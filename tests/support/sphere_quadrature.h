@@ -9,8 +9,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "materials/first_order.h"  // gauss_legendre
-#include "materials/sampling.h"
+#include "materials/analytic/first_order.h"  // gauss_legendre
+#include "materials/base/sampling.h"
 
 namespace lamina::test {
 

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 
 namespace lamina::test {
 namespace {

@@ -17,8 +17,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "materials/albedo.h"
-#include "materials/stack_file.h"
+#include "materials/tables/albedo.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/image/image_io.h"
 #include "renderer/layered/stack_bindings.h"
 #include "tests/renderer/cli/cli_runner.h"
@@ -217,7 +217,7 @@ class CliFitAlbedo : public CliFit {
   double truth_[2][kW * kH];
 };
 
-// The lookup's stated error at 33 nodes on this grid (materials/albedo_lookup.h): 1.3% of the
+// The lookup's stated error at 33 nodes on this grid (materials/fit/albedo_lookup.h): 1.3% of the
 // range, Delta E 0.14. The maps are 16-bit (1.5e-5 of the range), so the fractions read back
 // through the texture bindings' own reader must lie within 2% of the range.
 TEST_F(CliFitAlbedo, LinearTextureOfKnownFractionsComesBack) {
@@ -271,7 +271,7 @@ TEST_F(CliFitAlbedo, TotalAlbedoIsAnotherQuantity) {
 // (--texture-decoding linear) the colours are far lighter than the skin can be: the fitted
 // albedo is far from the stored values and most texels are not reachable. (The fractions are
 // not compared here: at high melanin the 8-bit rounding alone moves blood by up to 0.69 of its
-// range, materials/albedo_lookup.h.)
+// range, materials/fit/albedo_lookup.h.)
 TEST_F(CliFitAlbedo, SrgbTextureIsDecoded) {
   lamina::write_png(dir_ + "/albedo.png", albedo_);
   // The largest difference between fitted_albedo.png and the texture, in 8-bit steps.

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/albedo.h"
-#include "materials/sampling.h"
+#include "materials/tables/albedo.h"
+#include "materials/base/sampling.h"
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/material_binding.h"

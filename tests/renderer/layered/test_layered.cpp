@@ -4,7 +4,7 @@
 // Tolerances: a pixel is an independent estimate of the same radiance (the slab is infinite in
 // effect and the camera's field of view is tiny), so the image mean has standard error
 // s / sqrt(N) from the pixels' sample deviation; the reference f comes from
-// materials/brdf_table's connection estimator (its own standard error), an estimator the
+// materials/brdf/brdf_table's connection estimator (its own standard error), an estimator the
 // renderer does not use (all unscattered paths in closed form, no exits, no MIS, no flipped
 // stacks, no reciprocity). We allow k = 3 combined standard errors (the criterion) or
 // 4 where many comparisons share one test (stated there).
@@ -22,17 +22,17 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/brdf_table.h"
-#include "materials/first_order.h"
-#include "materials/sampling.h"
-#include "materials/stack.h"
-#include "materials/stack_file.h"
+#include "materials/brdf/brdf_table.h"
+#include "materials/analytic/first_order.h"
+#include "materials/base/sampling.h"
+#include "materials/stack/stack.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/render/integrator.h"
 #include "renderer/scene/scene_gltf.h"
 #include "tests/renderer/gltf_fixture.h"
 #include "tests/renderer/render_fixtures.h"
 #include "renderer/layered/layered_material.h"
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/subsurface_auto.h"
@@ -804,7 +804,7 @@ TEST(LayeredLights, GuidedWalksSameMean) {
   expect_same_mean(iso, classic, guided, "classic", "guided");
 }
 
-// Next-flight connections (materials/next_flight_connection.h; the default) against the plain
+// Next-flight connections (materials/walk/next_flight_connection.h; the default) against the plain
 // per-event connections, on forward-scattering skin-like layers (g = 0.8 in both) under every
 // kind of light: the point light's connections take the MIS, the others not.
 LayerStack forward_skin_like() {

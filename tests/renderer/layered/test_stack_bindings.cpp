@@ -13,15 +13,15 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "materials/albedo.h"
-#include "materials/stack_file.h"
+#include "materials/tables/albedo.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/image/image_io.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/layered/material_binding.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/surfaces/table_surface.h"
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 
 namespace lamina {
 namespace {

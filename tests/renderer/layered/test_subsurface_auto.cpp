@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/sampling.h"
-#include "materials/stack.h"
-#include "materials/stack_file.h"
+#include "materials/base/sampling.h"
+#include "materials/stack/stack.h"
+#include "materials/stack/stack_file.h"
 #include "renderer/render/environment.h"
 #include "renderer/render/integrator.h"
 #include "renderer/layered/layered_material.h"

@@ -12,9 +12,9 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/stack.h"
+#include "materials/stack/stack.h"
 #include "renderer/layered/layered_material.h"
-#include "materials/layered_table.h"
+#include "materials/tables/layered_table.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/subsurface_auto.h"

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {

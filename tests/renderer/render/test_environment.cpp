@@ -11,7 +11,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/image/image_io.h"
 #include "tests/support/statistics.h"
 

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/render/integrator.h"
 #include "tests/renderer/render_fixtures.h"
 

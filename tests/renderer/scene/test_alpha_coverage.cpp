@@ -10,7 +10,7 @@
 #include "tests/support/image_files.h"
 #include <gtest/gtest.h>
 
-#include "materials/sampling.h"
+#include "materials/base/sampling.h"
 #include "renderer/render/integrator.h"
 #include "renderer/scene/alpha_coverage.h"
 #include "renderer/scene/camera.h"

@@ -9,8 +9,8 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/json_limits.h"
-#include "materials/sampling.h"
+#include "materials/stack/json_limits.h"
+#include "materials/base/sampling.h"
 #include "renderer/image/image_io.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/camera.h"
@@ -435,7 +435,7 @@ TEST(SceneGltf, BadInputIsAOneLineError) {
   }
 }
 
-// The nesting scanner every JSON reader runs before parsing (materials/json_limits.h): levels
+// The nesting scanner every JSON reader runs before parsing (materials/stack/json_limits.h): levels
 // are counted from 1 at the outermost bracket, and brackets in strings, escaped quotes
 // included, do not count.
 TEST(SceneGltf, JsonNestingScanner) {

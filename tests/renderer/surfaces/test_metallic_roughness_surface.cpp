@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/microfacet.h"
-#include "materials/sampling.h"
+#include "materials/interfaces/microfacet.h"
+#include "materials/base/sampling.h"
 #include "renderer/surfaces/metallic_roughness_surface.h"
 #include "tests/support/sphere_quadrature.h"
 #include "tests/support/statistics.h"

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
-#include "materials/microfacet.h"
-#include "materials/random_walk.h"
+#include "materials/interfaces/microfacet.h"
+#include "materials/walk/random_walk.h"
 #include "renderer/surfaces/random_walk_surface.h"
 #include "tests/support/sphere_quadrature.h"
 #include "tests/support/statistics.h"

@@ -1,0 +1,275 @@
+#include "materials/stack/stack_file.h"
+#include "materials/stack/json_keys.h"
+#include "materials/stack/json_limits.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace lamina {
+
+namespace {
+
+using nlohmann::json;
+
+// Reads one JSON document and throws StackFileError("SOURCE: PATH: reason") on any problem.
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
+    throw StackFileError(source_ + ": " + (path.empty() ? std::string("(document)") : path) +
+                         ": " + reason);
+  }
+
+  static std::string type_name(const json& j) {
+    if (j.is_string()) return "a string";
+    if (j.is_number()) return "a number";
+    if (j.is_boolean()) return "a boolean";
+    if (j.is_null()) return "null";
+    if (j.is_array()) return "an array";
+    return "an object";
+  }
+
+  static std::string fmt(double v) {
+    std::ostringstream os;
+    os.precision(10);
+    os << v;
+    return os.str();
+  }
+
+  void require_object(const json& j, const std::string& path) const {
+    if (!j.is_object()) fail(path, "expected an object, got " + type_name(j));
+  }
+
+  // Rejects keys outside `allowed` (a misspelt key must not be ignored).
+  void check_keys(const json& j, const std::string& path,
+                  std::initializer_list<const char*> allowed) const {
+    if (const std::string* key = first_unknown_key(j, allowed))
+      fail(join(path, *key), "unknown key (allowed here: " + key_list(allowed) + ")");
+  }
+
+  const json& member(const json& j, const std::string& path, const char* key) const {
+    auto it = j.find(key);
+    if (it == j.end()) fail(join(path, key), "missing required key");
+    return *it;
+  }
+
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
+
+  // A finite number.
+  double number(const json& j, const std::string& path) const {
+    if (!j.is_number()) fail(path, "expected a number, got " + type_name(j));
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) fail(path, "must be finite");
+    return v;
+  }
+
+  // A colour: a number (grey) or [r, g, b]. Each channel passes `check` (which calls fail).
+  template <typename Check>
+  Spectrum colour(const json& j, const std::string& path, Check check) const {
+    Spectrum s;
+    if (j.is_number()) {
+      s = Spectrum(number(j, path));
+      check(s[0], path);
+    } else if (j.is_array()) {
+      if (j.size() != kChannels)
+        fail(path, "expected a number or an array of 3 numbers [r, g, b], got an array of " +
+                       std::to_string(j.size()));
+      for (int c = 0; c < kChannels; ++c) {
+        const std::string p = path + "[" + std::to_string(c) + "]";
+        s[c] = number(j[c], p);
+        check(s[c], p);
+      }
+    } else {
+      fail(path, "expected a number or [r, g, b], got " + type_name(j));
+    }
+    return s;
+  }
+
+  Spectrum coefficient(const json& j, const std::string& path) const {
+    return colour(j, path, [this](double v, const std::string& p) {
+      if (v < 0.0) fail(p, "coefficients must be >= 0 (got " + fmt(v) + ")");
+    });
+  }
+
+  Spectrum asymmetry(const json& j, const std::string& path) const {
+    return colour(j, path, [this](double v, const std::string& p) {
+      if (!(std::abs(v) < 1.0))
+        fail(p, "Henyey-Greenstein g must satisfy |g| < 1 (got " + fmt(v) + ")");
+    });
+  }
+
+  double ior(const json& j, const std::string& path) const {
+    const double n = number(j, path);
+    if (n <= 0.0) fail(path, "index of refraction must be > 0 (got " + fmt(n) + ")");
+    return n;
+  }
+
+  std::string string(const json& j, const std::string& path) const {
+    if (!j.is_string()) fail(path, "expected a string, got " + type_name(j));
+    return j.get<std::string>();
+  }
+
+  Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc) const {
+    require_object(j, path);
+    check_keys(j, path, {"name", "ior", "thickness", "sigma_a", "sigma_s", "g", "components"});
+    Layer layer;
+    if (j.contains("name")) layer.name = string(j["name"], join(path, "name"));
+    layer.ior = ior(member(j, path, "ior"), join(path, "ior"));
+
+    const json& t = member(j, path, "thickness");
+    const std::string tp = join(path, "thickness");
+    if (t.is_string()) {
+      if (t.get<std::string>() != "inf")
+        fail(tp, "expected a number >= 0 or the string \"inf\", got \"" + t.get<std::string>() + "\"");
+      if (!last) fail(tp, "only the last layer may be semi-infinite (\"inf\")");
+      layer.thickness = kInfiniteThickness;
+    } else {
+      layer.thickness = number(t, tp);
+      if (layer.thickness < 0.0) fail(tp, "thickness must be >= 0 (got " + fmt(layer.thickness) + ")");
+    }
+
+    const bool direct = j.contains("sigma_a") || j.contains("sigma_s") || j.contains("g");
+    if (j.contains("components")) {
+      if (direct)
+        fail(path, "give either sigma_a, sigma_s and g, or components, not both");
+      desc->composite = true;
+      const json& comps = j["components"];
+      const std::string cp = join(path, "components");
+      if (!comps.is_array()) fail(cp, "expected an array of components, got " + type_name(comps));
+      if (comps.empty()) fail(cp, "a layer needs at least one component");
+      // Volume fractions w_i: sigma_a = sum w_i sigma_a_i and sigma_s p = sum w_i sigma_s_i
+      // p_HG(g_i) (docs/contracts.md; Hanrahan and Krueger eq. 8). Each component is one lobe.
+      double sum = 0.0;
+      for (std::size_t i = 0; i < comps.size(); ++i) {
+        const json& c = comps[i];
+        const std::string p = cp + "[" + std::to_string(i) + "]";
+        require_object(c, p);
+        check_keys(c, p, {"name", "fraction", "sigma_a", "sigma_s", "g"});
+        if (c.contains("name")) string(c["name"], join(p, "name"));
+        const double w = number(member(c, p, "fraction"), join(p, "fraction"));
+        if (w < 0.0) fail(join(p, "fraction"), "fractions must be >= 0 (got " + fmt(w) + ")");
+        const Spectrum sa = coefficient(member(c, p, "sigma_a"), join(p, "sigma_a"));
+        const Spectrum ss = coefficient(member(c, p, "sigma_s"), join(p, "sigma_s"));
+        const Spectrum g = asymmetry(member(c, p, "g"), join(p, "g"));
+        layer.sigma_a += w * sa;
+        layer.lobes.push_back({w * ss, g});
+        desc->components.push_back({w, sa, ss, g});
+        sum += w;
+      }
+      if (std::abs(sum - 1.0) > 1e-6) {
+        // Name the last fraction: that is where the running sum is known to be wrong.
+        fail(cp + "[" + std::to_string(comps.size() - 1) + "].fraction",
+             "fractions must sum to 1 (sum " + fmt(sum) + ")");
+      }
+    } else {
+      const Spectrum sa = coefficient(member(j, path, "sigma_a"), join(path, "sigma_a"));
+      const Spectrum ss = coefficient(member(j, path, "sigma_s"), join(path, "sigma_s"));
+      const Spectrum g = asymmetry(member(j, path, "g"), join(path, "g"));
+      layer.sigma_a = sa;
+      layer.lobes.push_back({ss, g});
+      desc->components.push_back({1.0, sa, ss, g});
+    }
+    return layer;
+  }
+
+  Below below(const json& j, const std::string& path) const {
+    require_object(j, path);
+    check_keys(j, path, {"ior", "lambert"});
+    Below b;
+    if (j.contains("ior") && j.contains("lambert"))
+      fail(path, "give either \"ior\" or \"lambert\", not both");
+    if (j.contains("ior")) {
+      b.kind = Below::Kind::Dielectric;
+      b.ior = ior(j["ior"], join(path, "ior"));
+    } else if (j.contains("lambert")) {
+      b.kind = Below::Kind::Lambert;
+      b.albedo = colour(j["lambert"], join(path, "lambert"), [this](double v, const std::string& p) {
+        if (v < 0.0 || v > 1.0) fail(p, "Lambert albedo must lie in [0, 1] (got " + fmt(v) + ")");
+      });
+    } else {
+      fail(path, "expected {\"ior\": n} or {\"lambert\": albedo}");
+    }
+    return b;
+  }
+
+  StackTemplate stack(const json& root) const {
+    require_object(root, "");
+    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "layers", "below"});
+    const json& version = member(root, "", "lamina_material");
+    if (!version.is_number() || version.get<double>() != 1.0)
+      fail("lamina_material", "unsupported version " + version.dump() + " (this build reads version 1)");
+
+    StackTemplate t;
+    LayerStack& s = t.stack;
+    if (root.contains("name")) s.name = string(root["name"], "name");
+    if (root.contains("above_ior")) s.above_ior = ior(root["above_ior"], "above_ior");
+    if (root.contains("roughness")) s.top_roughness = number(root["roughness"], "roughness");
+    const json& layers = member(root, "", "layers");
+    if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));
+    if (layers.empty()) fail("layers", "a stack needs at least one layer");
+    t.layers.resize(layers.size());
+    for (std::size_t i = 0; i < layers.size(); ++i)
+      s.layers.push_back(layer(layers[i], "layers[" + std::to_string(i) + "]", i + 1 == layers.size(), &t.layers[i]));
+    if (root.contains("below")) s.below = below(root["below"], "below");
+
+    // The model's own invariants, in case the checks above and validate_stack() ever diverge.
+    const std::string problem = validate_stack(s);
+    if (!problem.empty()) throw StackFileError(source_ + ": " + problem);
+    return t;
+  }
+
+ private:
+  std::string source_;
+};
+
+}  // namespace
+
+StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name) {
+  Reader reader(source_name);
+  // Before parsing: JSON nested deeper than any material file would overflow the stack of the
+  // recursive walks over it (materials/stack/json_limits.h).
+  if (const auto deep = json_nesting_exceeds(text)) throw StackFileError(source_name + ": " + json_nesting_message(*deep));
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::exception& e) {
+    // nlohmann's message reads "[json.exception.parse_error.101] parse error at line L, column
+    // C: ..." (or "number overflow parsing '1e999'" for a non-finite number); keep the part
+    // after the bracketed id, which names line and column where nlohmann knows them.
+    std::string what = e.what();
+    const std::size_t close = what.find("] ");
+    if (close != std::string::npos) what = what.substr(close + 2);
+    reader.fail("", "malformed JSON: " + what);
+  }
+  return reader.stack(root);
+}
+
+StackTemplate load_stack_template(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw StackFileError(path + ": is a directory, not a material file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw StackFileError(path + ": cannot open material file (" + std::strerror(errno) + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw StackFileError(path + ": error while reading the material file");
+  return parse_stack_template_json(text.str(), path);
+}
+
+LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {
+  return parse_stack_template_json(text, source_name).stack;
+}
+
+LayerStack load_stack_file(const std::string& path) { return load_stack_template(path).stack; }
+
+}  // namespace lamina
