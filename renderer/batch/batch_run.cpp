@@ -31,6 +31,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/image/tone_map.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/walk_option_table.h"
 #include "renderer/util/atomic_file.h"
 #include "renderer/util/paths.h"
 #include "renderer/util/progress.h"
@@ -133,12 +134,12 @@ std::optional<RenderResult> render_batch_job(const std::string& out, const Batch
   std::vector<std::string> args = {"render", job.scene_file, "-o", r.out_path,
                                    "--spp", std::to_string(job.spp), "--width", std::to_string(m.settings.width),
                                    "--height", std::to_string(m.settings.height), "--seed", std::to_string(m.settings.seed),
-                                   "--max-depth", std::to_string(m.settings.max_depth), "--subsurface", job.subsurface,
+                                   "--max-depth", std::to_string(m.settings.max_depth), "--subsurface", job.subsurface.name(),
                                    "--threads", std::to_string(threads)};
-  if (job.subsurface == "auto") {
-    r.tolerance = job.tolerance;
-    args.insert(args.end(), {"--tolerance", number(job.tolerance)});
-  }
+  if (job.subsurface.automatic) args.insert(args.end(), {"--tolerance", number(job.subsurface.tolerance)});
+  // The walk's options as `lamina render` takes them (none while a batch keeps the defaults).
+  const std::vector<std::string> walk_args = walk_option_arguments(r.walk);
+  args.insert(args.end(), walk_args.begin(), walk_args.end());
   if (!job.env.empty()) {
     r.env = job.env;
     args.insert(args.end(), {"--env", job.env});
@@ -236,12 +237,9 @@ std::string csv_field(const std::string& s) {
 }
 
 // A short form of a mode for a contact sheet label, where a cell is ~160 px wide.
-std::string short_mode(const std::string& mode) {
-  if (mode == "random-walk") return "walk";
-  if (mode == "first-order") return "1st";
-  if (mode == "table") return "table";
-  if (mode == "lambert") return "lamb";
-  return mode;
+std::string short_mode(const std::string& name) {
+  SubsurfaceMode mode;
+  return parse_subsurface_mode(name, &mode) ? subsurface_mode_short_name(mode) : name;
 }
 
 // Display colours of a signed relative difference, as linear values for write_png.

@@ -145,7 +145,6 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
             job.lighting = lighting.name;
             job.mode = mode.name;
             job.subsurface = mode.subsurface;
-            job.tolerance = mode.tolerance;
             job.spp = spp;
             job.id = scene.name + "__" + variant.name + "__" + lighting.name + "__" + mode.name + "__spp" + std::to_string(spp);
             job.scene_file = scene.file;
@@ -161,13 +160,13 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
                                    {"materials", materials_desc},
                                    {"env", env_desc},
                                    {"camera", lighting.camera},
-                                   {"mode", mode.subsurface},
+                                   {"mode", mode.subsurface.name()},
                                    {"spp", spp},
                                    {"seed", m.settings.seed},
                                    {"width", m.settings.width},
                                    {"height", m.settings.height},
                                    {"max_depth", m.settings.max_depth}};
-            if (mode.subsurface == "auto") job.description["tolerance"] = mode.tolerance;
+            if (mode.subsurface.automatic) job.description["tolerance"] = mode.subsurface.tolerance;
             job.hash = content_hash(job.description.dump());
             jobs.push_back(std::move(job));
           }

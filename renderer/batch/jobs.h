@@ -27,8 +27,7 @@ struct BatchJob {
   std::size_t index = 0;  // position in the expansion order
   std::string id;         // scene__variant__lighting__mode__sppN: the output file's stem
   std::string scene, variant, lighting, mode;  // mode: the ModeSpec's name
-  std::string subsurface;  // the --subsurface argument
-  double tolerance = 0.0;  // the --tolerance argument when subsurface is "auto"
+  SubsurfaceChoice subsurface;  // the --subsurface argument (and --tolerance with auto)
   int spp = 0;
   std::string scene_file;
   std::vector<MaterialBinding> materials;  // sorted by material name

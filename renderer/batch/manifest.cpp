@@ -130,31 +130,26 @@ void parse_env(const json& j, const Where& where, const std::string& directory, 
   }
 }
 
-const char* const kModes[] = {"random-walk", "first-order", "table", "lambert"};
-
-bool is_fixed_mode(const std::string& mode) {
-  return std::find_if(std::begin(kModes), std::end(kModes), [&](const char* k) { return mode == k; }) != std::end(kModes);
-}
-
-// One entry of "modes": a fixed mode as a string, or {"name", "subsurface", "tolerance"}.
+// One entry of "modes": a fixed mode as a string, or {"name", "subsurface", "tolerance"}. The
+// names are those of renderer/layered/subsurface_mode.h.
 ModeSpec parse_mode(const json& j, const Where& where) {
   const char* const auto_form = "{\"subsurface\": \"auto\", \"tolerance\": 0.05} (optional \"name\")";
   ModeSpec mode;
   if (j.is_string()) {
-    mode.subsurface = j.get<std::string>();
-    if (mode.subsurface == "auto") where.fail("mode \"auto\" needs a tolerance: write " + std::string(auto_form));
-    if (!is_fixed_mode(mode.subsurface))
-      where.fail("unknown mode '" + mode.subsurface + "' (expected random-walk, first-order, table, lambert or " + auto_form + ")");
-    mode.name = mode.subsurface;
+    const std::string name = j.get<std::string>();
+    if (name == kAutoSubsurfaceName) where.fail("mode \"auto\" needs a tolerance: write " + std::string(auto_form));
+    if (!parse_subsurface_choice(name, &mode.subsurface))
+      where.fail("unknown mode '" + name + "' (expected " + subsurface_mode_names(", ") + " or " + auto_form + ")");
+    mode.name = name;
     return mode;
   }
   if (!j.is_object()) where.fail("expected a mode name or an object " + std::string(auto_form) + ", got " + type_name(j));
   check_keys(j, where, {"name", "subsurface", "tolerance"});
-  if (!j.contains("subsurface")) where.fail("missing \"subsurface\" (random-walk, first-order, table, lambert or auto)");
-  mode.subsurface = get_string(j["subsurface"], where.key("subsurface"));
-  if (mode.subsurface != "auto" && !is_fixed_mode(mode.subsurface))
-    where.key("subsurface").fail("unknown mode '" + mode.subsurface + "' (expected random-walk, first-order, table, lambert or auto)");
-  if (mode.subsurface == "auto") {
+  if (!j.contains("subsurface")) where.fail("missing \"subsurface\" (" + subsurface_choice_expected() + ")");
+  const std::string subsurface = get_string(j["subsurface"], where.key("subsurface"));
+  if (!parse_subsurface_choice(subsurface, &mode.subsurface))
+    where.key("subsurface").fail("unknown mode '" + subsurface + "' (expected " + subsurface_choice_expected() + ")");
+  if (mode.subsurface.automatic) {
     if (!j.contains("tolerance")) where.fail("\"subsurface\": \"auto\" needs a \"tolerance\" (a relative error in (0, 1], e.g. 0.05)");
     const json& t = j["tolerance"];
     // The largest predicted relative RMS error a material may have (renderer/layered/subsurface_auto.h):
@@ -162,15 +157,15 @@ ModeSpec parse_mode(const json& j, const Where& where) {
     // any job renders.
     if (!t.is_number() || !std::isfinite(t.get<double>()) || !(t.get<double>() > 0.0) || t.get<double>() > 1.0)
       where.key("tolerance").fail("expected a relative error in (0, 1], got " + t.dump());
-    mode.tolerance = t.get<double>();
+    mode.subsurface.tolerance = t.get<double>();
   } else if (j.contains("tolerance")) {
-    where.key("tolerance").fail("a tolerance is only meaningful with \"subsurface\": \"auto\" (mode '" + mode.subsurface + "' is fixed)");
+    where.key("tolerance").fail("a tolerance is only meaningful with \"subsurface\": \"auto\" (mode '" + subsurface + "' is fixed)");
   }
   if (j.contains("name")) {
     mode.name = get_name(j["name"], where.key("name"));
   } else {
     // Shortest text that reads back as the same double: 0.05 -> "auto-0.05".
-    mode.name = mode.subsurface == "auto" ? "auto-" + json(mode.tolerance).dump() : mode.subsurface;
+    mode.name = mode.subsurface.automatic ? "auto-" + json(mode.subsurface.tolerance).dump() : subsurface;
     check_name(mode.name, where);
   }
   return mode;
@@ -358,13 +353,13 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
       for (const ModeSpec& other : m.modes) {
         if (other.name == mode.name) (modes[i].is_object() && modes[i].contains("name") ? wi.key("name") : wi).fail("duplicate mode name '" + mode.name + "'");
         // Rendering is deterministic: the same settings twice would be the same image twice.
-        if (other.subsurface == mode.subsurface && other.tolerance == mode.tolerance)
+        if (other.subsurface == mode.subsurface)
           wi.fail("mode '" + mode.name + "' renders the same as mode '" + other.name + "'");
       }
       m.modes.push_back(std::move(mode));
     }
   } else {
-    m.modes.push_back({"random-walk", "random-walk", 0.0});
+    m.modes.push_back({subsurface_mode_name(SubsurfaceMode::RandomWalk), SubsurfaceChoice::fixed(SubsurfaceMode::RandomWalk)});
   }
 
   if (!j.contains("spp")) root.fail("missing \"spp\" (a number or a list of samples per pixel)");

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/image/tone_map.h"
+#include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
 
@@ -80,8 +81,7 @@ struct RenderSettingsSpec {
 // "name" (default "auto-<tolerance>" for auto, the mode for a fixed mode).
 struct ModeSpec {
   std::string name;
-  std::string subsurface;  // random-walk, first-order, table, lambert or auto
-  double tolerance = 0.0;  // auto only: in (0, 1]; 0 for the fixed modes
+  SubsurfaceChoice subsurface;  // auto's tolerance in (0, 1]
 };
 
 struct ContactSheetSpec {

@@ -18,6 +18,7 @@
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/layered/walk_cache.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/walk_option_table.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
 
@@ -91,6 +92,33 @@ void check_image_memory(const RenderSettings& s, bool png) {
                      " this process may use (" + bound + ")");
 }
 
+// The walk's options, one CLI11 option per row of kWalkOptionTable: integers and reals bound to
+// their member, each switch to its word in (*switches)[row] (set_walk_switch reads it after
+// parsing), each with the default shown.
+void add_walk_options(CLI::App& app, RandomWalkOptions* walk, std::vector<std::string>* switches) {
+  for (std::size_t i = 0; i < kWalkOptionTable.size(); ++i) {
+    const WalkOptionSpec& spec = kWalkOptionTable[i];
+    switch (spec.kind) {
+      case WalkOptionSpec::Kind::Switch:
+        (*switches)[i] = walk_option_text(spec, *walk);
+        app.add_option(spec.flag, (*switches)[i], spec.help)
+            ->capture_default_str()
+            ->check(CLI::IsMember({std::string(spec.on_word), std::string(spec.off_word)}));
+        break;
+      case WalkOptionSpec::Kind::Integer:
+        app.add_option(spec.flag, walk->*spec.integer_member, spec.help)
+            ->capture_default_str()
+            ->check(cli::integer(static_cast<long long>(spec.lo), static_cast<long long>(spec.hi)));
+        break;
+      case WalkOptionSpec::Kind::Real:
+        app.add_option(spec.flag, walk->*spec.real_member, spec.help)
+            ->capture_default_str()
+            ->check(cli::real(spec.lo, spec.hi, spec.lo_open, spec.hi_open));
+        break;
+    }
+  }
+}
+
 std::string join_command_line(int argc, char** argv) {
   std::string s = "lamina";
   for (int i = 0; i < argc; ++i) s += std::string(" ") + argv[i];
@@ -117,7 +145,7 @@ void print_render_summary(const RenderRequest& request, const RenderResult& r) {
       static_cast<double>(rays.closest), static_cast<double>(rays.camera), rays.closest / s,
       static_cast<double>(rays.shadow), rays.shadow / s, peak_memory_bytes() / 1048576.0);
   if (r.layered_materials > 0)
-    std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events\n", request.subsurface.c_str(),
+    std::printf("lamina render: layered (%s): %d material(s), %.3g scattering events\n", request.subsurface.name().c_str(),
                 r.layered_materials, static_cast<double>(rays.scatter_events));
   if (!r.stats.pixel_samples.empty()) {
     std::uint32_t lo = r.stats.pixel_samples.front(), hi = lo;
@@ -154,9 +182,8 @@ int run_render(int argc, char** argv) {
   settings.width = 640;
   settings.height = 480;
   settings.spp = 16;
-  std::string subsurface = "random-walk";
-  SubsurfaceMode mode = SubsurfaceMode::RandomWalk;
-  bool auto_mode = false;  // only for the checks below: render_job reads the mode's name
+  std::string subsurface = subsurface_mode_name(SubsurfaceMode::RandomWalk);
+  SubsurfaceChoice choice;
   double tolerance = 0.0;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
   app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
@@ -174,7 +201,7 @@ int run_render(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::integer(0, kMaxThreads));
   app.add_option("--subsurface", subsurface,
-                 "shading of layered materials: random-walk|first-order|table|lambert|auto")
+                 "shading of layered materials: " + subsurface_mode_names("|") + "|" + kAutoSubsurfaceName)
       ->capture_default_str();
   CLI::Option* tolerance_opt =
       app.add_option("--tolerance", tolerance,
@@ -193,16 +220,10 @@ int run_render(int argc, char** argv) {
                  "PNG only: filmic (ACES reference rendering + sRGB output, highlights roll off) or clamp (clipped at 1)")
       ->capture_default_str()
       ->check(CLI::IsMember({"filmic", "clamp"}));
-  std::string pool_samples = "shared";
-  app.add_option("--pool-samples", pool_samples,
-                 "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per walk (shared)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"per-event", "shared"}));
-  std::string next_flight = "on";
-  app.add_option("--next-flight", next_flight,
-                 "random-walk: next-flight connections to delta lights (MIS over each flight's direction; unbiased)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"on", "off"}));
+  // The walk's options, from their table (renderer/render/walk_option_table.h).
+  RandomWalkOptions walk;
+  std::vector<std::string> walk_switches(kWalkOptionTable.size());
+  add_walk_options(app, &walk, &walk_switches);
   app.add_option("--noise-threshold", settings.noise_threshold,
                  "adaptive sampling: target relative standard error of each pixel's luminance, in (0, 1) "
                  "(--spp is then the most samples a pixel gets)")
@@ -215,18 +236,6 @@ int run_render(int argc, char** argv) {
   app.add_option("--time-limit", settings.time_limit,
                  "stop the render loop after this many seconds (rounds of 8 samples per pixel; the first always completes)")
       ->check(cli::real(0.0, 1e9, true, false));
-  double guiding = 0.0;
-  app.add_option("--guiding", guiding,
-                 "random-walk: probability of Dwivedi's guided technique for flights in isotropic layers, in [0, 1) "
-                 "(unbiased; 0: off)")
-      ->capture_default_str()
-      ->check(cli::real(0.0, 1.0, false, true));
-  int similarity_after = -1;
-  app.add_option("--similarity-after", similarity_after,
-                 "random-walk, APPROXIMATE: after N exact collisions (0: none) continue in the similarity-transformed "
-                 "medium (g -> 0, sigma_s (1 - g)); its bias is measured and printed (-1: exact)")
-      ->capture_default_str()
-      ->check(cli::integer(-1, 1000000));
   std::string table_method = "adding-doubling";
   CLI::Option* table_method_opt =
       app.add_option("--table-method", table_method,
@@ -281,9 +290,10 @@ int run_render(int argc, char** argv) {
                                        crop[1], crop[2], crop[3], settings.width, settings.height));
     }
     check_image_memory(settings, !png_path.empty());
-    auto_mode = subsurface == "auto";
-    if (!auto_mode && !parse_subsurface_mode(subsurface, &mode))
-      throw UsageError("--subsurface '" + subsurface + "': expected random-walk, first-order, table, lambert or auto");
+    if (!parse_subsurface_choice(subsurface, &choice))
+      throw UsageError("--subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
+    choice.tolerance = choice.automatic ? tolerance : 0.0;
+    const bool auto_mode = choice.automatic;
     if (pilot_opt->count() > 0 && !(settings.noise_threshold > 0.0))
       throw UsageError("--pilot-spp is only meaningful with --noise-threshold");
     if (settings.noise_threshold > 0.0 && settings.pilot_spp > settings.spp)
@@ -291,7 +301,7 @@ int run_render(int argc, char** argv) {
     if (tolerance_opt->count() > 0 && !auto_mode)
       throw UsageError("--tolerance is only meaningful with --subsurface auto");
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
-    if (table_method_opt->count() > 0 && !auto_mode && mode != SubsurfaceMode::Table)
+    if (table_method_opt->count() > 0 && !auto_mode && choice.mode != SubsurfaceMode::Table)
       throw UsageError("--table-method is only meaningful with --subsurface table or auto");
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
@@ -319,14 +329,12 @@ int run_render(int argc, char** argv) {
   request.camera_name = camera_name;
   request.materials_map_path = materials_path;
   request.env = env_value;
-  request.subsurface = subsurface;
-  request.tolerance = tolerance;
+  request.subsurface = choice;
   request.cache_dir = cache_dir;
   request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
-  request.walk.per_event_pool_samples = pool_samples == "per-event";
-  request.walk.next_flight = next_flight == "on";
-  request.walk.similarity_after = similarity_after;
-  request.walk.guiding = guiding;
+  for (std::size_t i = 0; i < kWalkOptionTable.size(); ++i)
+    if (kWalkOptionTable[i].kind == WalkOptionSpec::Kind::Switch) set_walk_switch(kWalkOptionTable[i], walk_switches[i], &walk);
+  request.walk = walk;
   request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {

@@ -15,6 +15,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/image/tone_map.h"
 #include "renderer/layered/material_binding.h"
+#include "renderer/layered/subsurface_mode.h"
 #include "renderer/render/integrator.h"
 
 namespace lamina {
@@ -30,8 +31,8 @@ struct RenderRequest {
   // the map and the extras.
   std::vector<InlineStack> inline_stacks;
   std::string env;  // --env: a number, R,G,B or an image file ("" for black)
-  std::string subsurface = "random-walk";  // a mode name (renderer/layered/subsurface_mode.h) or "auto"
-  double tolerance = 0.0;  // with auto: the largest predicted relative error per material
+  // --subsurface (and --tolerance with auto): renderer/layered/subsurface_mode.h.
+  SubsurfaceChoice subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::RandomWalk);
   std::string cache_dir;   // "" for no walk cache (renderer/layered/walk_cache.h)
   // How the table mode builds its tables (materials/tables/layered_table.h): adding-doubling (falling
   // back to the walk where it cannot resolve a lobe) or the walk.

@@ -83,8 +83,8 @@ TEST(BatchManifest, ParsesAndAppliesDefaults) {
   EXPECT_EQ(d.lighting[0].name, "default");
   ASSERT_EQ(d.modes.size(), 1u);
   EXPECT_EQ(d.modes[0].name, "random-walk");
-  EXPECT_EQ(d.modes[0].subsurface, "random-walk");
-  EXPECT_EQ(d.modes[0].tolerance, 0.0);
+  EXPECT_EQ(d.modes[0].subsurface.name(), "random-walk");
+  EXPECT_EQ(d.modes[0].subsurface.tolerance, 0.0);
   EXPECT_EQ(d.spp, std::vector<int>{8});
   EXPECT_EQ(expand_jobs(d).size(), 1u);
 }
@@ -142,21 +142,21 @@ TEST(BatchManifest, AutoModeObjects) {
   ASSERT_EQ(m.modes.size(), 5u);
   EXPECT_EQ(m.modes[0].name, "random-walk");
   EXPECT_EQ(m.modes[1].name, "auto-0.05");  // default name: "auto-" and the tolerance's shortest text
-  EXPECT_EQ(m.modes[1].subsurface, "auto");
-  EXPECT_EQ(m.modes[1].tolerance, 0.05);
+  EXPECT_EQ(m.modes[1].subsurface.name(), "auto");
+  EXPECT_EQ(m.modes[1].subsurface.tolerance, 0.05);
   EXPECT_EQ(m.modes[2].name, "coarse");
-  EXPECT_EQ(m.modes[2].tolerance, 1.0);
+  EXPECT_EQ(m.modes[2].subsurface.tolerance, 1.0);
   EXPECT_EQ(m.modes[3].name, "walk2");
-  EXPECT_EQ(m.modes[3].subsurface, "first-order");
+  EXPECT_EQ(m.modes[3].subsurface.name(), "first-order");
   EXPECT_EQ(m.modes[4].name, "lambert");  // default name of a fixed mode: the mode
   const std::vector<BatchJob> jobs = expand_jobs(m);
   ASSERT_EQ(jobs.size(), 2u * 3u * 2u * 5u * 2u);
   EXPECT_EQ(jobs[2].id, "a__base__grey__auto-0.05__spp4");
   EXPECT_EQ(jobs[2].mode, "auto-0.05");
-  EXPECT_EQ(jobs[2].subsurface, "auto");
-  EXPECT_EQ(jobs[2].tolerance, 0.05);
-  EXPECT_EQ(jobs[6].subsurface, "first-order");
-  EXPECT_EQ(jobs[6].tolerance, 0.0);
+  EXPECT_EQ(jobs[2].subsurface.name(), "auto");
+  EXPECT_EQ(jobs[2].subsurface.tolerance, 0.05);
+  EXPECT_EQ(jobs[6].subsurface.name(), "first-order");
+  EXPECT_EQ(jobs[6].subsurface.tolerance, 0.0);
   const std::vector<ComparisonPair> pairs = resolve_comparisons(m, jobs);
   ASSERT_EQ(pairs.size(), jobs.size() / 5);
   for (const ComparisonPair& p : pairs) {
