@@ -6,7 +6,7 @@
 // sigma_a 1, sigma_s 9 /mm, g 0.75, 0.2 mm, normal incidence. The walk is the general walk's
 // (materials/walk/walk_kernel.h) reduced to that case, with the same random numbers in the same
 // order (the hero's uniform, the ziggurat's flights, two uniforms per Henyey-Greenstein
-// direction, a uniform at each exit for its Fresnel test, WalkSettings' roulette below 1 % with
+// direction, a uniform at each exit for its Fresnel test, WalkOptions' roulette below 1 % with
 // survival 0.1; the sqrt schedule after 1,000 interactions, which no photon of this slab
 // reaches, is left out) and the same tally as `lamina brdf` (totals with their squares, ends, 18
 // bins of cos theta by 36 of azimuth with their single-scattering parts), so its R_d and T_d

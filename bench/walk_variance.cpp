@@ -11,10 +11,10 @@
 //                    a different, approximate medium: its mean is shown for comparison)
 //   next-flight MIS: the connections of materials/walk/next_flight_connection.h (the renderer's default
 //                    for delta lights)
-//   + render roulette: and the renderer's walk roulette (RandomWalkOptions' defaults: below half
+//   + render roulette: and the renderer's walk roulette (renderer_walk_options(): below half
 //                    the entering weight, survival 1/2)
-//   similarity >N  : the walk's option WalkSettings::similarity_after = N (exact first N events)
-//   guided q       : WalkSettings::guiding = q (it acts only in isotropic layers: none in skin)
+//   similarity >N  : the walk's option WalkOptions::similarity_after = N (exact first N events)
+//   guided q       : WalkOptions::guiding = q (it acts only in isotropic layers: none in skin)
 //   sim.+guided q  : the similarity-transformed stack (isotropic) with guiding q
 // and the share of the mean and of the second moment by event order.
 //   walk_variance STACK.json [walks] [wo_deg] [wl_deg] [quick]   (quick: the first three rows only)
@@ -46,7 +46,7 @@ struct Stats {
 int bucket(int order) { return order <= 1 ? 0 : order < 10 ? 1 : order < 50 ? 2 : 3; }
 
 Stats run(const LayerStack& stack, const glm::dvec3& wo, const glm::dvec3& wl, long walks, int hero,
-          const WalkSettings& settings = {}, bool next_flight = false) {
+          const WalkOptions& settings = {}, bool next_flight = false) {
   Stats st;
   const ExitDirection exit = prepare_exit(stack, wl, settings.guiding);
   for (long i = 0; i < walks; ++i) {
@@ -136,9 +136,9 @@ int main(int argc, char** argv) {
   const glm::dvec3 wo{std::sin(a), 0.0, std::cos(a)}, wl{-std::sin(b), 0.0, std::cos(b)};
   print("as given", run(stack, wo, wl, walks, kRandomHero));
   print("next-flight MIS", run(stack, wo, wl, walks, kRandomHero, {}, true));
-  WalkSettings render_roulette;  // the renderer's walk roulette
-  render_roulette.roulette_threshold = RandomWalkOptions{}.walk_roulette_threshold;
-  render_roulette.roulette_survival = RandomWalkOptions{}.walk_roulette_survival;
+  WalkOptions render_roulette;  // the renderer's walk roulette
+  render_roulette.roulette_threshold = renderer_walk_options().roulette_threshold;
+  render_roulette.roulette_survival = renderer_walk_options().roulette_survival;
   print("+ render roulette", run(stack, wo, wl, walks, kRandomHero, render_roulette, true));
   if (argc > 5) return 0;  // quick: the three above only
   for (int k = 0; k < 3; ++k) {
@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
   }
   print("similarity", run(similarity(stack), wo, wl, walks, kRandomHero));
   for (double q : {0.25, 0.5, 0.75}) {
-    WalkSettings ws;
+    WalkOptions ws;
     ws.guiding = q;
     char label[32];
     std::snprintf(label, sizeof label, "guided %.2f", q);
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
   }
   const LayerStack similar = similarity(stack);
   for (int after : {3, 9, 20}) {
-    WalkSettings ws;
+    WalkOptions ws;
     ws.similarity_after = after;
     ws.similar = &similar;
     char label[32];

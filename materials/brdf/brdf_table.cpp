@@ -302,14 +302,14 @@ namespace {
 struct SwitchedTarget {
   ConnectionTarget own, similar;
 };
-SwitchedTarget prepare_switched_target(const LayerStack& stack, const WalkSettings& settings, const glm::dvec3& w) {
+SwitchedTarget prepare_switched_target(const LayerStack& stack, const WalkOptions& settings, const glm::dvec3& w) {
   SwitchedTarget t;
   t.own = prepare_connection(stack, w);
   if (settings.similar && settings.similarity_after >= 0) t.similar = prepare_connection(*settings.similar, w);
   return t;
 }
 // An event's connection through the stack it scattered in (stack_of_event).
-Spectrum switched_connection(const LayerStack& stack, const WalkSettings& settings, const ScatterEvent& event,
+Spectrum switched_connection(const LayerStack& stack, const WalkOptions& settings, const ScatterEvent& event,
                              const SwitchedTarget& target) {
   const LayerStack& s = stack_of_event(stack, settings, event);
   return connection_weight_all_paths(s, event, &s == &stack ? target.own : target.similar);
@@ -319,7 +319,7 @@ Spectrum switched_connection(const LayerStack& stack, const WalkSettings& settin
 std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
                                                     const std::vector<glm::dvec3>& wo,
                                                     std::uint64_t samples, std::uint64_t seed,
-                                                    const WalkSettings& walk_settings) {
+                                                    const WalkOptions& walk_settings) {
   const std::size_t nd = wo.size();
   std::vector<SwitchedTarget> targets;
   for (const glm::dvec3& w : wo) targets.push_back(prepare_switched_target(stack, walk_settings, w));

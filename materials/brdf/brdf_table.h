@@ -33,7 +33,7 @@ struct BrdfOptions {
   int bins_theta = 18;  // K
   int bins_phi = 36;    // M
   std::uint64_t seed = 1;
-  WalkSettings walk;
+  WalkOptions walk;
   // Monte Carlo: called (from any thread) with the number of photons just finished, every few
   // thousand photons; may be empty.
   std::function<void(std::uint64_t)> on_progress;
@@ -62,7 +62,7 @@ struct EnergyTotals {
   // Independent Monte Carlo estimates of the same quantities, for tests: the walk's direct tally
   // of absorption, and its unscattered exits (top Fresnel reflection included) as delta parts.
   Estimate absorbed_direct, R_specular_walk, T_ballistic_walk;
-  // Power carried by walks still running after WalkSettings::forced_exponential_after
+  // Power carried by walks still running after WalkOptions::forced_exponential_after
   // interactions (WalkResult::cut_weight; Monte Carlo only): the part of the answer that the
   // final roulette makes a lottery of. Up to this much may be missing from R and T (and appear
   // in absorbed) beyond their standard errors.
@@ -109,7 +109,7 @@ BrdfTable brdf_table_first_order(const LayerStack& stack, const BrdfOptions& opt
 // The "next event" estimator of f(wi, wo) (BRDF if wo.z > 0, BTDF if wo.z < 0) at given outside
 // directions: the average over walks of sum_events throughput * connection_weight_all_paths(wo).
 // An estimator independent of the bin counts (it never uses the exits). With the walk's
-// similarity option (WalkSettings::similarity_after, similar) the events after the switch connect
+// similarity option (WalkOptions::similarity_after, similar) the events after the switch connect
 // through the similar stack.
 struct PointEstimate {
   Estimate total, single;  // single: events of order 1 only
@@ -117,7 +117,7 @@ struct PointEstimate {
 std::vector<PointEstimate> brdf_connection_estimate(const LayerStack& stack, const glm::dvec3& wi,
                                                     const std::vector<glm::dvec3>& wo,
                                                     std::uint64_t samples, std::uint64_t seed,
-                                                    const WalkSettings& walk = {});
+                                                    const WalkOptions& walk = {});
 
 // The same estimator averaged over each bin of a table (for every event, one direction drawn in
 // every bin uniformly in projected solid angle: |cos|^2 uniform, phi uniform), so that it

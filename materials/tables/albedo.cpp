@@ -18,7 +18,7 @@ namespace {
 // sqrt(u) has density 2 mu_i on [0, 1], so its expectation is int_0^1 R_diffuse(mu) 2 mu dmu,
 // the white-sky albedo. The walk's weight is per unit incident power and excludes the top's
 // specular part.
-Spectrum diffuse_albedo_sample(const LayerStack& stack, std::uint64_t seed, int i, const WalkSettings& settings) {
+Spectrum diffuse_albedo_sample(const LayerStack& stack, std::uint64_t seed, int i, const WalkOptions& settings) {
   Rng rng(seed, static_cast<std::uint64_t>(i), 0x1a3b);
   const double mu = std::sqrt(std::max(rng.uniform(), 1e-300));
   const double phi = 2.0 * kPi * rng.uniform();
@@ -48,14 +48,14 @@ struct MeanAccumulator {
 }  // namespace
 
 Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
-                                        Spectrum* standard_error, const WalkSettings& settings) {
+                                        Spectrum* standard_error, const WalkOptions& settings) {
   MeanAccumulator acc;
   for (int i = 0; i < walks; ++i) acc.add(diffuse_albedo_sample(stack, seed, i, settings));
   if (standard_error) *standard_error = acc.standard_error(walks);
   return acc.mean(walks);
 }
 
-Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkSettings& approximate, int walks, std::uint64_t seed,
+Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkOptions& approximate, int walks, std::uint64_t seed,
                              Spectrum* standard_error, Spectrum* exact) {
   MeanAccumulator diff, base;
   for (int i = 0; i < walks; ++i) {

@@ -16,7 +16,7 @@ namespace lamina {
 // >= 1 scattering is 2 int R_diffuse(mu) mu dmu). Deterministic: walk i uses Rng(seed, i).
 // settings: the walk's (e.g. an approximate similarity_after, to measure its bias).
 Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std::uint64_t seed,
-                                        Spectrum* standard_error = nullptr, const WalkSettings& settings = {});
+                                        Spectrum* standard_error = nullptr, const WalkOptions& settings = {});
 
 // The same albedo without noise, by adding-doubling: 2 int_0^1 R_diffuse(mu) mu dmu = R_h - R_hs,
 // with R_h the total reflectance for uniform diffuse incidence (adding_doubling_totals, one
@@ -31,7 +31,7 @@ Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack,
 // standard error of (approximate - exact) over paired walks that share their random numbers
 // (walk i of both from Rng(seed, i): identical until the approximation starts, so the pairs'
 // differences are far less noisy than either estimate). *exact: the exact albedo of these walks.
-Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkSettings& approximate, int walks, std::uint64_t seed,
+Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkOptions& approximate, int walks, std::uint64_t seed,
                              Spectrum* standard_error, Spectrum* exact);
 
 }  // namespace lamina

@@ -13,10 +13,10 @@
 
 namespace lamina {
 
-using walk_detail::add_optical_depth;
-using walk_detail::guided_direction_pdf;
-using walk_detail::guided_sigma;
-using walk_detail::phase_sampling_pdf;
+using walk_kernel::add_optical_depth;
+using walk_kernel::guided_direction_pdf;
+using walk_kernel::guided_sigma;
+using walk_kernel::phase_sampling_pdf;
 
 namespace {
 
@@ -302,7 +302,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
     }
   }
   const double distance = distance_to_exit_side(stack, event, exit);
-  // A volume event's next flight is guided with probability q (WalkSettings::guiding): its
+  // A volume event's next flight is guided with probability q (WalkOptions::guiding): its
   // density is the mixture of the two techniques' direction densities times their escape
   // probabilities.
   const double q = event.kind == ScatterEvent::Kind::Volume && !exit.guided.empty() ? exit.guided[event.layer].guiding : 0.0;
@@ -460,7 +460,7 @@ double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const 
   return connect_direct(stack, event, prepare_exit(stack, w, guiding)).pdf_hero;
 }
 
-void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPlan* plan) {
+void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan) {
   plan->stack = &stack;
   plan->settings = settings;
   const int n_layers = static_cast<int>(stack.layers.size());
@@ -502,12 +502,12 @@ void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPla
 }
 
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
-                       const EventCallback& on_event, const WalkSettings& settings, int chosen_hero) {
-  return walk_detail::run_walk(stack, wi, rng, on_event, settings, chosen_hero);
+                       const EventCallback& on_event, const WalkOptions& settings, int chosen_hero) {
+  return walk_kernel::run_walk(stack, wi, rng, on_event, settings, chosen_hero);
 }
 WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event,
                        int chosen_hero) {
-  return walk_detail::run_walk(plan, wi, rng, on_event, chosen_hero);
+  return walk_kernel::run_walk(plan, wi, rng, on_event, chosen_hero);
 }
 
 }  // namespace lamina

@@ -29,6 +29,7 @@
 #include "materials/base/sampling.h"
 #include "materials/base/spectrum.h"
 #include "materials/stack/stack.h"
+#include "materials/walk/walk_options.h"
 
 namespace lamina {
 
@@ -49,7 +50,7 @@ struct ScatterEvent {
   // The walk's hero channel (it samples every decision in this channel's coefficients; see the
   // spectral MIS notes in random_walk.cpp). connection_pdf uses it.
   int hero = 0;
-  // The walk had switched to WalkSettings::similar when this event scattered: its phase function
+  // The walk had switched to WalkOptions::similar when this event scattered: its phase function
   // and the attenuation of its way out are those of the similar stack (its collision, and the
   // throughput, may still be the exact stack's: the switch's own event).
   bool similar = false;
@@ -77,15 +78,15 @@ struct WalkResult {
   int scatter_count = 0;      // volume + substrate scattering events before the exit / end
   int interactions = 0;       // all events: scatterings and interface reflections/refractions
   // The walk left straight from its last scattering event (no interface reflection since then,
-  // and at least one event). Then, if WalkSettings::compute_exit_pdf, exit_pdf is
+  // and at least one event). Then, if WalkOptions::compute_exit_pdf, exit_pdf is
   // connection_pdf(stack, last event, direction): the solid-angle density (outside measure) of
   // this exit in the hero's coefficients.
   bool straight_from_last_event = false;
   double exit_pdf = 0.0;
   // Direct estimate of the absorbed power (what collisions and the substrate removed), for
-  // energy-balance checks; its expectation equals 1 - R - T. 0 unless WalkSettings::tally_absorbed.
+  // energy-balance checks; its expectation equals 1 - R - T. 0 unless WalkOptions::tally_absorbed.
   Spectrum absorbed;
-  // The walk's weight when it passed WalkSettings::forced_exponential_after interactions (0 if
+  // The walk's weight when it passed WalkOptions::forced_exponential_after interactions (0 if
   // it never did). From there a constant survival decides its fate: unbiased, but the few
   // survivors carry weights that grow exponentially, so an average over walks all but never
   // sees this power come out. Its mean over walks, `unresolved` in lamina brdf, bounds what the
@@ -98,55 +99,6 @@ struct WalkResult {
   // expectation closes the energy balance: R + T + absorbed + interface_loss = 1 - R_glossy.
   glm::dvec3 top_inside{0.0};
   Spectrum interface_loss;
-};
-
-// Tuning of Russian roulette (every value keeps the estimator unbiased; they only trade variance
-// for time).
-struct WalkSettings {
-  // Roulette once the largest channel of the weight is below this fraction of the weight the
-  // walk entered with (1 - R(wi)), at scattering events, with survival `roulette_survival`.
-  // (The renderer uses 0.5 and 0.5: RandomWalkOptions, docs/layered_rendering.md.)
-  double roulette_threshold = 0.01;
-  double roulette_survival = 0.1;
-  // Guaranteed termination, unbiased, for walks that would not end by themselves (albedo 1 in a
-  // semi-infinite layer, light bouncing between a white substrate and a TIR top). After
-  // `forced_after` interactions (scatterings and interface events) every further interaction t
-  // applies roulette regardless of weight with survival sqrt((t-1)/t), so that the walk is still
-  // alive at t with probability s(t) = sqrt(forced_after / t) and then carries weight 1/s(t).
-  // Why this schedule: in a conservative half-space the number of events before escape has the
-  // tail P(T > t) ~ t^(-1/2); the second moment of the weight, sum_t t^(-3/2) / s(t), and the
-  // expected length, sum_t t^(-1/2) s(t), are then both only logarithmic in the longest walk,
-  // whereas a constant survival < 1 would give weights growing exponentially (infinite
-  // variance) and no roulette an infinite expected length. Past `forced_exponential_after`
-  // interactions the survival becomes the constant `forced_survival`, bounding the expected
-  // length for any stack.
-  int forced_after = 1000;
-  int forced_exponential_after = 1000000;
-  double forced_survival = 0.99;
-  // APPROXIMATE, off by default: after `similarity_after` exact collisions (-1: never; 0: from the
-  // entry, the whole walk) the walk continues in `similar`, the stack's similarity transform
-  // (similarity_transform_into: g -> 0, sigma_s -> sigma_s (1 - g)), which needs about 1/(1 - g)
-  // times fewer events. The switch falls between the similarity_after-th event's collision and
-  // its scattering: that event and the ones after it have ScatterEvent::similar set, scatter and
-  // fly in `similar`, and connect through it, not the stack. The result is biased (the renderer
-  // measures and prints how much: docs/layered_rendering.md).
-  int similarity_after = -1;
-  const LayerStack* similar = nullptr;
-  // Guided walks (0: off, the default): every flight that starts at a volume scattering event in
-  // a layer that scatters isotropically (every lobe g = 0; elsewhere the walk is classic, bit for
-  // bit) samples its direction and distance, with this probability, from Dwivedi's
-  // zero-variance-based guided technique towards the top (materials/phase/dwivedi.h), else classically; the weights are
-  // those of the mixture (one-sample MIS, balance heuristic, per channel as the spectral MIS
-  // already is), so the walk stays unbiased. Exits and connection pdfs account for it
-  // (connection_pdf, prepare_exit with the same guiding).
-  double guiding = 0.0;
-  // Tally WalkResult::absorbed (energy-balance checks, `lamina brdf`'s direct absorbed estimate).
-  // The renderer does not read it and skips its share of every collision's weighting.
-  bool tally_absorbed = true;
-  // Fill WalkResult::exit_pdf. It costs a prepared exit (the refracted direction in every layer)
-  // per walk, and neither the renderer (which needs the mean over heroes, exit_pdf_for_mis) nor
-  // `lamina brdf` reads it: on the MCML slab it was a tenth of a walk's time.
-  bool compute_exit_pdf = false;
 };
 
 using EventCallback = std::function<void(const ScatterEvent&)>;
@@ -164,13 +116,13 @@ constexpr int kRandomHero = -1;
 // renderer stratifies it over a pixel's samples: integrator.cpp). The walk's uniform for the
 // hero is drawn either way, so the rest of its random numbers come from the same place in rng.
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
-                       const EventCallback& on_event = {}, const WalkSettings& settings = {},
+                       const EventCallback& on_event = {}, const WalkOptions& settings = {},
                        int hero = kRandomHero);
 
 // The stack an event of a walk with these settings scattered in, whose phase function and way
 // out its connections use: the similar stack from the similarity switch on (ScatterEvent::
 // similar), else the walk's own.
-inline const LayerStack& stack_of_event(const LayerStack& stack, const WalkSettings& settings, const ScatterEvent& e) {
+inline const LayerStack& stack_of_event(const LayerStack& stack, const WalkOptions& settings, const ScatterEvent& e) {
   return e.similar && settings.similar ? *settings.similar : stack;
 }
 
@@ -196,14 +148,14 @@ struct WalkPlan {
     double guiding = 0.0; // the probability of the guided technique for flights from here
   };
   const LayerStack* stack = nullptr;
-  WalkSettings settings;
+  WalkOptions settings;
   std::vector<LayerCache> layers;  // [0, n): the stack's layers; [n, 2n): the similar stack's, if may_switch
   bool may_switch = false;         // settings.similarity_after applies (a similar stack of as many layers)
   bool spectral = true;            // false: a grey stack (and no guiding), whose channels never differ
   bool rough = false;              // stack->rough_top(), and then its top interface
   RoughDielectric top;
 };
-void prepare_walk(const LayerStack& stack, const WalkSettings& settings, WalkPlan* plan);
+void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan);
 WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event = {},
                        int hero = kRandomHero);
 
@@ -235,7 +187,7 @@ struct ExitDirection {
   bool up = true;
   double mu_out = 0.0;
   std::vector<LayerExit> layers;  // empty: w itself cannot be reached (grazing, or no transmission)
-  // Guided walks (WalkSettings::guiding): the walk leaves a volume event along the inside
+  // Guided walks (WalkOptions::guiding): the walk leaves a volume event along the inside
   // direction with the mixture density; per layer, the guided technique's probability, direction
   // density and stretched optical depths.
   struct GuidedExit {

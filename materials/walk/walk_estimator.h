@@ -28,7 +28,7 @@ double transmission_radiance_factor(const LayerStack& stack);
 // light sample are unbiased for any weights that sum to 1 for each path AND do not depend on
 // which hero drew it (then the hero average of each technique is the technique's full integral
 // times its weight). The hero's own pdf breaks the second condition for coloured media.
-// guiding: the walk's WalkSettings::guiding (its exits' density is then the mixture's).
+// guiding: the walk's WalkOptions::guiding (its exits' density is then the mixture's).
 // inside_up: for a rough top interface, the walk's direction in layer 0 at its exit
 // (WalkResult::top_inside), which the pdf depends on (prepare_exit_through); ignored if smooth.
 double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding = 0.0,

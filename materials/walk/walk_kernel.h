@@ -1,7 +1,10 @@
-// The random walk's loop, a template over its event callback: random_walk (random_walk.h) runs
-// it with a std::function; a caller that connects every event (the renderer's random-walk
-// surface) runs it with its own callable, which the compiler can then inline into the loop.
-// Implementation detail of materials/walk/random_walk.cpp; the walk is documented there.
+// The walk kernel: the random walk's loop (random_walk.h documents the walk, random_walk.cpp
+// derives it), a template over its event callback, with the spectral-MIS path weight and the
+// small helpers it shares with random_walk.cpp. Public, for the two callers of the one loop:
+// random_walk() (random_walk.cpp) runs it with a std::function, and the renderer's random-walk
+// surface (renderer/surfaces/random_walk_surface.cpp), which connects every event to the lights,
+// runs it with its own callable, which the compiler can then inline into the loop. The loop is
+// kept whole: it is the hot path of `lamina brdf` and of every random-walk render.
 #pragma once
 
 #include <algorithm>
@@ -17,7 +20,7 @@
 #include "materials/base/sampling.h"
 
 namespace lamina {
-namespace walk_detail {
+namespace walk_kernel {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -93,7 +96,7 @@ bool has_callback(const F&) { return true; }
 template <class OnEvent>
 WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const OnEvent& on_event, int chosen_hero) {
   const LayerStack& stack = *plan.stack;
-  const WalkSettings& settings = plan.settings;
+  const WalkOptions& settings = plan.settings;
   WalkResult result;
   const int n_layers = static_cast<int>(stack.layers.size());
   const bool rough = plan.rough;
@@ -164,7 +167,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
     if (t > settings.forced_exponential_after) {
       q *= settings.forced_survival;
     } else if (t > settings.forced_after) {
-      q *= std::sqrt((t - 1.0) / t);  // cumulative survival sqrt(forced_after / t), see WalkSettings
+      q *= std::sqrt((t - 1.0) / t);  // cumulative survival sqrt(forced_after / t), see WalkOptions
     }
     if (q >= 1.0) return true;
     if (rng.uniform() >= q) {
@@ -236,7 +239,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
     if (has_callback(on_event)) on_event(event);
   };
 
-  // ---- guided walks (WalkSettings::guiding): the current flight's mixture ----
+  // ---- guided walks (WalkOptions::guiding): the current flight's mixture ----
   // A flight that starts at a volume event chose, with probability q, the guided technique for
   // its direction and its distance. Then its sampling density in channel k is the mixture
   //   p_k = (1 - q) phase_k(d) D_k + q guided_k(d) G_k,
@@ -421,31 +424,31 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       guided_flight_end(tau, tau_g, true);
       weight = pw.value();
     } else {
-    // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
-    const Spectrum& log_sigma_t = cache[l].log_sigma_t;
-    for (int k = 0; k < kChannels && spectral; ++k) {
-      if (k == hero) continue;
-      pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
-    }
-    // What the collision absorbs (direct tally) and scatters: the albedo splits the weight (one
-    // set of spectral MIS factors for both; a grey walk's factors are 1, which values() would
-    // find out by testing them).
-    if (settings.tally_absorbed) {
-      Spectrum absorbed_a, absorbed;
-      for (int c = 0; c < kChannels; ++c) absorbed_a[c] = pw.a[c] * cache[l].absorbed_share[c];
-      pw.a *= cache[l].albedo;
-      if (spectral) {
-        pw.values(pw.a, &weight, &absorbed_a, &absorbed);
-      } else {
-        weight = pw.a * pw.scale;
-        absorbed = absorbed_a * pw.scale;
+      // Density of this flight in channel k relative to the hero: sigma_t,k exp(-T_k) / (...)_h.
+      const Spectrum& log_sigma_t = cache[l].log_sigma_t;
+      for (int k = 0; k < kChannels && spectral; ++k) {
+        if (k == hero) continue;
+        pw.lr[k] += sigma_t[k] > 0.0 ? log_sigma_t[k] - log_sigma_t[hero] - (tau[k] - tau[hero]) : -kInf;
       }
-      result.absorbed += absorbed;
-    } else {
-      pw.a *= cache[l].albedo;
-      if (spectral) pw.values(pw.a, &weight, nullptr, nullptr);
-      else weight = pw.a * pw.scale;
-    }
+      // What the collision absorbs (direct tally) and scatters: the albedo splits the weight (one
+      // set of spectral MIS factors for both; a grey walk's factors are 1, which values() would
+      // find out by testing them).
+      if (settings.tally_absorbed) {
+        Spectrum absorbed_a, absorbed;
+        for (int c = 0; c < kChannels; ++c) absorbed_a[c] = pw.a[c] * cache[l].absorbed_share[c];
+        pw.a *= cache[l].albedo;
+        if (spectral) {
+          pw.values(pw.a, &weight, &absorbed_a, &absorbed);
+        } else {
+          weight = pw.a * pw.scale;
+          absorbed = absorbed_a * pw.scale;
+        }
+        result.absorbed += absorbed;
+      } else {
+        pw.a *= cache[l].albedo;
+        if (spectral) pw.values(pw.a, &weight, nullptr, nullptr);
+        else weight = pw.a * pw.scale;
+      }
     }
     ++result.scatter_count;
     ++result.interactions;
@@ -508,11 +511,14 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
 // from hit to hit on textured materials).
 template <class OnEvent>
 WalkResult run_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng, const OnEvent& on_event,
-                    const WalkSettings& settings, int chosen_hero) {
+                    const WalkOptions& settings, int chosen_hero) {
   thread_local WalkPlan plan;
   prepare_walk(stack, settings, &plan);
   return run_walk(plan, wi, rng, on_event, chosen_hero);
 }
 
-}  // namespace walk_detail
+}  // namespace walk_kernel
+
+// Another name of the kernel's namespace, which renderer/surfaces/random_walk_surface.cpp uses.
+namespace walk_detail = walk_kernel;
 }  // namespace lamina

@@ -161,7 +161,7 @@ int run_brdf(int argc, char** argv) {
   double theta_i = std::nan(""), phi_i = 0.0;
   std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
-  int roulette_cap = lamina::WalkSettings{}.forced_exponential_after;
+  int roulette_cap = lamina::WalkOptions{}.forced_exponential_after;
   int quadrature_points = lamina::AddingDoublingSettings{}.quadrature_points;
   namespace cli = lamina::cli;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();

@@ -437,7 +437,7 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   // the prediction's bins, for every incidence in one solution: exact up to its discretisation
   // error, so no walks, no noise, one pass. A stack it cannot resolve (the table mode's own rule,
   // adding_doubling_resolves, which also sets the full order) keeps the walks.
-  bool exact = settings.table.method == TableSettings::Method::AddingDoubling && !settings.walk_reference;
+  bool exact = settings.table.method == TableSettings::Method::AddingDoubling && !settings.test_hooks.walk_reference;
   std::vector<AddingDoublingSettings> ad(stacks.size());
   for (std::size_t i = 0; i < stacks.size() && exact; ++i)
     exact = adding_doubling_resolves(stacks[i], settings.table.quadrature_points, &ad[i]);
@@ -461,7 +461,7 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
       if (half.empty()) half = adding_doubling_reference(stacks, ad, std::max(2, points / 2), options);
       discretisation = reference_discretisation(reference, half, worst, stride);
       const double margin[3] = {discretisation.lambert, discretisation.first_order, discretisation.table};
-      if (settings.single_reference_stage || decided(worst, margin)) break;
+      if (settings.test_hooks.single_reference_stage || decided(worst, margin)) break;
       half = std::move(reference);
       points = std::min(2 * points, full_points);
     }
@@ -560,7 +560,7 @@ std::string auto_key(const LayeredMaterial& m, const AutoSettings& s) {
   std::ostringstream what;
   what << std::hexfloat << "auto prediction\ntolerance " << s.tolerance << " bins " << s.bins_theta << ' ' << s.bins_phi
        << " walks " << s.walks << ' ' << s.max_walks << " seed " << s.seed << " reference stages " << s.first_reference_points << ' '
-       << s.single_reference_stage << "\ntable " << s.table.nodes << ' '
+       << s.test_hooks.single_reference_stage << "\ntable " << s.table.nodes << ' '
        << s.table.grazing_cosine << ' ' << s.table.bins_theta << ' ' << s.table.bins_phi << ' ' << s.table.walks_per_node
        << ' ' << s.table.seed << " method " << static_cast<int>(s.table.method) << ' ' << s.table.quadrature_points
        << "\nalbedo walks " << m.albedo_walks() << '\n'

@@ -83,15 +83,19 @@ struct AutoSettings {
   std::uint64_t walks = 10000;      // per incidence, first round (then doubled)
   std::uint64_t max_walks = 40000;  // per incidence, in all rounds
   std::uint64_t seed = 11;
-  // With adding-doubling tables the reference is adding-doubling itself where it resolves the
-  // stack (exact, no walks); true forces the walks (tests: the two references agree).
-  bool walk_reference = false;
   // The adding-doubling reference in stages: first at this many quadrature points (and half as
   // many, for the estimate of its discretisation error), doubling until the choice is decided
   // or the full order (the table mode's rule) is reached; 0: the full order at once.
   int first_reference_points = 4;
-  // Tests: stop after the first stage, decided or not (its errors and their estimate).
-  bool single_reference_stage = false;
+  // Test hooks: switches for the tests, never set by the renderer.
+  struct TestHooks {
+    // With adding-doubling tables the reference is adding-doubling itself where it resolves the
+    // stack (exact, no walks); true forces the walks (the two references agree).
+    bool walk_reference = false;
+    // Stop after the first stage, decided or not (its errors and their estimate).
+    bool single_reference_stage = false;
+  };
+  TestHooks test_hooks;
 };
 
 // Predicted relative errors of the cheaper models against the walk (whose own error is 0).

@@ -121,7 +121,7 @@ void measure_similarity_bias(const ShadingInputs& in, const RenderLog& log, Prep
     if (!m) continue;
     LayerStack similar;
     similarity_transform_into(m->base_stack(), &similar);
-    WalkSettings ws;
+    WalkOptions ws;
     ws.similarity_after = in.walk.similarity_after;
     ws.similar = &similar;
     Spectrum se_diff, exact;

@@ -5,7 +5,7 @@
 namespace lamina {
 namespace {
 
-WalkOptionSpec switch_option(const char* flag, const char* key, const char* help, bool RandomWalkOptions::*member,
+WalkOptionSpec switch_option(const char* flag, const char* key, const char* help, bool WalkOptions::*member,
                              const char* on_word, const char* off_word) {
   WalkOptionSpec s{flag, key, help, WalkOptionSpec::Kind::Switch};
   s.switch_member = member;
@@ -14,7 +14,7 @@ WalkOptionSpec switch_option(const char* flag, const char* key, const char* help
   return s;
 }
 
-WalkOptionSpec integer_option(const char* flag, const char* key, const char* help, int RandomWalkOptions::*member, int lo,
+WalkOptionSpec integer_option(const char* flag, const char* key, const char* help, int WalkOptions::*member, int lo,
                               int hi) {
   WalkOptionSpec s{flag, key, help, WalkOptionSpec::Kind::Integer};
   s.integer_member = member;
@@ -23,7 +23,7 @@ WalkOptionSpec integer_option(const char* flag, const char* key, const char* hel
   return s;
 }
 
-WalkOptionSpec real_option(const char* flag, const char* key, const char* help, double RandomWalkOptions::*member, double lo,
+WalkOptionSpec real_option(const char* flag, const char* key, const char* help, double WalkOptions::*member, double lo,
                            double hi, bool lo_open, bool hi_open) {
   WalkOptionSpec s{flag, key, help, WalkOptionSpec::Kind::Real};
   s.real_member = member;
@@ -40,18 +40,18 @@ const std::vector<WalkOptionSpec> kWalkOptionTable = {
     switch_option("--pool-samples", "lamina:pool_samples",
                   "random-walk: light samples of environment and emissive triangles per walk event (per-event) or one per "
                   "walk (shared)",
-                  &RandomWalkOptions::per_event_pool_samples, "per-event", "shared"),
+                  &WalkOptions::per_event_pool_samples, "per-event", "shared"),
     integer_option("--similarity-after", "lamina:similarity_after",
                    "random-walk, APPROXIMATE: after N exact collisions (0: none) continue in the similarity-transformed "
                    "medium (g -> 0, sigma_s (1 - g)); its bias is measured and printed (-1: exact)",
-                   &RandomWalkOptions::similarity_after, -1, 1000000),
+                   &WalkOptions::similarity_after, -1, 1000000),
     real_option("--guiding", "lamina:guiding",
                 "random-walk: probability of Dwivedi's guided technique for flights in isotropic layers, in [0, 1) "
                 "(unbiased; 0: off)",
-                &RandomWalkOptions::guiding, 0.0, 1.0, false, true),
+                &WalkOptions::guiding, 0.0, 1.0, false, true),
     switch_option("--next-flight", "lamina:next_flight",
                   "random-walk: next-flight connections to delta lights (MIS over each flight's direction; unbiased)",
-                  &RandomWalkOptions::next_flight, "on", "off"),
+                  &WalkOptions::next_flight, "on", "off"),
 };
 
 std::string walk_option_text(const WalkOptionSpec& spec, const RandomWalkOptions& walk) {
@@ -70,7 +70,7 @@ bool set_walk_switch(const WalkOptionSpec& spec, const std::string& word, Random
 }
 
 std::vector<std::string> walk_option_arguments(const RandomWalkOptions& walk) {
-  const RandomWalkOptions defaults;
+  const RandomWalkOptions defaults;  // the renderer's preset
   std::vector<std::string> args;
   for (const WalkOptionSpec& spec : kWalkOptionTable) {
     const std::string value = walk_option_text(spec, walk);

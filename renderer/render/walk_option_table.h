@@ -1,8 +1,9 @@
 // The walk options a user sets, each declared once: its `lamina render` flag (and help), its EXR
 // header key (lamina:*, docs/contracts.md) and the argument a batch job's command line carries
 // all come from its row of kWalkOptionTable. A new user-facing walk option is a field of the
-// walk's options (renderer/surfaces/random_walk_surface.h) and one row here; its flag, header
-// key and batch argument follow.
+// walk's options (materials/walk/walk_options.h) and one row here; its flag, header
+// key and batch argument follow. Values absent from the table keep the renderer's preset
+// (renderer_walk_options).
 #pragma once
 
 #include <string>
@@ -22,11 +23,11 @@ struct WalkOptionSpec {
   const char* exr_key;  // header key: "lamina:guiding"
   const char* help;     // `lamina render --help`
   Kind kind;
-  bool RandomWalkOptions::*switch_member = nullptr;
+  bool WalkOptions::*switch_member = nullptr;
   const char* on_word = nullptr;
   const char* off_word = nullptr;
-  int RandomWalkOptions::*integer_member = nullptr;
-  double RandomWalkOptions::*real_member = nullptr;
+  int WalkOptions::*integer_member = nullptr;
+  double WalkOptions::*real_member = nullptr;
   double lo = 0.0, hi = 0.0;  // Integer and Real: the accepted range
   bool lo_open = false, hi_open = false;  // Real: whether the ends are excluded
 };

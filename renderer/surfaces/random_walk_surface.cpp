@@ -57,8 +57,8 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
   WalkSettings settings;
   settings.guiding = options_.guiding;
-  settings.roulette_threshold = options_.walk_roulette_threshold;
-  settings.roulette_survival = options_.walk_roulette_survival;
+  settings.roulette_threshold = options_.roulette_threshold;
+  settings.roulette_survival = options_.roulette_survival;
   settings.tally_absorbed = false;
   thread_local LayerStack similar;
   if (options_.similarity_after >= 0) {
@@ -86,11 +86,11 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
     if (direct.weight.is_black()) return Spectrum(0.0);
     double weight = light_scale;
     if (p_a >= 0.0) weight *= next_flight_weight(p_a, direct.phase);
-    if (options_.naive) {
+    if (options_.test_hooks.naive) {
       // The naive estimator drops the Fresnel transmission of the way out.
       const double ft = exit.layers[e.layer].fresnel_t;
       if (e.kind == ScatterEvent::Kind::Volume && ft > 0.0) weight /= ft;
-    } else if (!light.delta && !options_.connections_only) {
+    } else if (!light.delta && !options_.test_hooks.connections_only) {
       weight *= power_heuristic(light.pdf, direct.pdf_for_mis);
     }
     return e.throughput * direct.weight * weight;
@@ -118,7 +118,7 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   thread_local std::vector<char> next_flight, similar_next_flight;
   next_flight.assign(static_cast<std::size_t>(light_count) * n_layers, 0);
   similar_next_flight.assign(next_flight.size(), 0);
-  if (options_.next_flight && !options_.naive && !options_.connections_only) {
+  if (options_.next_flight && !options_.test_hooks.naive && !options_.test_hooks.connections_only) {
     for (int k = 0; k < light_count; ++k) {
       if (!lights[k].delta || scale[k] == 0.0) continue;
       for (int l = 0; l < n_layers; ++l) {
@@ -226,10 +226,10 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   if (walk.side == WalkResult::Side::Bottom) next->weight *= t_factor;
   next->delta = true;
   next->pdf = 0.0;
-  if (walk.straight_from_last_event && !options_.naive) {
+  if (walk.straight_from_last_event && !options_.test_hooks.naive) {
     next->delta = false;
     // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
-    next->pdf = options_.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction, settings.guiding, walk.top_inside);
+    next->pdf = options_.test_hooks.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last), last, walk.direction, settings.guiding, walk.top_inside);
   }
   return true;
 }

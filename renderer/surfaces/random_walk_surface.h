@@ -35,64 +35,15 @@
 #include <cstdint>
 
 #include "materials/stack/stack.h"
+#include "materials/walk/walk_options.h"
 #include "renderer/surfaces/surface.h"
 
 namespace lamina {
 
-struct RandomWalkOptions {
-  // Tests and the bias report only: the naive estimator of the seed's slides. Connections without
-  // the Fresnel transmission of the way out and with weight 1, and exits that reach a light also
-  // with weight 1 (no MIS: counted twice).
-  bool naive = false;
-  // Measurements only: connections with weight 1 and the walk's straight exits ignored when they
-  // reach a light (unbiased, no MIS), to show what MIS buys at g -> 1.
-  bool connections_only = false;
-  // Connect every event to a fresh light sample of its own from the integrator's LightSampler
-  // (the lights of the pool: environment and emissive triangles), as well as to the shared
-  // directions. false (the default): the pool's sample is shared by the walk's events too.
-  bool per_event_pool_samples = false;
-  // APPROXIMATE (-1: exact, the default): after this many exact events (0: none) the walk
-  // continues in the similarity-transformed stack (WalkSettings::similarity_after;
-  // `--similarity-after N`).
-  int similarity_after = -1;
-  // Connection roulette (random_walk_surface.cpp): events whose way out is attenuated by more
-  // than exp(-depth) in every channel are connected with probability exp(depth - bound). Tests
-  // lower it to make the roulette matter.
-  double connection_roulette_depth = 6.0;
-  // Guided walks (WalkSettings::guiding, `--guiding Q`): the probability of Dwivedi's guided
-  // technique for flights from isotropic layers (g = 0: after --similarity-after 0, or isotropic
-  // stacks; an exact skin stack has none). Unbiased; off by default: it wins for long walks in
-  // bright isotropic media and loses where walks are already short (docs/random_walk.md).
-  double guiding = 0.0;
-  // Next-flight connections for delta lights (materials/walk/next_flight_connection.h, `--next-flight
-  // off` to disable): each flight's direction by two techniques, the walk's phase sampling and
-  // the phase function around the light's inside direction, combined by MIS. Unbiased; it
-  // removes the spikes of forward-peaked connections.
-  bool next_flight = true;
-  // ... in layers whose HG g is at least this (the spikes grow with g; measured equal-error
-  // speed-ups: skin, g 0.8, 1.4x; the leaf's mesophyll, g 0.5, 0.94x: README, "Clean skin").
-  double next_flight_min_g = 0.6;
-  // Their roulette: a technique-B connection attenuated by more than exp(-depth) in every channel
-  // (next_flight_depth_bound) is made with probability exp(depth - bound). 1 measured best on
-  // head_skin (README, "Clean skin"): B's connections from below one mean free path are small.
-  double next_flight_roulette_depth = 1.0;
-  // Connection roulette on the phase function (0: off): an event's connection to a delta light
-  // through a layer with one HG lobe, whose phase function p towards the light's inside
-  // direction is below this times the isotropic 1 / (4 pi), is made with probability
-  // p / (this / (4 pi)) and weight 1 / that. Unbiased; through g = 0.8 most directions are far
-  // below isotropic and bring little (docs/layered_rendering.md, "The connections' roulettes": at
-  // 1, 4-7 % fewer render instructions for 1-3 % more variance on the skin scenes; 2 and 4 cost
-  // more variance than they save).
-  double connection_phase_roulette = 1.0;
-  // The walk's own Russian roulette (WalkSettings::roulette_threshold and roulette_survival):
-  // once every channel of a walk's weight has fallen below half of what entered, each further
-  // scattering event lets it survive with probability 1/2 (weight doubled). Survival equal to the
-  // threshold keeps every survivor's weight below the entering weight: no fireflies. Unbiased;
-  // against WalkSettings' 0.01 and 0.1 it halves a skin walk's events for a few per cent more
-  // variance (`walk_variance`: events x relative variance 214.6 -> 142 on skin_oily, 29.5 -> 16
-  // on the back-lit leaf; README, "Clean skin").
-  double walk_roulette_threshold = 0.5;
-  double walk_roulette_survival = 0.5;
+// The walk's options (materials/walk/walk_options.h: the walk, its light connections and the
+// test hooks) with the renderer's preset, renderer_walk_options(), as the default.
+struct RandomWalkOptions : WalkOptions {
+  RandomWalkOptions() : WalkOptions(renderer_walk_options()) {}
 };
 
 class RandomWalkSurface final : public Surface {

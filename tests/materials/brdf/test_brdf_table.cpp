@@ -177,7 +177,7 @@ TEST(BrdfMonteCarlo, BinCountsAgreeWithConnectionEstimator) {
   expect_bins_agree_with_connections(lam, options(50.0, 30000, 3, 4, 5), 5000, "Lambert substrate");
 }
 
-// The same agreement for the approximate similarity option (WalkSettings::similarity_after): the
+// The same agreement for the approximate similarity option (WalkOptions::similarity_after): the
 // switched walk is a transport model of its own, and its exits and its connections must estimate
 // the same bin averages. An event's connection stands for the straight exit of its next flight,
 // so the switch must fall between an event's collision and its scattering (the event then

@@ -45,10 +45,10 @@ LayerStack coloured_stack() {
 // last event, checks W_exit * exit_pdf / |mu_out| = throughput * connection_weight to 1e-9, the
 // connection through the stack `through(last)` returns (null: skip the walk). Returns how many
 // walks were checked.
-int check_straight_exits(const LayerStack& stack, const glm::dvec3& wi, const WalkSettings& settings,
+int check_straight_exits(const LayerStack& stack, const glm::dvec3& wi, const WalkOptions& settings,
                          std::uint64_t seed, int walks,
                          const std::function<const LayerStack*(const ScatterEvent&)>& through) {
-  WalkSettings with_exit_pdf = settings;
+  WalkOptions with_exit_pdf = settings;
   with_exit_pdf.compute_exit_pdf = true;
   int checked = 0;
   for (int i = 0; i < walks; ++i) {
@@ -81,7 +81,7 @@ TEST(RandomWalk, StraightExitsMatchConnectionWeight) {
       one_layer(1.5, 0.5, Spectrum(0.1), Spectrum(3.0), Spectrum(-0.4)),
       one_layer(0.8, 0.5, Spectrum(0.1), Spectrum(3.0), Spectrum(0.2), 1.2, 1.7),
       two_lobes, lambert};
-  WalkSettings no_roulette;
+  WalkOptions no_roulette;
   no_roulette.roulette_threshold = 0.0;  // roulette would scale the exit weight after the event
   int checked = 0;
   for (const LayerStack& stack : stacks)
@@ -106,12 +106,12 @@ TEST(RandomWalk, GreyStackKeepsChannelsIdentical) {
   }
 }
 
-// The walk's loop run with a plain callable (walk_detail::run_walk, as the renderer does) is the
+// The walk's loop run with a plain callable (walk_kernel::run_walk, as the renderer does) is the
 // walk that random_walk runs with a std::function: the same events and result, bit for bit, and
 // a callable is always called (a std::function only when it holds one).
 TEST(RandomWalk, LoopWithACallableIsTheWalkWithAStdFunction) {
   const LayerStack s = test::skin_like_stack();
-  WalkSettings settings;
+  WalkOptions settings;
   settings.roulette_threshold = 0.5;
   settings.roulette_survival = 0.5;
   WalkPlan plan;
@@ -123,7 +123,7 @@ TEST(RandomWalk, LoopWithACallableIsTheWalkWithAStdFunction) {
     const WalkResult ra = random_walk(plan, incident_direction(40.0, 0.0), rng_a,
                                       EventCallback([&](const ScatterEvent& e) { a.push_back(e); }), 1);
     const WalkResult rb =
-        walk_detail::run_walk(plan, incident_direction(40.0, 0.0), rng_b, [&](const ScatterEvent& e) { b.push_back(e); }, 1);
+        walk_kernel::run_walk(plan, incident_direction(40.0, 0.0), rng_b, [&](const ScatterEvent& e) { b.push_back(e); }, 1);
     ASSERT_EQ(a.size(), b.size());
     for (std::size_t k = 0; k < a.size(); ++k) {
       ASSERT_EQ(a[k].depth, b[k].depth);
@@ -168,7 +168,7 @@ TEST(RandomWalk, GreyPhotonConservesEnergyWithoutRoulette) {
   s.layers.push_back(make_layer("under", 1.2, 0.5, Spectrum(0.1), Spectrum(4.0), Spectrum(0.0)));
   s.below.kind = Below::Kind::Lambert;
   s.below.albedo = Spectrum(0.7);
-  WalkSettings settings;
+  WalkOptions settings;
   settings.roulette_threshold = 0.0;
   settings.forced_after = 1 << 30;
   settings.forced_exponential_after = 1 << 30;
@@ -189,7 +189,7 @@ TEST(RandomWalk, AlbedoOneSemiInfiniteEndsAndConserves) {
   const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(0.0), Spectrum(10.0), Spectrum(0.0));
   const glm::dvec3 wi = incident_direction(0.0, 0.0);
   // Earlier forced roulette than the default (same schedule), to keep the test short.
-  WalkSettings settings;
+  WalkOptions settings;
   settings.forced_after = 100;
   settings.forced_exponential_after = 100000;
   const int n = 10000;
@@ -217,7 +217,7 @@ TEST(RandomWalk, AlbedoOneSemiInfiniteEndsAndConserves) {
 // without roulette, even for a strongly coloured stack with a multi-lobe layer and a substrate.
 TEST(RandomWalk, ColouredWeightsBounded) {
   const LayerStack s = coloured_stack();
-  WalkSettings no_roulette;
+  WalkOptions no_roulette;
   no_roulette.roulette_threshold = 0.0;
   int events = 0;
   for (std::uint64_t i = 0; i < 5000; ++i) {
@@ -405,13 +405,13 @@ TEST(RandomWalk, CallerChosenHero) {
   }
 }
 
-// WalkSettings::tally_absorbed = false (the renderer) changes nothing but the absorbed tally:
+// WalkOptions::tally_absorbed = false (the renderer) changes nothing but the absorbed tally:
 // the same events, exits and weights, bit for bit, and no absorbed power. Without the flag the
 // tally is there (the coloured stack absorbs in every layer and at the substrate).
 TEST(RandomWalk, AbsorbedTallyIsOptional) {
   const LayerStack s = coloured_stack();
   const glm::dvec3 wi = incident_direction(30.0, 0.0);
-  WalkSettings without;
+  WalkOptions without;
   without.tally_absorbed = false;
   Spectrum tallied;
   for (int i = 0; i < 300; ++i) {
@@ -433,7 +433,7 @@ TEST(RandomWalk, AbsorbedTallyIsOptional) {
   for (int c = 0; c < kChannels; ++c) EXPECT_GT(tallied[c], 0.0);
 }
 
-// ---- guided walks (WalkSettings::guiding) ----
+// ---- guided walks (WalkOptions::guiding) ----
 
 // With guiding the exit weight is no longer the last event's throughput (the mixture's weight
 // of the last flight comes in), but W_exit * exit_pdf / |mu_out| = throughput * connection_weight
@@ -449,7 +449,7 @@ TEST(RandomWalkGuided, StraightExitsMatchConnectionWeight) {
   two.layers.push_back(make_layer("under", 1.5, 0.3, Spectrum(0.1), Spectrum(6.0), Spectrum(0.5)));
   const std::vector<LayerStack> stacks = {one_layer(1.0, kInfiniteThickness, Spectrum(0.01), Spectrum(5.0), Spectrum(0.0)),
                                           lambert, two};
-  WalkSettings guided;
+  WalkOptions guided;
   guided.roulette_threshold = 0.0;
   guided.forced_after = 1 << 30;  // a forced roulette after the last event would scale the exit weight
   guided.guiding = 0.5;
@@ -481,7 +481,7 @@ TEST(RandomWalkGuided, SameEstimatesAsClassicWalks) {
     double events[2] = {0.0, 0.0};
     const int n = 20000;
     for (int guided = 0; guided < 2; ++guided) {
-      WalkSettings ws_settings;
+      WalkOptions ws_settings;
       ws_settings.guiding = guided ? 0.5 : 0.0;
       for (int i = 0; i < n; ++i) {
         Rng rng(23, static_cast<std::uint64_t>(i));
@@ -511,9 +511,9 @@ TEST(RandomWalkGuided, SameEstimatesAsClassicWalks) {
 
 TEST(RandomWalkGuided, AnisotropicLayersWalkClassically) {
   const LayerStack s = coloured_stack();  // every layer anisotropic
-  WalkSettings classic;
+  WalkOptions classic;
   classic.compute_exit_pdf = true;
-  WalkSettings guided = classic;
+  WalkOptions guided = classic;
   guided.guiding = 0.7;
   for (int i = 0; i < 300; ++i) {
     Rng a(4, i), b(4, i);
@@ -526,7 +526,7 @@ TEST(RandomWalkGuided, AnisotropicLayersWalkClassically) {
   }
 }
 
-// ---- the similarity option (WalkSettings::similarity_after; approximate) ----
+// ---- the similarity option (WalkOptions::similarity_after; approximate) ----
 
 // Isotropic layers are their own similarity transform, so switching to it must change nothing:
 // the same events, weights and ends bit for bit, on a coloured multi-layer stack with a
@@ -537,7 +537,7 @@ TEST(RandomWalkSimilarity, IsotropicStackUnchangedBySwitching) {
     for (PhaseLobe& lobe : l.lobes) lobe.g = Spectrum(0.0);
   LayerStack similar;
   similarity_transform_into(s, &similar);
-  WalkSettings approx;
+  WalkOptions approx;
   approx.similarity_after = 2;  // the first event exact, the second on similar
   approx.similar = &similar;
   int switched = 0;
@@ -568,7 +568,7 @@ TEST(RandomWalkSimilarity, SimilarEventsConnectThroughTheSimilarStack) {
   s.layers.push_back(make_layer("under", 1.3, 0.3, Spectrum(0.1), Spectrum(5.0), Spectrum(0.6)));
   LayerStack similar;
   similarity_transform_into(s, &similar);
-  WalkSettings approx;
+  WalkOptions approx;
   approx.roulette_threshold = 0.0;
   approx.similarity_after = 2;
   approx.similar = &similar;

@@ -183,7 +183,7 @@ TEST(RoughStack, StraightExitsMatchTheConnectionThroughTheirFacet) {
   // exactly the connection's weight through that inside direction:
   // W_exit pdf / |w.z| = W_e connection weight (to rounding; the n^2 factors, the facet
   // densities and the Fresnel terms cancel only if prepare_exit's are the walk's).
-  WalkSettings no_roulette;
+  WalkOptions no_roulette;
   no_roulette.roulette_threshold = 0.0;
   no_roulette.compute_exit_pdf = true;
   int checked = 0;

@@ -604,7 +604,7 @@ TEST(LayeredBias, NaiveVariantIsBiasedOursIsNot) {
   RenderSetup setup;
   setup.spp = 16;
   for (bool naive : {false, true}) {
-    setup.walk.naive = naive;
+    setup.walk.test_hooks.naive = naive;
     const Image im = render_layered(d, b, EnvironmentMap::constant(Spectrum(1.0)), camera_towards(world_dir(30, 0)), setup);
     const ImageStats st = stats_of(im);
     if (std::getenv("LAMINA_TEST_VERBOSE"))
@@ -711,7 +711,7 @@ TEST(LayeredVariance, MisBoundsForwardScatteringNoise) {
       RenderSetup setup;
       setup.width = setup.height = 24;
       setup.spp = 4;
-      setup.walk.connections_only = only == 1;
+      setup.walk.test_hooks.connections_only = only == 1;
       // Per-event pool samples: with one environment sample shared by the whole walk, the
       // connections-only estimator at g = 0.99 is so heavy-tailed that its standard error means
       // little (docs/layered_rendering.md, "Shared or per-event pool samples").

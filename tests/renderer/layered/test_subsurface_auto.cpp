@@ -137,7 +137,7 @@ TEST(SubsurfaceAuto, AddingDoublingReferenceAgreesWithTheWalk) {
     s.tolerance = 0.05;
     s.max_walks = 80000;
     const AutoChoice exact = choose_subsurface_mode(m, s);
-    s.walk_reference = true;
+    s.test_hooks.walk_reference = true;
     const AutoChoice walk = choose_subsurface_mode(m, s);
     std::printf("%s\n  exact: %s [%.3f s]\n  walk:  %s [%llu walks, %.3f s]\n", stack.name.c_str(), exact.reason.c_str(),
                 exact.seconds, walk.reason.c_str(), static_cast<unsigned long long>(walk.walks), walk.seconds);
@@ -178,7 +178,7 @@ AutoChoice predict_with_reference(const LayeredMaterial& m, double tolerance, in
   AutoSettings s;
   s.tolerance = tolerance;
   s.first_reference_points = first_points;
-  s.single_reference_stage = single_stage;
+  s.test_hooks.single_reference_stage = single_stage;
   return choose_subsurface_mode(m, s);
 }
 
