@@ -210,7 +210,7 @@ std::vector<AutoChoiceEntry> auto_choices(const Metadata& meta) {
       if (v.compare(0, 6, "chose ") == 0) {
         mode = v.substr(6, v.find(' ', 6) == std::string::npos ? std::string::npos : v.find(' ', 6) - 6);
       } else if (v.compare(0, 11, "not visible") == 0) {
-        mode = "lambert-hidden";
+        mode = kHiddenAutoModeName;
       } else {
         mode = "?";  // a reason this version does not know how to read
       }

@@ -27,6 +27,9 @@ inline constexpr SubsurfaceModeNames kSubsurfaceModes[] = {
 // The choice that is not a mode: a mode per material, the cheapest whose predicted error is
 // within a tolerance (renderer/layered/subsurface_auto.h).
 inline constexpr const char* kAutoSubsurfaceName = "auto";
+// What auto records for a material that camera rays do not see: not predicted, shaded as
+// lambert (the header's lamina:auto_mode:<material>).
+inline constexpr const char* kHiddenAutoModeName = "lambert-hidden";
 
 // Parses a mode's name; false if unknown ("auto" is not a mode).
 bool parse_subsurface_mode(const std::string& name, SubsurfaceMode* mode);

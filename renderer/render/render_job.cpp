@@ -108,7 +108,7 @@ std::vector<MaterialModeChoice> mode_choices(const LoadedScene& loaded, const st
   std::vector<MaterialModeChoice> out;
   for (std::size_t i = 0; i < choices.size(); ++i)
     if (loaded.bindings.by_material[i])
-      out.push_back({loaded.material_names[i], choices[i].visible ? subsurface_mode_name(choices[i].mode) : "lambert-hidden",
+      out.push_back({loaded.material_names[i], choices[i].visible ? subsurface_mode_name(choices[i].mode) : kHiddenAutoModeName,
                      choices[i].reason});
   return out;
 }
