@@ -1,4 +1,4 @@
-// From a colour to stack parameters (issue 13 item 6, first part): the diffuse albedo of a stack
+// From a colour to stack parameters: the diffuse albedo of a stack
 // over a grid of two parameters, and the parameters whose albedo is closest to a given colour.
 //
 // A photograph's texel gives (up to lighting, which a cross-polarised albedo texture removes)

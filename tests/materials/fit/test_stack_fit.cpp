@@ -341,9 +341,8 @@ TEST(StackFit, CoarseSearchWithCorrectionAgreesWithTheAccurateSearch) {
   }
 }
 
-// A BRDF/BTDF table as measurements (issue 13 item 5: "and/or a BRDF/BTDF table in the brdf CSV
-// format"): the table of a slab by adding-doubling at 16 points, written in lamina brdf's CSV
-// layout (docs/contracts.md; %.9g), Gaussian noise of each bin's stated stderr (2% of the value
+// A BRDF/BTDF table as measurements: the table of a slab by adding-doubling at 16 points,
+// written in lamina brdf's CSV layout (docs/contracts.md; %.9g), Gaussian noise of each bin's stated stderr (2% of the value
 // plus 1e-4 /sr), parsed back and fitted for sigma_a, sigma_s and g of the red channel. The bins
 // see the phase function's shape, so g is identified (from R and T alone it is not: the test
 // above); each value within 4 sigma of the truth, and the pulls' spread 1 within 4 of its
