@@ -12,6 +12,8 @@ A comment on the line just above a block (one or more, consecutive) changes how 
   <!-- docs-test: reduce --width 32 --height 24 --spp 2 -->   each flag's value in the block is
       replaced (`--spp 64` -> `--spp 2`); a flag the block does not contain is an error
   <!-- docs-test: env LAMINA_QUICK=1 -->                      exported before the block runs
+  <!-- docs-test: replace BENCH_SPP=64 BENCH_SPP=2 -->          each OLD text replaced by NEW (pairs of
+      words without spaces); an OLD the block does not contain is an error
   <!-- docs-test: not-run because it installs packages -->    not run; printed with its reason,
       and a marker without a reason is an error
 Relative Markdown links ([text](path#anchor)) must name files that exist and, into a Markdown
@@ -113,13 +115,21 @@ def prepare(block):
             return None, reason
         if word == 'reduce':
             script = reduce_flags(script, rest)
+        elif word == 'replace':
+            tokens = rest.split()
+            if not tokens or len(tokens) % 2:
+                raise ValueError(f'replace needs OLD NEW pairs, got "{rest}"')
+            for old, new in zip(tokens[0::2], tokens[1::2]):
+                if old not in script:
+                    raise ValueError(f'replace: the block has no {old}')
+                script = script.replace(old, new)
         elif word == 'env':
             assignments = rest.split()
             if not assignments or not all(re.match(r'^[A-Za-z_]\w*=', a) for a in assignments):
                 raise ValueError(f'env needs NAME=VALUE assignments, got "{rest}"')
             prefix.append('export ' + ' '.join(assignments))
         else:
-            raise ValueError(f'unknown docs-test marker "{word}" (reduce, env or not-run)')
+            raise ValueError(f'unknown docs-test marker "{word}" (reduce, replace, env or not-run)')
     return '\n'.join(prefix + [script]), None
 
 
