@@ -16,7 +16,7 @@
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/material_binding.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"
 #include "tests/renderer/gltf_fixture.h"
