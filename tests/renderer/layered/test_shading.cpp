@@ -21,22 +21,11 @@
 namespace lamina {
 namespace {
 
-using nlohmann::json;
-using testing::GltfBuilder;
 using testing::TempDir;
 
-// A unit square in the z = 0 plane with one material: a thin-walled leaf (layered, diffuse
-// transmission) or, without the extension, a plain glTF metallic-roughness material.
+// The leaf square (tests/renderer/gltf_fixture.h): layered, or plain metallic-roughness.
 SceneDesc square(const TempDir& dir, bool layered) {
-  GltfBuilder b;
-  json ext = json::object();
-  if (layered) ext = {{"KHR_materials_diffuse_transmission", {{"diffuseTransmissionFactor", 0.4}}}};
-  b.json()["materials"].push_back({{"name", "leaf"},
-                                   {"doubleSided", true},
-                                   {"pbrMetallicRoughness", {{"baseColorFactor", {0.3, 0.5, 0.1, 1.0}}, {"metallicFactor", 0.0}}},
-                                   {"extensions", ext}});
-  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
-  b.write_gltf(dir / "square.gltf");
+  testing::write_leaf_square(dir / "square.gltf", layered);
   return load_gltf(dir / "square.gltf");
 }
 
