@@ -244,7 +244,7 @@ TEST(StackFit, CoarseQuadratureAgainstPreciseDataIsReported) {
 
 // iadpython 0.5.3's inversion of single slabs (scripts/iad_inversion_reference.py writes
 // tests/data/iad_inversion_reference.csv): sigma_a and sigma_s from R and T at normal incidence,
-// g and n known. The forward models agree to 2.8e-5 in the totals (README, adding-doubling) and
+// g and n known. The forward models agree to 2.8e-5 in the totals (docs/validation.md, "Adding-doubling") and
 // iad met its (r, t) to 5e-6, so with sigma 1e-4 on R and T the two inversions may differ by a
 // fraction of the fit's sigmas: within 1 sigma.
 TEST(StackFit, AgreesWithIadpythonInversion) {
