@@ -1,5 +1,5 @@
 // Cost of materials/adding_doubling/adding_doubling per stack and quadrature order, and the Monte Carlo walk's
-// cost to reach the same error (README, "Adding-doubling"). Stacks: the skin presets (two
+// cost to reach the same error (docs/performance.md, "Adding-doubling"). Stacks: the skin presets (two
 // composite layers over Lambert; skin_oily has three layers and two indices, its rough top made
 // smooth, but its top layer, sebum, neither scatters nor absorbs), a three-layer skin (a
 // hypodermis added to skin.json: three scattering layers, two indices), the contract leaf

@@ -1,5 +1,5 @@
 // Cost of `--subsurface auto`'s prediction (renderer/layered/subsurface_auto.h) for smooth
-// stacks, where its reference is adding-doubling (no walks): README "Shading modes", auto.
+// stacks, where its reference is adding-doubling (no walks): docs/performance.md, "auto".
 //   BM_AutoPrediction/<stack>: choose_subsurface_mode at the default settings (tolerance 0.05);
 //     the stacks' rough tops (skin_oily) are made smooth, as the table mode sees them. Counters:
 //     the quadrature points adding-doubling needed (the table mode's rule), the points of the

@@ -7,7 +7,7 @@
 //     defect correction), 4: the default (FitSettings::coarse_quadrature_points); counters:
 //     forward-model solutions per fit (optimiser and Jacobian), of which on the coarse model.
 //   BM_FitForward: one forward evaluation (adding_doubling_totals, three channels, 16 points).
-// README "lamina fit" quotes these numbers.
+// docs/performance.md, "Fitting", quotes these numbers.
 #include <benchmark/benchmark.h>
 
 #include <string>

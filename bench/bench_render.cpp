@@ -45,7 +45,8 @@
 
 #include "renderer/scene/camera.h"
 #include "renderer/image/image.h"
-#include "renderer/render/integrator.h"
+#include "materials/base/sampling.h"
+#include "renderer/render/film.h"
 #include "renderer/render/lights.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
@@ -245,7 +246,7 @@ void bench_camera(const Scene& scene, const LightSet& lights, const CameraDesc& 
   if (std::getenv("LAMINA_BENCH_NO_REPLAY")) return;
   // The replay ceiling: the render loop's own rays, recorded in one more (untimed) render.
   RayLog log;
-  s.ray_log = &log;
+  s.test_hooks.ray_log = &log;
   render_image(scene, lights, camera, s, nullptr);
   std::vector<RTCRayHit> closest(log.closest.size());
   std::vector<RTCRay> shadow(log.shadow.size());

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Denoising against long references (issue 15 item 4): for each scene, a reference at REF_SPP,
+# Denoising against long references: for each scene, a reference at REF_SPP,
 # then renders at each of SPP_LADDER with --aovs albedo,normal, each denoised by lamina denoise;
 # prints RMSE (and luminance relative RMSE) of raw and denoised against the reference, the render
-# and denoise seconds, and writes the PNGs (filmic) into OUT for the README.
+# and denoise seconds, and writes the PNGs (filmic) into OUT for docs/performance.md.
 # Usage: bench/denoise_rmse.sh [LAMINA] [OUT]   (about 10 minutes on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."

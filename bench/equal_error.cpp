@@ -1,4 +1,4 @@
-// Equal-error speed-up of two lamina builds on one scene (issue 11's benchmark; driven by
+// Equal-error speed-up of two lamina builds on one scene (driven by
 // bench/equal_error.sh). Not run by the test suite.
 //
 //   equal_error [--target E] [--per-pixel] REF.exr OLD_1.exr ... -- NEW_1.exr ...
@@ -22,7 +22,7 @@
 // missed more often by a small image, whose rmse^2 then falls short of V / n; the largest image
 // has the most reliable rmse). The speed-up is t_old(E) / t_new(E) (its ratio does not depend on
 // E, so E only labels it).
-// The estimator of the first sessions, c = mean over a build's images of rmse^2 t and t(E) =
+// The plain estimator, c = mean over a build's images of rmse^2 t and t(E) =
 // c / E^2, is printed too ("plain"): it keeps the reference's noise, the renders' fixed cost and
 // the small images' shortfall, which all lower the ratio of a build much faster than the other.
 // It also prints each build's mean luminance against the reference's, with the standard error
@@ -138,9 +138,9 @@ int main(int argc, char** argv) {
     const double v_ref = n_ref > 0.0 ? v_new / w_new / n_ref : 0.0;
     // Per-sample variance from two renders of the same spp and build with different seeds: the
     // mean over pixels of (y1 - y2)^2 / 2 is V / n with no reference in it (neither its noise nor
-    // a difference between what the two builds render: on head_skin_smooth at 1024 spp 1a8a724's
-    // image differs from the new build's by about 5 % per pixel (rms) beyond the noise of both,
-    // the normal map 1a8a724 does not read and freckles whose spots moved with the random-number
+    // a difference between what the two builds render: on head_skin_smooth at 1024 spp an older build's
+    // image differed from a newer build's by about 5 % per pixel (rms) beyond the noise of both:
+    // a normal map the old build did not read and freckles whose spots moved with the random-number
     // generator: a floor under its rmse against the new reference that no number of samples
     // removes).
     auto pair_variance = [&](const Measure& a, const Measure& b) {

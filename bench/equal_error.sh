@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Equal-error speed-up of the random walk between two lamina builds (issue 11's benchmark; not
-# run by the test suite). Renders each scene with both builds over a ladder of spp, interleaved
+# Equal-error speed-up of the random walk between two lamina builds (not run by the
+# test suite). Renders each scene with both builds over a ladder of spp, interleaved
 # old/new in one run (the machine is shared and noisy), against a long reference by the new
 # build, and prints per scene the relative luminance RMSE and seconds of every image and the
 # equal-error speed-up t_old(E) / t_new(E) at E = 5 % (bench/equal_error.cpp has the estimator).

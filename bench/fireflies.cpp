@@ -1,6 +1,6 @@
 // fireflies IMAGE.exr [...]: counts the pixels whose luminance is more than twice the median of
 // their 5x5 neighbourhood (and above 1 % of the image's mean luminance, so that black regions do
-// not count), the measure issue 15 quotes for the Cornell box and the leaves, and those more than
+// not count), the measure quoted for the Cornell box and the leaves, and those more than
 // ten times it: at low sample counts plain noise passes the first test, while a firefly (a rare
 // path carrying far more than its share) passes both. Prints one line per image: the two counts,
 // the pixels, and the share of the image's light above the medians of the first kind.

@@ -1,5 +1,5 @@
-// What a walk specialised to MCML's slab a could reach (issue 11: `lamina brdf` at 1.5x MCML's
-// photons per CPU-second; the general walk is at about 0.95x). Not a product path and not run by
+// What a walk specialised to MCML's slab a could reach (the target was `lamina brdf` at 1.5x
+// MCML's photons per CPU-second; the general walk is at about 0.95x). Not a product path and not run by
 // the test suite: a bound, to decide whether a dedicated or restructured kernel is worth having.
 //
 // The slab is van de Hulst's (bench/mcml_compare.sh slab a): n 1 above, inside and below,

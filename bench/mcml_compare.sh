@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `lamina brdf` against MCML 2.0 (Wang and Jacques' C code) on issue 11's three slabs: photons
+# `lamina brdf` against MCML 2.0 (Wang and Jacques' C code) on three slabs (a, b, c): photons
 # per CPU-second, one core each, interleaved runs (the machine is shared and noisy), medians, and
 # the totals of both so that the speed is compared at the same answer. Not run by the test suite.
 #

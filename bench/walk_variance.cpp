@@ -1,4 +1,4 @@
-// Where the variance of one random walk's light connections comes from (issue 11's
+// Where the variance of one random walk's light connections comes from (a
 // decomposition). For a stack, a viewing direction wo and a delta light direction wl, each walk
 // gives X = sum_e W_e connection_weight(e, wl) (what the renderer adds per walk for a delta
 // light, up to Li cos / (1 - R)). Prints, per channel and for luminance, the mean, the relative

@@ -11,7 +11,7 @@ The one formula evaluated here is the Lommel-Seeliger law, as an independent che
 order (it must agree with `--method first-order` to rounding; the script fails otherwise).
 
 Writes fig1_semi_infinite.png, fig2_first_order.png, fig3_incidence.png, fig4_single_multiple.png
-and numbers.json (the numbers quoted in the README) into the output directory.
+and numbers.json (the numbers quoted in docs/validation.md) into the output directory.
 
 Conventions (docs/contracts.md): phi_o = 0 is the light's side (back scattering), 180 the mirror
 side. In the plane-of-incidence plots the signed angle is -theta_o on the light's side and
@@ -186,7 +186,7 @@ def single_vs_first_order(mc, fo, side):
     Single exits carry larger weights (W against W^n), so this sigma is somewhat too small and
     chi2/bin comes out a little above 1 (1.2-1.8 here); an independent check with the standard
     error from 8 seeds gave chi2/bin 1.42 and 1.47, as expected for Student's t with 7 degrees
-    of freedom (7/5 = 1.4), for the g = -0.3, tau = 2 slab (README)."""
+    of freedom (7/5 = 1.4), for the g = -0.3, tau = 2 slab (docs/validation.md)."""
     s, v, e, f = mc.single[side], mc.value[side], mc.stderr[side], fo.value[side]
     ok = (e > 0) & (s > 0)
     sigma = e[ok] * np.sqrt(s[ok] / v[ok])

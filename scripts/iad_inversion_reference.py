@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes tests/data/iad_inversion_reference.csv: iadpython's inverse adding-doubling of single
 slabs (albedo a and optical thickness b from total reflection and transmission, g and the index
-known), the reference of tests/materials/test_stack_fit.cpp (lamina fit's inversion).
+known), the reference of tests/materials/fit/test_stack_fit.cpp (lamina fit's inversion).
 
 Measurements are iad's "no sphere" ones (Experiment without spheres): r = UR1, t = UT1, the total
 reflection and transmission for collimated normal incidence, specular reflection and unscattered

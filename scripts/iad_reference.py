@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes tests/data/iad_reference.csv: total reflection and transmission of single slabs by
 iadpython (Prahl's adding-doubling in Python; pinned in scripts/setup_references.sh), the
-reference of tests/materials/test_adding_doubling.cpp.
+reference of tests/materials/adding_doubling/test_adding_doubling.cpp.
 
 Each case is a slab of optical thickness b = (sigma_a + sigma_s) d, albedo a, HG g and index
 n_slab between air (n = 1) and the media above/below: iadpython's n_above / n_below are

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Makes scenes/cornell_box/CornellBox.glb's lamp emit downwards only (issue 15, fireflies).
+"""Makes scenes/cornell_box/CornellBox.glb's lamp emit downwards only (fireflies).
 
 Bevy's CornellBox.glb marks its emitter material doubleSided, so its lamp, a quad 0.9 mm below
 the ceiling, also emits upwards into the slit between lamp and ceiling: that light reaches the

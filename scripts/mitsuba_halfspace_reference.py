@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes tests/data/mitsuba_rough_halfspace.csv: Mitsuba 3.9.1's volumetric path tracer on a
 rough-coated scattering half-space, the full-transport reference of
-tests/materials/test_rough_stack.cpp (RoughStack.MatchesMitsubaVolpath).
+tests/materials/walk/test_rough_stack.cpp (RoughStack.MatchesMitsubaVolpath).
 
 The half-space is a box 200 x 200 x 100 (top face z = 0) with a roughdielectric boundary (GGX,
 alpha, interior index 1.4) around a homogeneous medium (sigma_t 10 /mm, albedo 0.8, HG g 0.5);

@@ -16,7 +16,7 @@
    seed: a deterministic objective) matches the target: the epidermal melanin volume fraction,
    the dermal blood volume fraction and a scale of every layer's scattering coefficient. Its top
    gets the skin roughness 0.35 (Weyrich et al. 2006). The fit and its residuals are printed;
-   tests/materials/test_skin_presets.cpp checks each preset against its third's spread.
+   tests/materials/stack/test_skin_presets.cpp checks each preset against its third's spread.
 
 Usage: scripts/skin_presets.py [LAMINA]  (default build/renderer/lamina)
 """

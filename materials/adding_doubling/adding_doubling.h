@@ -88,7 +88,7 @@ DeltaMTruncation delta_m_truncation(const LayerStack& stack, const AddingDoublin
 
 // The totals at the order of `settings` and an estimate of their discretisation error: the
 // absolute difference from the solution at half the order (a conservative estimate, since the
-// error falls quickly with the order; see the README's convergence table).
+// error falls quickly with the order; see docs/validation.md, "Adding-doubling").
 struct AddingDoublingEstimate {
   AddingDoublingTotals totals;
   AddingDoublingTotals error;  // |totals(N) - totals(N/2)| per field (nodes, doublings: of N/2)

@@ -1,4 +1,4 @@
-// From a colour to stack parameters (issue 13 item 6, first part): the diffuse albedo of a stack
+// From a colour to stack parameters: the diffuse albedo of a stack
 // over a grid of two parameters, and the parameters whose albedo is closest to a given colour.
 //
 // A photograph's texel gives (up to lighting, which a cross-polarised albedo texture removes)
@@ -47,7 +47,7 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
 // Error of the lookup (the bilinear interpolation's, falling with the square of the spacing), on
 // the skin preset's melanin 0-0.3 and blood 0-0.2 at 8 quadrature points (kTotal), for colours on the
 // stack's surface: at 20 random fractions in 5-95% of the ranges
-// (tests/materials/test_albedo_lookup.cpp) within 5.4% / 2.2% / 0.25% of each range with
+// (tests/materials/fit/test_albedo_lookup.cpp) within 5.4% / 2.2% / 0.25% of each range with
 // 9 / 17 / 33 nodes, Delta E under 1.4 / 0.3 / 0.05; on a 12 x 8 grid over 5-95% at 33 nodes
 // (tests/renderer/cli/test_cli_fit.cpp) within 1.3% of the range and Delta E 0.14, the worst at
 // melanin 5% of its range, where the albedo curves most. Where melanin is high the albedo barely

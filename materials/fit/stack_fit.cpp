@@ -764,7 +764,7 @@ FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>&
       return worst;
     };
     // A cheap screen first: half the points (a solution at 2N costs ~6x one at N, and 50x one
-    // at N/2). The error falls by about 10x per doubling of the points (README, the convergence
+    // at N/2). The error falls by about 10x per doubling of the points (docs/validation.md, the convergence
     // table: 4e-5, 4.5e-6, 2.3e-7 at 8, 16, 32), so |m_N - m_N/2|, about the error of m_N/2, is
     // several times |m_N - m_2N|, about the error of m_N: if the former is within 0.2 sigma the
     // latter is too and 2N is not solved.

@@ -111,8 +111,8 @@ struct FitSettings {
   // The optimiser's search runs on a coarse forward model of this many points, corrected towards
   // `forward` by a few accurate solutions (defect correction, stack_fit.cpp fit_group), which
   // reaches the accurate model's optimum (the result agrees with a search on `forward` alone to
-  // ~3e-3 sigma, tests/materials/test_stack_fit.cpp) at a fraction of the cost (README "lamina
-  // fit": a slab from R and T in ~5 ms instead of ~27 ms at 16 points). 0, or not below
+  // ~3e-3 sigma, tests/materials/fit/test_stack_fit.cpp) at a fraction of the cost
+  // (docs/performance.md, "Fitting": a slab from R and T in ~5 ms instead of ~27 ms at 16 points). 0, or not below
   // forward.quadrature_points: the search uses `forward` itself.
   int coarse_quadrature_points = 4;
   // At most this many corrections (each one accurate solution and a short coarse search); a

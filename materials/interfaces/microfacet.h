@@ -14,7 +14,7 @@
 // viewer, wi towards the light), on either side. alpha is GGX's roughness (0 < alpha; the smooth
 // limit alpha -> 0 is the caller's delta lobe: these functions are not defined at alpha = 0).
 // A single-scattering model: light that would scatter twice among the microfacets is lost, so
-// the albedo at alpha = 1 is below 1 (tests/materials/test_microfacet measures it).
+// the albedo at alpha = 1 is below 1 (tests/materials/interfaces/test_microfacet measures it).
 #pragma once
 
 #include <glm/vec2.hpp>

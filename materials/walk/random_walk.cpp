@@ -357,7 +357,7 @@ DirectExit connect_direct(const LayerStack& stack, const ScatterEvent& event, co
 // Check: the walk leaves straight from a grey event along w with exit weight W_e (the sampling
 // ratios are 1) and density connection_pdf(w); a power W per solid angle dw gives the radiance
 // W / (|mu_out| dw) per unit irradiance, so the exits estimate W_e connection_pdf / |mu_out|
-// = W_e p (n_out/n_l)^2 / |mu'| exp(-tau) prod(1-R): the same (tests/materials/test_random_walk).
+// = W_e p (n_out/n_l)^2 / |mu'| exp(-tau) prod(1-R): the same (tests/materials/walk/test_random_walk).
 // ---------------------------------------------------------------------------------------------
 Spectrum connection_weight(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w) {
   return connect_direct(stack, event, prepare_exit(stack, w)).weight;

@@ -1,4 +1,4 @@
-// From a colour texture to parameter maps (issue 13 item 6; `lamina fit --albedo-texture`,
+// From a colour texture to parameter maps (`lamina fit --albedo-texture`,
 // docs/contracts.md): the texture as linear RGB, every texel matched through the albedo lookup
 // (materials/fit/albedo_lookup.h: the physics), and the content of the outputs:
 //   - one parameter map per lookup axis: a 16-bit grey PNG storing t = (value - lower) /

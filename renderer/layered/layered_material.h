@@ -88,7 +88,7 @@ class LayeredMaterial {
   // values): A(p) = A(t) prod_k A(t with p_k) / A(t), each factor interpolated linearly between
   // kLambertNodes values of p_k over its range (StackBindings::value_range), computed by the walk
   // on first use (kLambertNodeWalks walks each, one seed: the ratios share their random numbers).
-  // Exact for one parameter at the nodes; the cross terms of several are left out (README measures
+  // Exact for one parameter at the nodes; the cross terms of several are left out (docs/modes.md measures
   // the error on head_skin and leaves_back).
   Spectrum lambert_albedo_at(glm::dvec2 uv) const;
   static constexpr int kLambertNodes = 5;

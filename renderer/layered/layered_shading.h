@@ -1,5 +1,6 @@
-// What the integrator needs to shade the layered materials of a scene: the bindings, the mode
-// (or one per material for --subsurface auto) and the tables of the table mode.
+// How the layered materials of a scene are shaded: the bindings, the mode (or one per material
+// for --subsurface auto), the tables of the table mode and the walk's options. Shading
+// (renderer/layered/shading.h) reads it to build the surface at each hit.
 #pragma once
 
 #include <vector>
@@ -12,6 +13,14 @@ namespace lamina {
 
 class LayeredTables;
 
+// Switches for tests and noise measurements only; production leaves them as they are.
+struct ShadingTestHooks {
+  // random-walk mode: the hero channel of each walk stratified over the samples of a pixel
+  // (renderer/layered/hero_strata.h; hero_strata.cpp has the derivation). false: every walk
+  // draws its hero independently (the library's default), to measure what stratifying gains.
+  bool stratified_hero = true;
+};
+
 // How layered materials are shaded (renderer/surfaces/first_order_surface.h lists the modes).
 struct LayeredShading {
   const LayeredBindings* bindings = nullptr;
@@ -23,14 +32,11 @@ struct LayeredShading {
     return material >= 0 && material < static_cast<int>(per_material.size()) ? per_material[material] : mode;
   }
   const LayeredTables* tables = nullptr;  // SubsurfaceMode::Table
-  // random-walk mode: the hero channel of each walk stratified over the samples of a pixel
-  // (HeroStrata below; integrator.cpp has the derivation). false: every walk draws its hero
-  // independently (the library's default), kept for the tests and the noise measurements.
-  bool stratified_hero = true;
   // random-walk mode: how the walk connects to the lights and which approximations or guiding
   // it uses (`--pool-samples`, `--similarity-after`, `--guiding`; the naive and connections-only
   // estimators of the tests), as renderer/surfaces/random_walk_surface.h defines them.
   RandomWalkOptions walk;
+  ShadingTestHooks test_hooks;
 };
 
 }  // namespace lamina

@@ -1,4 +1,4 @@
-// Which glTF materials are layered (README, "Binding a stack to a glTF material"): a glTF material
+// Which glTF materials are layered (docs/materials.md, "Binding a stack to a glTF material"): a glTF material
 // names its stack file in its extras, {"lamina": {"stack": "skin.json"}} (Blender exports custom
 // properties there), or a material map given by `lamina render --materials MAP.json` maps glTF
 // material names to stack files: {"Skin": "materials/skin.json", ...}. A relative path resolves

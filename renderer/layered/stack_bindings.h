@@ -2,7 +2,7 @@
 // material per shading point, so that maps drive the physics (blood volume fraction in the
 // dermis, melanin in the epidermis, the thickness of an oily film).
 //
-// Schema (README, "Skin and leaves"), in a glTF material's extras under "lamina" or in a
+// Schema (docs/stack_bindings.md), in a glTF material's extras under "lamina" or in a
 // `--materials` map entry:
 //   { "stack": "skin_oily.json",
 //     "bind": [ { "parameter": "layers[2].components[0].fraction",

@@ -16,7 +16,8 @@
 #include "renderer/image/tone_map.h"
 #include "renderer/layered/material_binding.h"
 #include "renderer/layered/subsurface_mode.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
+#include "renderer/surfaces/random_walk_surface.h"
 
 namespace lamina {
 

@@ -17,7 +17,7 @@
 
 namespace lamina {
 
-class MetallicRoughnessSurface final : public Surface {
+class MetallicRoughnessSurface final : public Bsdf {
  public:
   // roughness is glTF's perceptual roughness in [0, 1]; alpha = roughness^2, at least 1e-3 (a
   // smaller lobe would be a mirror that no light sample can reach).

@@ -1,5 +1,6 @@
-// random-walk mode: the layered material as a stochastic BSDF. It cannot be evaluated, only
-// estimated, so it implements Surface::scatter: one run of the materials/ random walk from the
+// random-walk mode: the layered material as a stochastic surface. It cannot be evaluated, only
+// estimated, so it is a Surface but not a Bsdf (renderer/surfaces/surface.h) and implements only
+// Surface::scatter: one run of the materials/ random walk from the
 // viewer's direction estimates both the connections to the integrator's light directions and
 // the path's continuation (docs/layered_rendering.md derives the estimator and its MIS weights).
 //
@@ -53,12 +54,6 @@ class RandomWalkSurface final : public Surface {
   RandomWalkSurface(const LayerStack& stack, int hero, const RandomWalkOptions& options,
                     std::uint64_t* events = nullptr)
       : stack_(stack), hero_(hero), options_(options), events_(events) {}
-
-  // A stochastic BSDF has no value to evaluate: eval and pdf are 0, sample() fails. The
-  // integrator uses scatter().
-  Spectrum eval(const glm::dvec3&, const glm::dvec3&) const override { return Spectrum(0.0); }
-  bool sample(const glm::dvec3&, glm::dvec2, BsdfSample*) const override { return false; }
-  double pdf(const glm::dvec3&, const glm::dvec3&) const override { return 0.0; }
 
   bool scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
                SurfaceScatter* next) const override;

@@ -6,8 +6,8 @@
 
 namespace lamina {
 
-bool Surface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler*,
-                      SurfaceScatter* next) const {
+bool Bsdf::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler*,
+                   SurfaceScatter* next) const {
   for (int k = 0; k < light_count; ++k) {
     LightDirection& l = lights[k];
     l.f_cos = Spectrum(0.0);

@@ -1,9 +1,7 @@
 // The narrow interface through which the integrator scatters light at a surface.
 //
 // Directions are in the local shading frame: +z is the shading normal turned to the side of
-// wo (the viewer), wi points towards the light (docs/contracts.md, "Conventions"). eval() returns
-// the BSDF f(wo, wi) in 1/sr without the cosine; sample() draws wi with solid-angle density
-// pdf and returns f(wo, wi).
+// wo (the viewer), wi points towards the light (docs/contracts.md, "Conventions").
 #pragma once
 
 #include <glm/vec2.hpp>
@@ -59,29 +57,41 @@ struct SurfaceScatter {
   bool delta = false;
 };
 
+// What the integrator calls at a hit (renderer/layered/shading.h builds it): one scattering
+// event, whatever the surface is. Two kinds implement it: Bsdf (below), a BSDF that can be
+// evaluated and sampled, and the stochastic surfaces that can only be estimated (the layered
+// random walk, renderer/surfaces/random_walk_surface.h).
 class Surface {
  public:
   virtual ~Surface() = default;
-  virtual Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const = 0;
-  virtual bool sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const = 0;
-  virtual double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const = 0;
   // True if every lobe is a delta (light sampling is then useless).
   virtual bool is_delta() const { return false; }
 
   // One scattering event as the integrator sees it: fill lights[k].f_cos for every light
   // direction offered, and choose how the path continues (false: it ends here; the light
-  // connections still count). This default is the classic one for a BSDF that can be evaluated:
-  // f_cos = eval |cos| times the power heuristic against pdf(), then sample() with two uniforms.
-  // A stochastic BSDF, one that can only be estimated (the layered random walk,
-  // renderer/surfaces/random_walk_surface.h), overrides it and estimates the connections and
-  // the continuation from one run of its own sampling.
+  // connections still count). A Bsdf does it the classic way (Bsdf::scatter); a stochastic
+  // surface estimates the connections and the continuation from one run of its own sampling.
   // per_event: null, or a sampler to draw additional light samples from (only surfaces whose
   // draws_per_event() is true use it; the integrator then leaves those lights out of `lights`).
   virtual bool scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
-                       LightSampler* per_event, SurfaceScatter* next) const;
+                       LightSampler* per_event, SurfaceScatter* next) const = 0;
   // True if this surface connects from internal events and wants a LightSampler for the lights
   // it is better to sample per event (see LightSampler).
   virtual bool draws_per_event() const { return false; }
+};
+
+// A surface with a BSDF that can be evaluated: eval() returns f(wo, wi) in 1/sr without the
+// cosine; sample() draws wi with solid-angle density pdf and returns f(wo, wi).
+class Bsdf : public Surface {
+ public:
+  virtual Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const = 0;
+  virtual bool sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const = 0;
+  virtual double pdf(const glm::dvec3& wo, const glm::dvec3& wi) const = 0;
+
+  // The classic event of a BSDF that can be evaluated: f_cos = eval |cos| times the power
+  // heuristic against pdf(), then sample() with two uniforms.
+  bool scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
+               SurfaceScatter* next) const override;
 };
 
 // Power heuristic with beta = 2 (Veach 1997, eq. 9.13), for one sample of each strategy.
@@ -104,7 +114,7 @@ bool complete_sample(const SurfaceT& surface, const glm::dvec3& wo, const glm::d
 }
 
 // Lambert: f = albedo / pi on the reflection side, sampled by the cosine (pbrt-v4 9.2).
-class LambertSurface final : public Surface {
+class LambertSurface final : public Bsdf {
  public:
   explicit LambertSurface(const Spectrum& albedo) : albedo_(albedo) {}
   Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const override;

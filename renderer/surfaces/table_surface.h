@@ -19,7 +19,7 @@ struct TableFactor {
   double t = 0.0;
 };
 
-class TableSurface final : public Surface {
+class TableSurface final : public Bsdf {
  public:
   TableSurface(const LayeredTable& table, const glm::dvec3& wo);
   // With texture-driven parameters: `table` is T_0, the factors scale its bins (evaluation only;

@@ -140,4 +140,19 @@ struct TempDir {
   std::string operator/(const std::string& file) const { return (path / file).string(); }
 };
 
+// A double-sided unit square in the z = 0 plane with one material "leaf" (green base colour):
+// with `layered`, a thin-walled leaf (KHR_materials_diffuse_transmission 0.4), else a plain
+// metallic-roughness material. Written to `path`.
+inline void write_leaf_square(const std::string& path, bool layered) {
+  GltfBuilder b;
+  nlohmann::json ext = nlohmann::json::object();
+  if (layered) ext = {{"KHR_materials_diffuse_transmission", {{"diffuseTransmissionFactor", 0.4}}}};
+  b.json()["materials"].push_back({{"name", "leaf"},
+                                   {"doubleSided", true},
+                                   {"pbrMetallicRoughness", {{"baseColorFactor", {0.3, 0.5, 0.1, 1.0}}, {"metallicFactor", 0.0}}},
+                                   {"extensions", ext}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(path);
+}
+
 }  // namespace lamina::testing

@@ -12,7 +12,7 @@
 
 #include "materials/base/sampling.h"
 #include "materials/base/spectrum.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/scene/scene_gltf.h"
 
 namespace lamina::test {

@@ -54,7 +54,7 @@ TEST(AddingDoubling, McmlSlabMatchesVanDeHulst) {
 // paper). The solution converges to 0.259919 (16 to 48 nodes give the same six digits), and
 // iadpython 0.5.3 gives 0.25994 and 0.25991 at 32 and 64 points: all three round to 0.2599,
 // 8e-5 from the published value. The tolerance is therefore one unit of its last digit (1e-4),
-// not half of one (README, "Adding-doubling").
+// not half of one (docs/validation.md, "Adding-doubling").
 TEST(AddingDoubling, SemiInfiniteMatchesGiovanelli) {
   const LayerStack s = one_layer(1.5, kInfiniteThickness, Spectrum(1.0), Spectrum(9.0), Spectrum(0.0));
   const AddingDoublingTotals t = adding_doubling_totals(s, 1.0);
@@ -301,7 +301,7 @@ TEST(AddingDoublingBins, SkinOverLambert) {
 
 // Forward-peaked (g = 0.9) transmission: delta-M at 16 points puts f = 0.9^16 = 19% of each
 // scattering into the forward delta, whose power lands in the ballistic bin and misses its
-// neighbour by ~10 standard errors at 1e6 walks (README); at 32 points (f = 3%) it agrees.
+// neighbour by ~10 standard errors at 1e6 walks (docs/validation.md); at 32 points (f = 3%) it agrees.
 TEST(AddingDoublingBins, ForwardPeakedSlabAt32Points) {
   LayerStack s = one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9));
   s.name = "matched g 0.9";

@@ -237,7 +237,7 @@ TEST(BrdfMonteCarlo, GeneralisedReciprocityOfBtdf) {
   }
 }
 
-// Heavy tails (issue 11, item 6). A conservative half-space (albedo 1, n 1.4, g 0.9, normal
+// Heavy tails. A conservative half-space (albedo 1, n 1.4, g 0.9, normal
 // incidence) absorbs nothing, yet 1 - R - T comes out near 1 % at the default settings: the walks
 // still running after forced_exponential_after interactions carry that power, and the final
 // roulette (survival 0.99 per interaction) turns it into a lottery the average almost never

@@ -244,7 +244,7 @@ TEST(StackFit, CoarseQuadratureAgainstPreciseDataIsReported) {
 
 // iadpython 0.5.3's inversion of single slabs (scripts/iad_inversion_reference.py writes
 // tests/data/iad_inversion_reference.csv): sigma_a and sigma_s from R and T at normal incidence,
-// g and n known. The forward models agree to 2.8e-5 in the totals (README, adding-doubling) and
+// g and n known. The forward models agree to 2.8e-5 in the totals (docs/validation.md, "Adding-doubling") and
 // iad met its (r, t) to 5e-6, so with sigma 1e-4 on R and T the two inversions may differ by a
 // fraction of the fit's sigmas: within 1 sigma.
 TEST(StackFit, AgreesWithIadpythonInversion) {
@@ -341,9 +341,8 @@ TEST(StackFit, CoarseSearchWithCorrectionAgreesWithTheAccurateSearch) {
   }
 }
 
-// A BRDF/BTDF table as measurements (issue 13 item 5: "and/or a BRDF/BTDF table in the brdf CSV
-// format"): the table of a slab by adding-doubling at 16 points, written in lamina brdf's CSV
-// layout (docs/contracts.md; %.9g), Gaussian noise of each bin's stated stderr (2% of the value
+// A BRDF/BTDF table as measurements: the table of a slab by adding-doubling at 16 points,
+// written in lamina brdf's CSV layout (docs/contracts.md; %.9g), Gaussian noise of each bin's stated stderr (2% of the value
 // plus 1e-4 /sr), parsed back and fitted for sigma_a, sigma_s and g of the red channel. The bins
 // see the phase function's shape, so g is identified (from R and T alone it is not: the test
 // above); each value within 4 sigma of the truth, and the pulls' spread 1 within 4 of its

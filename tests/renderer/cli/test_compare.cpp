@@ -169,7 +169,7 @@ TEST(CliCompare, BadInputGivesOneLineErrors) {
   EXPECT_NE(r.err.find(bad_out), std::string::npos) << r.err;
 }
 
-// Issue 14 (hostile input): the outputs of a subcommand are written all or none
+// Hostile input: the outputs of a subcommand are written all or none
 // (renderer/cli/outputs.h, used by compare and brdf; render_job does the same for render).
 
 // The names in `d` that hold ".tmp-": temporaries left behind.

@@ -323,7 +323,7 @@ TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
 }  // namespace
 }  // namespace lamina
 
-// Issue 14 (hostile input): the outputs of a render are written all or none, and an image that
+// Hostile input: the outputs of a render are written all or none, and an image that
 // does not fit in memory is refused before anything is loaded.
 
 namespace lamina {

@@ -16,7 +16,7 @@
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/material_binding.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"
 #include "tests/renderer/gltf_fixture.h"
@@ -212,15 +212,7 @@ TEST(GltfStack, ExtrasWinAndBadValuesAreErrors) {
 TEST(GltfStack, DiffuseTransmissionLeafRendersBackLit) {
   TempDir dir("gltf-stack-leaf");
   for (bool layered : {true, false}) {
-    GltfBuilder b;
-    json ext = json::object();
-    if (layered) ext = {{"KHR_materials_diffuse_transmission", {{"diffuseTransmissionFactor", 0.4}}}};
-    b.json()["materials"].push_back({{"name", "leaf"},
-                                     {"doubleSided", true},
-                                     {"pbrMetallicRoughness", {{"baseColorFactor", {0.3, 0.5, 0.1, 1.0}}, {"metallicFactor", 0.0}}},
-                                     {"extensions", ext}});
-    b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
-    b.write_gltf(dir / "leaf.gltf");
+    testing::write_leaf_square(dir / "leaf.gltf", layered);
     SceneDesc desc = load_gltf(dir / "leaf.gltf");
     LightDesc sun;
     sun.type = LightType::kDirectional;

@@ -27,7 +27,7 @@
 #include "materials/base/sampling.h"
 #include "materials/stack/stack.h"
 #include "materials/stack/stack_file.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/scene/scene_gltf.h"
 #include "tests/renderer/gltf_fixture.h"
 #include "tests/renderer/render_fixtures.h"
@@ -75,7 +75,7 @@ Image render_layered(const SceneDesc& desc, const LayeredBindings& bindings, con
   LayeredShading layered;
   layered.bindings = &bindings;
   layered.mode = setup.mode;
-  layered.stratified_hero = setup.stratified_hero;
+  layered.test_hooks.stratified_hero = setup.stratified_hero;
   layered.walk = setup.walk;
   layered.tables = setup.tables;
   RenderSettings s;
@@ -858,7 +858,7 @@ TEST(LayeredSlab, SimilaritySwitchMatchesTheLibrary) {
                              ("similarity after " + std::to_string(after) + ", reflection").c_str(), 64, 16, 6.0, after);
 }
 
-// ---- stratified hero channel (integrator.cpp, HeroStrata) ----
+// ---- stratified hero channel (renderer/layered/hero_strata.{h,cpp}, HeroStrata) ----
 
 // A slab whose scattering coefficients differ by 10x per channel (0.3, 3, 30 /mm; weak grey
 // absorption): each hero explores a different depth, so the walk's conditional means

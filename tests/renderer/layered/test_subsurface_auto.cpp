@@ -13,7 +13,7 @@
 #include "materials/stack/stack.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/render/environment.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/layered/subsurface_auto.h"

@@ -10,7 +10,7 @@
 #include <glm/geometric.hpp>
 
 #include "materials/base/sampling.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "tests/renderer/render_fixtures.h"
 
 namespace lamina {

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "materials/base/sampling.h"
-#include "renderer/render/integrator.h"
+#include "renderer/render/film.h"
 #include "renderer/scene/alpha_coverage.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"

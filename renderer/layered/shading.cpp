@@ -1,0 +1,119 @@
+#include "renderer/layered/shading.h"
+
+#include <optional>
+
+#include <glm/geometric.hpp>
+
+#include "materials/walk/random_walk.h"
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/layered_tables.h"
+#include "renderer/layered/stack_bindings.h"
+#include "renderer/surfaces/first_order_surface.h"
+#include "renderer/surfaces/metallic_roughness_surface.h"
+#include "renderer/surfaces/random_walk_surface.h"
+#include "renderer/surfaces/table_surface.h"
+
+namespace lamina {
+namespace {
+
+// Shade both sides of every surface: turn the normals towards the viewer. Returns whether the
+// viewer is on the back side of the geometric normal.
+bool shading_geometry(const SceneDesc& desc, const SurfaceHit& hit, const Material& mat, const glm::dvec3& wo_world,
+                      ShadingGeometry* g) {
+  glm::dvec3 ng = hit.ng, ns = hit.ns;
+  if (mat.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
+    ns = normal_mapped(hit, desc.textures[mat.normal_texture], mat.normal_scale, mat.normal_uv.apply(hit.uv));
+  const bool back_side = glm::dot(ng, wo_world) < 0.0;
+  if (back_side) {
+    ng = -ng;
+    ns = -ns;
+  }
+  // A shading normal that puts the viewer below the surface is unusable here: use ng.
+  if (glm::dot(ns, wo_world) <= 0.0) ns = ng;
+  g->ng = ng;
+  g->frame = Frame(ns);
+  g->wo = g->frame.to_local(wo_world);
+  return back_side;
+}
+
+// A material that is not layered: Lambert with the base colour (its texture and the vertex
+// colours multiplied in), or, for a glTF material, its metallic-roughness BRDF (Appendix B), with
+// the metallicRoughnessTexture's B (metalness) and G (roughness) multiplied in.
+const Surface& plain_surface(const SceneDesc& desc, const SurfaceHit& hit, const Material& mat, SurfaceStorage& storage) {
+  Spectrum albedo = mat.base_color;
+  if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(mat.base_color_uv.apply(hit.uv));
+  albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
+  if (!mat.metallic_roughness) return storage.emplace<LambertSurface>(albedo);
+  double metallic = mat.metallic, roughness = mat.roughness;
+  if (mat.metallic_roughness_texture >= 0) {
+    const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(mat.metallic_roughness_uv.apply(hit.uv));
+    roughness *= t[1];
+    metallic *= t[2];
+  }
+  return storage.emplace<MetallicRoughnessSurface>(albedo, metallic, roughness);
+}
+
+// A table surface with the factors of its texture-driven parameters (they live as long as it).
+struct FactoredTable {
+  TableFactor factors[LayeredTables::kMaxFactors];
+  std::optional<TableSurface> surface;
+};
+
+// table mode: texture-driven parameters scale the table's bins (renderer/layered/layered_tables.h).
+const Surface& table_surface(const LayeredTables& tables, const LayeredMaterial& lm, const ShadingPoint& sp,
+                             const LayerStack& stack, const glm::dvec3& wo, SurfaceStorage& storage) {
+  FactoredTable& t = storage.emplace<FactoredTable>();
+  int factor_count = 0;
+  if (const StackBindings* b = lm.bindings(); b && !b->empty()) {
+    ParameterValues values(b->parameters().size());
+    b->values(sp.uv, values.data());
+    factor_count = tables.factors(&lm, sp.from_below, values.data(), t.factors);
+  }
+  return t.surface.emplace(tables.get(&lm, sp.from_below), stack, wo, t.factors, factor_count);
+}
+
+}  // namespace
+
+PathShading Shading::start_path(std::uint64_t seed, std::uint64_t pixel, std::uint64_t sample,
+                                std::uint64_t* events) const {
+  PathShading path;
+  path.strata_ = HeroStrata{seed, pixel, sample};
+  path.stratified_ = layered_ && layered_->test_hooks.stratified_hero;
+  path.events_ = events;
+  return path;
+}
+
+const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_world, PathShading& path,
+                                   SurfaceStorage& storage, ShadingGeometry* geometry) const {
+  thread_local StackScratch scratch;  // stack_at() may build a stack per hit here
+  const int material_index = desc_.meshes[hit.mesh].material;
+  const Material& mat = desc_.material(material_index);
+  const bool back_side = shading_geometry(desc_, hit, mat, wo_world, geometry);
+  const LayeredMaterial* lm = layered_ && layered_->bindings ? layered_->bindings->get(material_index) : nullptr;
+  if (!lm) return plain_surface(desc_, hit, mat, storage);
+  const SubsurfaceMode mode = layered_->mode_for(material_index);
+  if (mode == SubsurfaceMode::Lambert) return storage.emplace<LambertSurface>(lm->lambert_albedo_at(hit.uv));
+  // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
+  // stack is seen from its top from either side (closed meshes).
+  ShadingPoint sp;
+  sp.p = hit.p;
+  sp.uv = hit.uv;
+  sp.mesh = hit.mesh;
+  sp.triangle = hit.triangle;
+  sp.from_below = back_side && lm->transmits();
+  const LayerStack& stack = lm->stack_at(sp, scratch);
+  switch (mode) {
+    case SubsurfaceMode::FirstOrder:
+      return storage.emplace<FirstOrderSurface>(stack, geometry->wo);
+    case SubsurfaceMode::Table:
+      return table_surface(*layered_->tables, *lm, sp, stack, geometry->wo, storage);
+    case SubsurfaceMode::RandomWalk:
+    case SubsurfaceMode::Lambert:
+      break;
+  }
+  const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
+  ++path.walks_;
+  return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);
+}
+
+}  // namespace lamina

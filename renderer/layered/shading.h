@@ -1,0 +1,60 @@
+// The surface at a hit (pbrt-v4's GetBSDF): the one call through which the integrator learns how
+// a hit scatters light. Shading decides, for every material (Lambert, glTF metallic-roughness,
+// and the layered modes: first-order, table with its factors, lambert albedo, random walk),
+// which Surface to build, with the stack, tables and hero strata behind it; the integrator sees
+// only the Surface interface (renderer/surfaces/surface.h).
+#pragma once
+
+#include <cstdint>
+
+#include <glm/vec3.hpp>
+
+#include "renderer/layered/hero_strata.h"
+#include "renderer/scene/scene.h"
+#include "renderer/surfaces/frame.h"
+#include "renderer/surfaces/surface.h"
+#include "renderer/surfaces/surface_storage.h"
+
+namespace lamina {
+
+struct LayeredShading;
+
+// The hit as the integrator shades it: both sides of every surface are shaded, so the normals
+// are turned towards the viewer.
+struct ShadingGeometry {
+  glm::dvec3 ng{0.0};  // geometric normal, on the viewer's side
+  Frame frame;         // +z the (normal-mapped) shading normal, on the viewer's side
+  glm::dvec3 wo{0.0};  // towards the viewer, in the frame
+};
+
+// The shading state of one path: the random walks' hero strata and how many walks the path has
+// run. Made by Shading::start_path; the integrator only passes it on.
+class PathShading {
+ private:
+  friend class Shading;
+  HeroStrata strata_;
+  bool stratified_ = false;
+  int walks_ = 0;                       // random walks run so far on this path (index of the next one)
+  std::uint64_t* events_ = nullptr;     // counts the walks' scattering events
+};
+
+class Shading {
+ public:
+  // layered: null when no material is layered.
+  Shading(const SceneDesc& desc, const LayeredShading* layered) : desc_(desc), layered_(layered) {}
+
+  // The state of the path of sample `sample` of pixel `pixel` (the full image's row-major index);
+  // events, if not null, counts the scattering events of its random walks.
+  PathShading start_path(std::uint64_t seed, std::uint64_t pixel, std::uint64_t sample, std::uint64_t* events) const;
+
+  // The surface at `hit` seen from wo_world (towards the viewer), built in `storage` (valid
+  // until the storage is reused), and its shading geometry.
+  const Surface& surface_at(const SurfaceHit& hit, const glm::dvec3& wo_world, PathShading& path,
+                            SurfaceStorage& storage, ShadingGeometry* geometry) const;
+
+ private:
+  const SceneDesc& desc_;
+  const LayeredShading* layered_;
+};
+
+}  // namespace lamina
