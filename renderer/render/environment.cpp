@@ -22,6 +22,7 @@
 #include "materials/base/sampling.h"
 #include "renderer/render/distribution.h"
 #include "renderer/image/image_io.h"
+#include "renderer/scene/scene_gltf.h"  // kMaxLightStrength
 
 namespace lamina {
 
@@ -102,6 +103,9 @@ EnvironmentMap EnvironmentMap::from_file(const std::string& path) {
         if (!std::isfinite(v) || v < 0.0f)
           throw ImageIoError("environment map '" + path + "': pixel (" + std::to_string(x) + ", " +
                              std::to_string(y) + ") is negative or not finite");
+        if (v > kMaxLightStrength)
+          throw ImageIoError("environment map '" + path + "': pixel (" + std::to_string(x) + ", " +
+                             std::to_string(y) + ") is above the largest light strength, 1e+20 (the image is float radiance)");
       }
   // Weight of pixel (x, y): its luminance times the mean of sin(theta) over its row, so the
   // probability of a pixel is proportional to luminance times its solid angle:
@@ -147,6 +151,9 @@ EnvironmentMap EnvironmentMap::from_argument(const std::string& value) {
     for (double x : numbers)
       if (!std::isfinite(x) || x < 0.0)
         throw std::invalid_argument("--env '" + value + "': radiance must be finite and non-negative");
+      else if (x > kMaxLightStrength)
+        throw std::invalid_argument("--env '" + value + "': radiance is above the largest light strength, 1e+20 "
+                                    "(the image is float radiance, at most 3.4e38)");
     return constant(parts.size() == 1 ? Spectrum(numbers[0]) : Spectrum(numbers[0], numbers[1], numbers[2]));
   }
   if (std::filesystem::exists(value)) return from_file(value);
