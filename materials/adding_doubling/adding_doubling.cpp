@@ -622,7 +622,11 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
     if (too_deep) e.Td = e.Tu = Matrix(size);
     return e;
   }
-  for (int k = 0; k < steps; ++k) double_once();
+  // Once T is exactly 0 (every power below the flush of double_once), a doubling adds T (...) = 0
+  // to R and keeps T = 0: the remaining steps change nothing, and an astronomically thick layer
+  // (up to ~1100 steps) need not take them.
+  auto transmits = [&] { return std::any_of(T.a.begin(), T.a.end(), [](double v) { return v != 0.0; }); };
+  for (int k = 0; k < steps && transmits(); ++k) double_once();
   e.Rt = e.Rb = embed(R);
   e.Td = e.Tu = embed(T);
   return e;
