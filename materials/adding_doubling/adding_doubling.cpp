@@ -72,7 +72,9 @@
 //    up, so only R_t and T_d of the part below are needed. Doubling is A over A for a
 //    homogeneous layer: R2 = R + T R (I - R R)^-1 T, T2 = T (I - R R)^-1 T. A semi-infinite layer
 //    is doubled until R stops changing (1e-13) or its scaled optical depth reaches 1e8 (1e6 and
-//    the exact column sums 1 without absorption; see layer_element).
+//    the exact column sums 1 without absorption; see layer_element). A finite layer whose optical
+//    depth overflows a double is that semi-infinite layer with T = 0 (exp(-tau) underflows long
+//    before tau overflows), so no loop depends on an infinite depth.
 //
 // 7. Lambert substrate: no interface (as in the walk); the power reaching it is reflected with
 //    the albedo into the nodes of the last layer's medium in proportion to W_i (Lambert's law
@@ -478,8 +480,13 @@ int truncation_order(const Medium& m) { return std::max(1, m.real); }
 // `size` nodes (3.-6.; for mode >= 1 see 8.). For a semi-infinite layer Td and Tu are left empty.
 Element layer_element(const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
   const int na = static_cast<int>(m.active.size());
-  const bool semi = layer.semi_infinite();
   const double sigma_t = layer.sigma_t()[c];
+  // A finite layer whose optical depth overflows a double (coefficients or a thickness near the
+  // double limit) transmits nothing (exp(-tau) = 0 long before) and reflects as its
+  // semi-infinite limit, so it is solved as that limit with T = 0; halving an infinite starting
+  // thickness (5.) would never reach the thin layer.
+  const bool too_deep = !layer.semi_infinite() && std::isinf(sigma_t * layer.thickness);
+  const bool semi = layer.semi_infinite() || too_deep;
   const double sigma_s = layer.sigma_s()[c];
   const double a = sigma_t > 0.0 ? sigma_s / sigma_t : 0.0;
   auto embed = [&](const Matrix& local) {
@@ -559,7 +566,7 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   if (semi) {
     delta = mu_min / 2.0;
   } else {
-    delta = sigma_t * layer.thickness * tau_scale;
+    delta = sigma_t * layer.thickness * tau_scale;  // finite (too_deep above): at most ~1100 halvings
     while (delta > mu_min) {
       delta /= 2.0;
       ++steps;
@@ -612,9 +619,14 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
           for (int i = 0; i < na; ++i) R(i, j) /= sum;
       }
     e.Rt = e.Rb = embed(R);
+    if (too_deep) e.Td = e.Tu = Matrix(size);
     return e;
   }
-  for (int k = 0; k < steps; ++k) double_once();
+  // Once T is exactly 0 (every power below the flush of double_once), a doubling adds T (...) = 0
+  // to R and keeps T = 0: the remaining steps change nothing, and an astronomically thick layer
+  // (up to ~1100 steps) need not take them.
+  auto transmits = [&] { return std::any_of(T.a.begin(), T.a.end(), [](double v) { return v != 0.0; }); };
+  for (int k = 0; k < steps && transmits(); ++k) double_once();
   e.Rt = e.Rb = embed(R);
   e.Td = e.Tu = embed(T);
   return e;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -208,6 +209,15 @@ std::string validate_stack(const LayerStack& stack) {
           return q + ".g[" + std::to_string(c) + "]: must satisfy |g| < 1";
       }
     }
+    // Finite coefficients can still sum past the largest double: sigma_t = inf would make the
+    // albedo sigma_s / sigma_t 0 or NaN, silently turning a scattering layer into a black one.
+    for (int c = 0; c < kChannels; ++c)
+      if (!std::isfinite(layer.sigma_t()[c])) {
+        std::ostringstream os;
+        os << p << ": sigma_a + sigma_s must be at most " << std::numeric_limits<double>::max()
+           << " (the largest double; channel " << c << " overflows)";
+        return os.str();
+      }
   }
   if (stack.below.kind == Below::Kind::Dielectric) {
     if (auto e = check_ior("below.ior", stack.below.ior); !e.empty()) return e;

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -22,6 +23,7 @@
 #include "materials/base/sampling.h"
 #include "renderer/render/distribution.h"
 #include "renderer/image/image_io.h"
+#include "renderer/scene/scene_gltf.h"  // kMaxLightStrength
 
 namespace lamina {
 
@@ -76,6 +78,13 @@ bool parse_number(const std::string& text, double* value) {
   return *end == '\0';
 }
 
+// "1e+20 (...)": the limit of scene_gltf.h as the messages give it.
+std::string strength_limit() {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g (the image is float radiance, at most 3.4e38)", kMaxLightStrength);
+  return text;
+}
+
 }  // namespace
 
 EnvironmentMap::EnvironmentMap() = default;
@@ -102,6 +111,9 @@ EnvironmentMap EnvironmentMap::from_file(const std::string& path) {
         if (!std::isfinite(v) || v < 0.0f)
           throw ImageIoError("environment map '" + path + "': pixel (" + std::to_string(x) + ", " +
                              std::to_string(y) + ") is negative or not finite");
+        if (v > kMaxLightStrength)
+          throw ImageIoError("environment map '" + path + "': pixel (" + std::to_string(x) + ", " +
+                             std::to_string(y) + ") is above the largest light strength, " + strength_limit());
       }
   // Weight of pixel (x, y): its luminance times the mean of sin(theta) over its row, so the
   // probability of a pixel is proportional to luminance times its solid angle:
@@ -147,6 +159,9 @@ EnvironmentMap EnvironmentMap::from_argument(const std::string& value) {
     for (double x : numbers)
       if (!std::isfinite(x) || x < 0.0)
         throw std::invalid_argument("--env '" + value + "': radiance must be finite and non-negative");
+      else if (x > kMaxLightStrength)
+        throw std::invalid_argument("--env '" + value + "': radiance is above the largest light strength, " +
+                                    strength_limit());
     return constant(parts.size() == 1 ? Spectrum(numbers[0]) : Spectrum(numbers[0], numbers[1], numbers[2]));
   }
   if (std::filesystem::exists(value)) return from_file(value);

@@ -50,6 +50,7 @@ class Validator {
     images();
     cameras();
     lights();
+    emission();
     nodes();
     forest();
     memory(file_bytes, max_bytes);
@@ -286,6 +287,9 @@ class Validator {
     const json& ls = list((*exts)["KHR_lights_punctual"], "lights", "extensions.KHR_lights_punctual");
     light_count_ = ls.size();
     for (std::size_t l = 0; l < ls.size(); ++l) {
+      if (ls[l].is_object())  // color defaults to white
+        check_strength(ls[l].contains("color") ? ls[l]["color"] : json::array({1.0}), ls[l], "intensity",
+                       "extensions.KHR_lights_punctual." + at("lights", l), "color x intensity");
       if (!ls[l].is_object() || ls[l].value("type", "") != "spot" || !ls[l].contains("spot")) continue;
       const std::string w = "extensions.KHR_lights_punctual." + at("lights", l) + ".spot";
       const double inner = number(ls[l]["spot"], "innerConeAngle", w).value_or(0.0);
@@ -295,6 +299,38 @@ class Validator {
         fail(w, "innerConeAngle " + num(inner) + " and outerConeAngle " + num(outer) +
                     " do not satisfy 0 <= inner <= outer <= pi/2, outer > 0");
     }
+  }
+
+  // Emissive materials: emissiveFactor (default 0) x KHR_materials_emissive_strength's
+  // emissiveStrength (default 1) is the surface's radiance, at most kMaxLightStrength.
+  void emission() {
+    const json& ms = top("materials");
+    for (std::size_t m = 0; m < ms.size(); ++m) {
+      if (!ms[m].is_object() || !ms[m].contains("emissiveFactor")) continue;
+      const json& ext = ms[m].contains("extensions") ? ms[m]["extensions"] : json();
+      const json& strength = ext.is_object() && ext.contains("KHR_materials_emissive_strength")
+                                 ? ext["KHR_materials_emissive_strength"]
+                                 : json();
+      check_strength(ms[m]["emissiveFactor"], strength, "emissiveStrength", at("materials", m),
+                     "emissiveFactor x emissiveStrength");
+    }
+  }
+
+  // The largest channel of `colour` (an array of numbers) times the number `scale_key` of
+  // `scale_obj` (default 1) must be at most kMaxLightStrength (scene_gltf.h). Values of the wrong
+  // type are left to the loader's messages.
+  void check_strength(const json& colour, const json& scale_obj, const char* scale_key, const std::string& where,
+                      const char* what) const {
+    double largest = 0.0;
+    if (colour.is_array())
+      for (const json& x : colour)
+        if (x.is_number()) largest = std::max(largest, x.get<double>());
+    const double scale = scale_obj.is_object() && scale_obj.contains(scale_key) && scale_obj[scale_key].is_number()
+                             ? scale_obj[scale_key].get<double>()
+                             : 1.0;
+    if (const double value = largest * scale; value > kMaxLightStrength)
+      fail(where, std::string(what) + " is " + num(value) + ", above the largest light strength, " +
+                      num(kMaxLightStrength) + " (the image is float radiance, at most 3.4e38)");
   }
 
   // The indices a node holds (section 5.25 "Node"), and its rotation: a quaternion of length 0

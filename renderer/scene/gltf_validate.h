@@ -14,7 +14,9 @@
 //   is multiplied into an allocation;
 // - the memory the scene needs, estimated from its accessors, is below max_scene_bytes();
 // - cameras (section 5.14 "Camera Perspective": 0 < yfov < pi, aspectRatio > 0) and spot lights
-//   (KHR_lights_punctual "Spot": 0 <= innerConeAngle < outerConeAngle <= pi/2).
+//   (KHR_lights_punctual "Spot": 0 <= innerConeAngle < outerConeAngle <= pi/2);
+// - a light's colour x intensity and a material's emissiveFactor x emissiveStrength are at most
+//   kMaxLightStrength (scene_gltf.h): finite doubles beyond it overflow the float image to Inf.
 // What needs the world transforms (finite, non-degenerate camera and light frames, vertex
 // positions within float range) is checked by the loader as it walks the validated forest.
 #pragma once

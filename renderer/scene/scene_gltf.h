@@ -25,6 +25,12 @@
 
 namespace lamina {
 
+// The largest light strength a scene may give: a punctual light's colour x intensity, an
+// emissive material's emissiveFactor x emissiveStrength (per channel). The pixels are float
+// radiance (at most 3.4e38); a source finite as a double but beyond this would write Inf, and
+// the margin of 1e18 leaves room for the inverse square of a light near a surface.
+constexpr double kMaxLightStrength = 1e20;
+
 // Thrown with one line naming the file and the problem.
 struct SceneError : std::runtime_error {
   using std::runtime_error::runtime_error;

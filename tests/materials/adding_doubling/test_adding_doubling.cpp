@@ -4,11 +4,17 @@
 // cases do not cover (oblique incidence, several layers and indices, Lambert, composite lobes).
 #include "materials/adding_doubling/adding_doubling.h"
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <future>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -368,6 +374,123 @@ TEST(AddingDoublingBins, TableChoosesOrderOrFallsBackToTheWalk) {
   EXPECT_LE(delta_m_truncation(one_layer(1.0, 0.3, Spectrum(0.3), Spectrum(10.0), Spectrum(0.9)), order(b.quadrature_points)).forward, 0.03);
   const LayeredTable c = build_layered_table(one_layer(1.4, 0.2, Spectrum(0.3), Spectrum(6.0), Spectrum(-0.9)), ts);
   EXPECT_TRUE(c.walk_fallback);
+}
+
+// A hang is a failure, not a stuck suite: runs f on a thread of its own and ends the test binary
+// (exit 1, naming the test) if it has not returned after `seconds`; a looping thread cannot be
+// stopped any other way.
+template <class F>
+auto finishes_within(double seconds, F f) -> decltype(f()) {
+  using Result = decltype(f());
+  auto task = std::make_shared<std::packaged_task<Result()>>(std::move(f));
+  std::future<Result> result = task->get_future();
+  std::thread([task] { (*task)(); }).detach();
+  if (result.wait_for(std::chrono::duration<double>(seconds)) != std::future_status::ready) {
+    std::fprintf(stderr, "%s: still running after %g s (a hang)\n",
+                 ::testing::UnitTest::GetInstance()->current_test_info()->name(), seconds);
+    std::fflush(stderr);
+    std::_Exit(1);
+  }
+  return result.get();
+}
+
+constexpr double kHangSeconds = 120.0;
+
+// A finite layer whose optical depth overflows a double (here a thickness of 1e307 mm at
+// sigma_t ~ 100/mm, and a sigma_s of 1e308/mm in a 10 mm layer) is its semi-infinite limit:
+// nothing transmitted, and the reflection of the same layer made semi-infinite and of the same
+// layer at the finite optical depth 1e302, which doubling reaches in ~1000 steps.
+TEST(AddingDoubling, OverflowingOpticalDepthIsTheSemiInfiniteLimit) {
+  const Spectrum sa(0.1, 0.5, 2.0), ss(100.0), g(0.5);
+  const LayerStack thick = one_layer(1.4, 1e307, sa, ss, g);
+  const LayerStack deep = one_layer(1.4, 1e300, sa, ss, g);
+  const LayerStack semi = one_layer(1.4, kInfiniteThickness, sa, ss, g);
+  ASSERT_TRUE(std::isinf(thick.layers[0].optical_depth(0)));
+  const AddingDoublingTotals t = finishes_within(kHangSeconds, [&] { return adding_doubling_totals(thick, 0.8); });
+  const AddingDoublingTotals d = adding_doubling_totals(deep, 0.8), s = adding_doubling_totals(semi, 0.8);
+  // Doubling the 1e302 slab stops once nothing is transmitted (T exactly 0), not after all
+  // ~1000 steps per channel (3033 before): 63.
+  EXPECT_LT(d.doublings, 200);
+  for (int c = 0; c < kChannels; ++c) {
+    EXPECT_EQ(total_T(t, c), 0.0);
+    EXPECT_EQ(t.T_hemispherical[c], 0.0);
+    EXPECT_NEAR(t.R_diffuse[c], d.R_diffuse[c], 1e-9) << c;
+    EXPECT_NEAR(t.R_diffuse[c], s.R_diffuse[c], 1e-9) << c;
+    EXPECT_NEAR(t.R_hemispherical[c], s.R_hemispherical[c], 1e-9) << c;
+    EXPECT_NEAR(t.absorbed[c], 1.0 - total_R(t, c), 1e-12) << c;
+    EXPECT_GT(t.absorbed[c], 0.0) << c;
+  }
+  const LayerStack dense = one_layer(1.4, 10.0, Spectrum(0.1), Spectrum(1e308), Spectrum(0.0));
+  ASSERT_TRUE(std::isinf(dense.layers[0].optical_depth(0)));
+  const LayerStack dense_semi = one_layer(1.4, kInfiniteThickness, Spectrum(0.1), Spectrum(1e308), Spectrum(0.0));
+  const AddingDoublingTotals x = finishes_within(kHangSeconds, [&] { return adding_doubling_totals(dense, 0.5); });
+  const AddingDoublingTotals y = adding_doubling_totals(dense_semi, 0.5);
+  for (int c = 0; c < kChannels; ++c) {
+    EXPECT_EQ(total_T(x, c), 0.0);
+    EXPECT_EQ(x.R_diffuse[c], y.R_diffuse[c]);
+    EXPECT_GT(x.R_diffuse[c], 0.9);  // almost conservative: sigma_a / sigma_s = 1e-309
+  }
+}
+
+// The walk handles the same stack (it needs no optical depth up front); adding-doubling agrees
+// with it within the walk's errors.
+TEST(AddingDoublingVsWalk, OverflowingOpticalDepth) {
+  LayerStack s = one_layer(1.4, 1e307, Spectrum(0.1, 0.5, 2.0), Spectrum(100.0), Spectrum(0.5));
+  s.name = "thickness 1e307 mm";
+  finishes_within(kHangSeconds, [&] {
+    expect_matches_walk(s, 30.0, 20000);
+    return 0;
+  });
+}
+
+// A layer of overflowing optical depth in the middle of a stack hides what lies below it: the
+// stack reflects as its top layer over that layer made semi-infinite, transmits nothing, and
+// its bins and the table mode's tables (built by adding-doubling) are finite and the same.
+TEST(AddingDoublingBins, OverflowingOpticalDepthInTheMiddle) {
+  const Layer top = make_layer("top", 1.5, 0.05, Spectrum(1.0), Spectrum(30.0), Spectrum(0.3));
+  const Layer mid = make_layer("mid", 1.33, 1e307, Spectrum(0.2, 0.5, 2.0), Spectrum(80.0), Spectrum(-0.2));
+  ASSERT_TRUE(std::isinf(mid.optical_depth(0)));
+  Layer mid_semi = mid;
+  mid_semi.thickness = kInfiniteThickness;
+  // The bottom's indices are among the top's, so both stacks have the same quadrature nodes.
+  const Layer bottom = make_layer("bottom", 1.5, 0.1, Spectrum(0.5), Spectrum(2.0), Spectrum(0.8));
+  const LayerStack s = stack_of({top, mid, bottom}), limit = stack_of({top, mid_semi});
+  BrdfOptions o;
+  o.theta_i_deg = 35.0;
+  o.bins_theta = 4;
+  o.bins_phi = 6;
+  AddingDoublingTotals totals, limit_totals;
+  const BrdfTable ad =
+      finishes_within(kHangSeconds, [&] { return brdf_table_adding_doubling(s, o, order(16), &totals); });
+  const BrdfTable lim = brdf_table_adding_doubling(limit, o, order(16), &limit_totals);
+  for (int c = 0; c < kChannels; ++c) {
+    EXPECT_EQ(total_T(totals, c), 0.0);
+    EXPECT_NEAR(totals.R_diffuse[c], limit_totals.R_diffuse[c], 1e-9) << c;
+  }
+  for (int side = 0; side < 2; ++side)
+    for (int k = 0; k < o.bins_theta; ++k)
+      for (int m = 0; m < o.bins_phi; ++m) {
+        const int b = ad.bin_index(static_cast<BrdfSide>(side), k, m);
+        for (int c = 0; c < kChannels; ++c) {
+          ASSERT_TRUE(std::isfinite(ad.value[b][c])) << side << " " << k << " " << m;
+          if (side == 1) {
+            EXPECT_EQ(ad.value[b][c], 0.0);
+          }
+          EXPECT_NEAR(ad.value[b][c], lim.value[b][c], 1e-9) << side << " " << k << " " << m;
+        }
+      }
+  TableSettings ts;
+  ts.nodes = 3;
+  ts.bins_theta = 3;
+  ts.bins_phi = 4;
+  ts.method = TableSettings::Method::AddingDoubling;
+  const LayeredTable table = finishes_within(kHangSeconds, [&] { return build_layered_table(s, ts); });
+  const LayeredTable limit_table = build_layered_table(limit, ts);
+  EXPECT_FALSE(table.walk_fallback);
+  for (int j = 0; j < ts.nodes; ++j) {
+    EXPECT_NEAR(table.power[j], limit_table.power[j], 1e-9) << j;
+    EXPECT_GT(table.power[j], 0.0) << j;
+  }
 }
 
 TEST(AddingDoubling, RejectsBadArguments) {

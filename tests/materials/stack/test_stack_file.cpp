@@ -211,6 +211,16 @@ TEST(StackFileErrors, NonFiniteCoefficient) {
   expect_error(replaced(kGood, "\"sigma_s\": 30.0", "\"sigma_s\": 1e999"), "(document)",
                "number overflow parsing '1e999'");
 }
+// Each coefficient is finite but their sum is not: the albedo sigma_s / sigma_t would be 0.
+TEST(StackFileErrors, CoefficientsSumPastTheLargestDouble) {
+  expect_error(replaced(kGood, "\"sigma_a\": [0.4, 0.1, 0.9], \"sigma_s\": 30.0",
+                        "\"sigma_a\": [0.4, 1e308, 0.9], \"sigma_s\": 1e308"),
+               "layers[0]", "sigma_a + sigma_s must be at most 1.79769e+308 (the largest double; channel 1 overflows)");
+  LayerStack s = parse_stack_json(kGood, "skin.json");
+  s.layers[1].lobes[0].sigma_s = Spectrum(1.5e308);
+  s.layers[1].lobes[1].sigma_s = Spectrum(1.5e308);
+  EXPECT_EQ(validate_stack(s).rfind("layers[1]: sigma_a + sigma_s must be at most", 0), 0u) << validate_stack(s);
+}
 TEST(StackFileErrors, GTooLarge) {
   expect_error(replaced(kGood, "\"g\": 0.2", "\"g\": 1.0"), "layers[0].g", "|g| < 1");
 }

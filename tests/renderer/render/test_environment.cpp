@@ -261,8 +261,11 @@ TEST(Environment, FromArgument) {
   const std::string path = temp_path("argument.exr");
   write_exr(path, synthetic_map(4, 2));
   EXPECT_FALSE(EnvironmentMap::from_argument(path).is_black());
+  // 1e300 and 1e21 are finite doubles, but beyond the largest light strength (1e20): they
+  // wrote Inf pixels.
+  EXPECT_EQ(EnvironmentMap::from_argument("1e20").eval({0, 1, 0}), Spectrum(1e20));
   for (const std::string bad : {"", "nan", "-1", "0.2,0.3", "1,2,3,4", "0.2,abc,0.3", "inf", "0.1,-0.2,0.3",
-                                "no_such_file.exr", "0.5x"}) {
+                                "no_such_file.exr", "0.5x", "1e300", "0.1,1e21,0.1"}) {
     try {
       EnvironmentMap::from_argument(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
@@ -284,6 +287,18 @@ TEST(Environment, BadMapFilesNameTheFile) {
     EXPECT_NE(std::string(e.what()).find(nan_path), std::string::npos) << e.what();
   }
   EXPECT_THROW(EnvironmentMap::from_file(temp_path("missing.exr")), ImageIoError);
+  image = synthetic_map(4, 2);
+  image.pixel(3, 0)[2] = 3e38f;  // finite in float, beyond the largest light strength
+  const std::string bright_path = temp_path("bright.exr");
+  write_exr(bright_path, image);
+  try {
+    EnvironmentMap::from_file(bright_path);
+    ADD_FAILURE() << "accepted a pixel of 3e38";
+  } catch (const ImageIoError& e) {
+    EXPECT_NE(std::string(e.what()).find(bright_path + "': pixel (3, 0) is above the largest light strength"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

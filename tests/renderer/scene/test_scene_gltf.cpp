@@ -558,6 +558,44 @@ TEST(SceneGltf, SpotWithEqualConeAnglesLoads) {
   EXPECT_EQ(s.lights[0].cos_inner, s.lights[0].cos_outer);
 }
 
+// A light or emission finite as a double but beyond float radiance would write Inf pixels: the
+// strength (colour x intensity, emissiveFactor x emissiveStrength, largest channel) is at most
+// kMaxLightStrength, refused above it with the JSON path and the limit; at the limit it loads.
+TEST(SceneGltf, LightStrengthIsAtMostTheLimit) {
+  TempDir dir("gltf-strength");
+  auto write = [&](const std::string& name, const json& light, const json& material) {
+    GltfBuilder b;
+    json& j = b.json();
+    j["materials"].push_back(material);
+    j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual"};
+    b.add_node({{"mesh", b.add_mesh(kTriangle, {0, 1, 2}, {}, 0)}});
+    j["extensions"]["KHR_lights_punctual"]["lights"] = {light};
+    b.add_node({{"translation", {0, 0, 4}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    b.write_gltf(dir / name);
+    return dir / name;
+  };
+  const json point = {{"type", "point"}, {"intensity", 10.0}}, plain = {{"name", "plain"}};
+  const json glow = {{"name", "glow"},
+                     {"emissiveFactor", {1.0, 0.5, kMaxLightStrength}},
+                     {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 1.0}}}}}};
+  const SceneDesc at_limit = load_gltf(write("limit.gltf", {{"type", "point"}, {"intensity", kMaxLightStrength}}, glow));
+  EXPECT_EQ(at_limit.lights[0].intensity[0], kMaxLightStrength);
+  EXPECT_EQ(at_limit.materials[0].emission[2], kMaxLightStrength);
+  expect_error(write("i.gltf", {{"type", "point"}, {"intensity", 1e300}}, plain),
+               "extensions.KHR_lights_punctual.lights[0]: color x intensity is 1e+300, above the largest light "
+               "strength, 1e+20");
+  expect_error(write("c.gltf", {{"type", "directional"}, {"color", {1.0, 3e20, 1.0}}}, plain),
+               "lights[0]: color x intensity is 3e+20, above the largest light strength");
+  expect_error(write("ci.gltf", {{"type", "spot"}, {"color", {1e200, 1.0, 1.0}}, {"intensity", 1e200}}, plain),
+               "lights[0]: color x intensity is inf, above the largest light strength");
+  json strong = glow;
+  strong["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] = 1.5;
+  expect_error(write("e.gltf", point, strong),
+               "materials[0]: emissiveFactor x emissiveStrength is 1.5e+20, above the largest light strength");
+  json factor = {{"name", "hot"}, {"emissiveFactor", {1e39, 0.0, 0.0}}};
+  expect_error(write("f.gltf", point, factor), "materials[0]: emissiveFactor x emissiveStrength is 1e+39");
+}
+
 // Morph targets at their default weights (glTF 2.0 section 3.7.2.2): POSITION, NORMAL and
 // TANGENT displacements weighted and added in the mesh's local space, before the node transform;
 // the node's weights override the mesh's; without weights every weight is 0; a weight count
