@@ -7,7 +7,7 @@
 // and the zero-variance walk towards the surface samples the cosine mu with the outward normal
 // from p(mu) = 1 / (ln((v0 + 1) / (v0 - 1)) (v0 - mu)) on [-1, 1] and the distance with the
 // stretched coefficient sigma_t (1 - mu / v0). Used only as one technique of a mixture with the
-// classic walk (WalkSettings::guiding), so the estimator stays unbiased whatever v0 is.
+// classic walk (WalkOptions::guiding), so the estimator stays unbiased whatever v0 is.
 #pragma once
 
 namespace lamina {

@@ -101,7 +101,7 @@ void flip_into(const LayerStack& stack, LayerStack* out);
 // and the substrate stay. The transformed medium has the same diffusion-limit transport (the
 // same reduced scattering coefficient) and about 1/(1 - g) times fewer scattering events, but it
 // is an APPROXIMATION: low orders and near-specular directions differ (the random walk's
-// WalkSettings::similarity_after uses it after a number of exact events; the bias is measured).
+// WalkOptions::similarity_after uses it after a number of exact events; the bias is measured).
 // Into *out, reusing its storage; `out` must not be `&stack`.
 void similarity_transform_into(const LayerStack& stack, LayerStack* out);
 

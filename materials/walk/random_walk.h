@@ -113,8 +113,9 @@ constexpr int kRandomHero = -1;
 // uniformly from rng; 0..kChannels-1 uses the caller's channel. The weights are the one-sample
 // balance heuristic over UNIFORMLY chosen heroes, so a caller that chooses must make the hero
 // uniform over the channels marginally and independent of everything else the walk draws (the
-// renderer stratifies it over a pixel's samples: integrator.cpp). The walk's uniform for the
-// hero is drawn either way, so the rest of its random numbers come from the same place in rng.
+// renderer stratifies it over a pixel's samples: renderer/layered/hero_strata.cpp). The walk's
+// uniform for the hero is drawn either way, so the rest of its random numbers come from the same
+// place in rng.
 WalkResult random_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng,
                        const EventCallback& on_event = {}, const WalkOptions& settings = {},
                        int hero = kRandomHero);

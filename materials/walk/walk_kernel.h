@@ -519,6 +519,4 @@ WalkResult run_walk(const LayerStack& stack, const glm::dvec3& wi, Rng& rng, con
 
 }  // namespace walk_kernel
 
-// Another name of the kernel's namespace, which renderer/surfaces/random_walk_surface.cpp uses.
-namespace walk_detail = walk_kernel;
 }  // namespace lamina

@@ -126,7 +126,5 @@ inline WalkOptions renderer_walk_options() {
   return o;
 }
 
-// Another name of the same struct, kept for callers that spell it so.
-using WalkSettings = WalkOptions;
 
 }  // namespace lamina

@@ -29,6 +29,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "renderer/scene/scene_gltf.h"
+
 namespace lamina::cli {
 
 // ---------------------------------------------------------------------------------------------
@@ -208,6 +210,11 @@ inline CLI::Validator environment() {
           const std::string why = parse_real(p, &v);
           if (!why.empty() || v < 0.0)
             return "radiance must be finite and >= 0, in decimal (got " + in_quotes(text) + ")";
+          if (v > kMaxLightStrength) {  // finite doubles beyond it overflow the float image
+            char limit[32];
+            std::snprintf(limit, sizeof limit, "%g", kMaxLightStrength);
+            return "radiance must be at most " + std::string(limit) + " (got " + in_quotes(text) + ")";
+          }
         }
         return "";
       },

@@ -71,7 +71,7 @@ std::string gib(double bytes) {
 
 void check_image_memory(const RenderSettings& s, bool png) {
   // Rendering in rounds (adaptive sampling, time limits, previews) keeps per pixel its running
-  // sums (integrator.cpp's PixelSums, 120 bytes) and a planned count, adaptive sampling a pilot
+  // sums (film.cpp's PixelSums, 120 bytes) and a planned count, adaptive sampling a pilot
   // mean and variance; the counts are a 4th EXR channel (interleaved with RGB on writing). AOVs
   // are 10 floats a pixel, and twice that while interleaved for the EXR.
   const bool rounds = s.noise_threshold > 0.0 || s.time_limit > 0.0 || s.preview_every > 0.0;

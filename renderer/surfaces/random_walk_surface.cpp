@@ -79,15 +79,12 @@ class WalkScatter {
               int light_count, LightSampler* per_event)
       : scratch_(walk_scratch()), stack_(stack), options_(options), rng_(rng), lights_(lights), light_count_(light_count), per_event_(per_event),
         entry_(1.0 / (1.0 - r_top)), t_factor_(transmission_radiance_factor(stack)), rough_(stack.rough_top()),
-        n_layers_(static_cast<int>(stack.layers.size())) {
-    settings_.guiding = options_.guiding;
-    settings_.roulette_threshold = options_.roulette_threshold;
-    settings_.roulette_survival = options_.roulette_survival;
-    settings_.tally_absorbed = false;
+        n_layers_(static_cast<int>(stack.layers.size())), settings_(options) {
+    settings_.tally_absorbed = false;  // the renderer never reads it
     // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
+    settings_.similar = nullptr;
     if (options_.similarity_after >= 0) {
       similarity_transform_into(stack_, &scratch_.similar);
-      settings_.similarity_after = options_.similarity_after;
       settings_.similar = &scratch_.similar;
     }
   }
@@ -124,7 +121,7 @@ class WalkScatter {
   const double t_factor_;
   const bool rough_;
   const int n_layers_;
-  WalkSettings settings_;
+  WalkOptions settings_;  // the options as the kernel runs them at this hit
   // The walk's previous event while an event is connected, its last one afterwards. Updated at the
   // end of the callback, not copied to a `previous` first: two copies of an event whose fields the
   // walk had just stored were a visible share of the callback's time.
@@ -287,7 +284,7 @@ inline void WalkScatter::on_event(const ScatterEvent& e) {
 bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count, SurfaceScatter* next) {
   auto on_event_cb = [this](const ScatterEvent& e) { on_event(e); };
   // The walk's loop with this callback inlined into it (materials/walk/walk_kernel.h).
-  const WalkResult walk = walk_detail::run_walk(stack_, wo, rng_, on_event_cb, settings_, hero);
+  const WalkResult walk = walk_kernel::run_walk(stack_, wo, rng_, on_event_cb, settings_, hero);
   if (event_count) *event_count += events_;
   if (walk.side == WalkResult::Side::None) return false;  // absorbed or killed by roulette
   next->wi = walk.direction;

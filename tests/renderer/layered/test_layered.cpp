@@ -192,7 +192,7 @@ void expect_slab_matches_brdf(const LayerStack& stack, glm::dvec3 wl_world, glm:
     }
   } else {
     LayerStack similar;  // the approximate similarity option: the library's walk switches too
-    WalkSettings ws;
+    WalkOptions ws;
     if (similarity_after >= 0) {
       similarity_transform_into(ref_stack, &similar);
       ws.similarity_after = similarity_after;
