@@ -210,11 +210,8 @@ inline CLI::Validator environment() {
           const std::string why = parse_real(p, &v);
           if (!why.empty() || v < 0.0)
             return "radiance must be finite and >= 0, in decimal (got " + in_quotes(text) + ")";
-          if (v > kMaxLightStrength) {  // finite doubles beyond it overflow the float image
-            char limit[32];
-            std::snprintf(limit, sizeof limit, "%g", kMaxLightStrength);
-            return "radiance must be at most " + std::string(limit) + " (got " + in_quotes(text) + ")";
-          }
+          if (v > kMaxLightStrength)  // finite doubles beyond it overflow the float image
+            return "radiance " + in_quotes(text) + " is above the largest light strength, " + light_strength_limit();
         }
         return "";
       },

@@ -78,13 +78,6 @@ bool parse_number(const std::string& text, double* value) {
   return *end == '\0';
 }
 
-// "1e+20 (...)": the limit of scene_gltf.h as the messages give it.
-std::string strength_limit() {
-  char text[64];
-  std::snprintf(text, sizeof text, "%g (the image is float radiance, at most 3.4e38)", kMaxLightStrength);
-  return text;
-}
-
 }  // namespace
 
 EnvironmentMap::EnvironmentMap() = default;
@@ -113,7 +106,7 @@ EnvironmentMap EnvironmentMap::from_file(const std::string& path) {
                              std::to_string(y) + ") is negative or not finite");
         if (v > kMaxLightStrength)
           throw ImageIoError("environment map '" + path + "': pixel (" + std::to_string(x) + ", " +
-                             std::to_string(y) + ") is above the largest light strength, " + strength_limit());
+                             std::to_string(y) + ") is above the largest light strength, " + light_strength_limit());
       }
   // Weight of pixel (x, y): its luminance times the mean of sin(theta) over its row, so the
   // probability of a pixel is proportional to luminance times its solid angle:
@@ -161,7 +154,7 @@ EnvironmentMap EnvironmentMap::from_argument(const std::string& value) {
         throw std::invalid_argument("--env '" + value + "': radiance must be finite and non-negative");
       else if (x > kMaxLightStrength)
         throw std::invalid_argument("--env '" + value + "': radiance is above the largest light strength, " +
-                                    strength_limit());
+                                    light_strength_limit());
     return constant(parts.size() == 1 ? Spectrum(numbers[0]) : Spectrum(numbers[0], numbers[1], numbers[2]));
   }
   if (std::filesystem::exists(value)) return from_file(value);

@@ -330,7 +330,7 @@ class Validator {
                              : 1.0;
     if (const double value = largest * scale; value > kMaxLightStrength)
       fail(where, std::string(what) + " is " + num(value) + ", above the largest light strength, " +
-                      num(kMaxLightStrength) + " (the image is float radiance, at most 3.4e38)");
+                      light_strength_limit());
   }
 
   // The indices a node holds (section 5.25 "Node"), and its rotation: a quaternion of length 0

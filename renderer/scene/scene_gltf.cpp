@@ -979,4 +979,10 @@ CameraDesc framing_camera(const SceneDesc& scene, double aspect) {
   return cam;
 }
 
+std::string light_strength_limit() {
+  char text[64];
+  std::snprintf(text, sizeof text, "%g (the image is float radiance, at most 3.4e38)", kMaxLightStrength);
+  return text;
+}
+
 }  // namespace lamina

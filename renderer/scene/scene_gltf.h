@@ -30,6 +30,8 @@ namespace lamina {
 // radiance (at most 3.4e38); a source finite as a double but beyond this would write Inf, and
 // the margin of 1e18 leaves room for the inverse square of a light near a surface.
 constexpr double kMaxLightStrength = 1e20;
+// The limit as every message gives it: "1e+20 (the image is float radiance, at most 3.4e38)".
+std::string light_strength_limit();
 
 // Thrown with one line naming the file and the problem.
 struct SceneError : std::runtime_error {
