@@ -14,7 +14,7 @@ mkdir -p "$OUT"
 scenes=(
   "cornell|scenes/cornell_box/CornellBox.glb|--width 160 --height 160"
   "leaves_back|scenes/leaves/leaves_back.gltf|--width 160 --height 120"
-  "head_skin|scenes/head_skin/head_skin.gltf|--width 120 --height 150 --env 0.05"
+  "head_skin_procedural|scenes/head_skin/head_skin_procedural.gltf|--width 120 --height 150 --env 0.05"
 )
 seconds() { sed -n 's/.*, \([0-9.]*\) s; rays.*/\1/p'; }
 rmse() { "$LAMINA" compare "$1" "$2" --json "$OUT/cmp.json" >/dev/null && python3 -c "import json; j = json.load(open('$OUT/cmp.json')); print(f\"{j['rmse']:.5g} {j['rms_relative']:.4f}\")"; }

@@ -51,6 +51,7 @@ METRIC="$BUILD_DIR/bench/equal_error"
 scene_path() {
   case "$1" in
     head_skin) echo scenes/head_skin/head_skin.gltf ;;
+    head_skin_procedural) echo scenes/head_skin/head_skin_procedural.gltf ;;
     spheres_0|spheres_45) echo "scenes/spheres/$1.gltf" ;;
     leaves_front|leaves_back) echo "scenes/leaves/$1.gltf" ;;
     *.gltf|*.glb) [ -f "$1" ] && echo "$1" || { echo "equal_error: no scene $1" >&2; exit 2; } ;;

@@ -39,7 +39,7 @@ done
 # Layered materials (random walk per shading point: slower per sample, so fewer samples).
 # LAMINA_DEMO_SPP, if set, overrides these too.
 LEAF_SPP=${LAMINA_DEMO_SPP:-32}
-# The head with skin_oily.json driven by its maps (blood, sebum, freckles): front key + rim light,
+# The head with skin_oily.json driven by maps fitted to its photographs (melanin, blood, sebum): front key + rim light,
 # 480x600. The exact walk with adaptive sampling, with the AOVs, then denoised (Open Image
 # Denoise; the raw render stays in out/head_skin.exr). Its time is what is left of the demo's
 # budget, LAMINA_DEMO_BUDGET seconds from the start (default 540: 9 of the 10 minutes), after

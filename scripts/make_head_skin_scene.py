@@ -1,17 +1,22 @@
 #!/usr/bin/env python3
-"""Writes scenes/head_skin/: the Lee Perry-Smith head with the layered skin preset driven by maps.
+"""Writes scenes/head_skin/: the Lee Perry-Smith head with layered skin driven by maps.
 
-  head_skin.gltf   the head (geometry and textures of ../lee_perry_smith_head, referenced, not
-                   copied), a camera, a front key light and a rim light, and material extras that
-                   bind skin_oily.json's parameters to the maps below (renderer/layered/stack_bindings.h)
-  blood.png        dermal blood volume fraction: the redness of the albedo map
-                   (R - G) / (R + G + B), its 2nd..98th percentiles stretched to 0..1, so lips and
-                   cheeks get more blood than the bearded chin and the scalp
-  oil.png          the sebum film: a procedural T-zone (forehead band, nose, chin) drawn in the
-                   face's UV layout, smooth-edged
-  freckle_mask.png where freckles may appear: cheeks and the bridge of the nose (Gaussian blobs)
+  head_skin.gltf     the head (geometry and textures of ../lee_perry_smith_head, referenced, not
+                     copied), a camera, a front key light and a rim light, and material extras that
+                     bind skin_oily.json's parameters to maps fitted to the asset's own photographs:
+  melanin_fitted.png epidermal melanin volume fraction and
+  blood_fitted.png   dermal blood volume fraction, both from `lamina fit --albedo-texture` on
+                     Map-COL.jpg (the stack's diffuse albedo matched to each texel in CIE L*a*b*;
+                     docs/fitting.md), 16-bit linear over the ranges MELANIN and BLOOD below
+  fitted_albedo.png  the albedo those two maps give (8-bit sRGB), to set beside Map-COL.jpg
+  oil_spec.png       the sebum film and the surface's smoothness: the asset's specular map
+                     Map-SPEC.jpg (luminance, its 2nd..98th percentiles stretched to 0..1)
   head_textured.gltf the same head, camera and lights with the asset's own glTF material (no
-                   layered skin): the portrait's reference
+                     layered skin): the portrait's reference
+  head_skin_procedural.gltf  the earlier showcase: blood from the photo's redness (blood.png), a
+                     procedural T-zone (oil.png) and procedural freckles (freckle_mask.png); the
+                     measurements in docs/ that name it were taken on it
+  With --freckles, head_skin.gltf also gets the procedural freckles.
 
 Maps are DATA (stored values, read without sRGB decoding). The UV positions of forehead, nose,
 cheeks and chin were read off Map-COL.jpg (the face sits in the middle of the atlas, eyes at
@@ -21,11 +26,14 @@ Units: the head is about 8 units tall, so one unit is roughly 3 cm; the layered 
 free (light leaves where it entered), so only the stack's mm coefficients and thicknesses matter and
 the scene's units do not. Freckle radius and density are in UV units.
 
-Needs oiiotool (OpenImageIO tools) to read the JPEG and write PNGs; pure Python otherwise.
+Needs oiiotool (OpenImageIO tools) to read the JPEGs and write PNGs, and a built lamina (--lamina,
+default build/renderer/lamina) for the fit; pure Python otherwise. About 20 s.
 """
+import argparse
 import json
 import math
 import os
+import shutil
 import subprocess
 import tempfile
 
@@ -33,6 +41,11 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..')
 HEAD = os.path.join(ROOT, 'scenes', 'lee_perry_smith_head')
 OUT = os.path.join(ROOT, 'scenes', 'head_skin')
 SIZE = 512
+# The fitted parameters of skin_oily.json and their ranges (the maps store (value - LO) / (HI - LO)).
+# Epidermal melanin 0-30 % spans the lightest to very dark skin (Jacques 2013: 1-3 % light, 18-43 %
+# dark); dermal blood 0-20 % reaches the lips' red (Jacques 2013: 0.2-7 % in the dermis).
+MELANIN = ('layers[1].components[0].fraction', 0.0, 0.12)
+BLOOD = ('layers[2].components[0].fraction', 0.0, 0.12)
 
 from make_head_scene import add_portrait_rig  # noqa: E402 (sibling script)
 
@@ -78,19 +91,58 @@ def blob(u, v, cu, cv, s):
     return math.exp(-((u - cu) ** 2 + (v - cv) ** 2) / (2 * s * s))
 
 
-def blood_map():
+def read_rgb(jpeg):
+    """The texture resized to SIZE x SIZE, as 8-bit RGB bytes (row-major from the top row)."""
     with tempfile.TemporaryDirectory() as tmp:
         ppm = os.path.join(tmp, 'col.ppm')
-        subprocess.run(['oiiotool', os.path.join(HEAD, 'Map-COL.jpg'), '--resize', '%dx%d' % (SIZE, SIZE),
-                        '-d', 'uint8', '-o', ppm], check=True)
+        subprocess.run(['oiiotool', jpeg, '--resize', '%dx%d' % (SIZE, SIZE), '-d', 'uint8', '-o', ppm],
+                       check=True)
         w, h, px = read_ppm(ppm)
-    redness = []
-    for i in range(w * h):
-        r, g, b = px[3 * i], px[3 * i + 1], px[3 * i + 2]
-        redness.append((r - g) / max(1, r + g + b))
-    s = sorted(redness)
+    assert (w, h) == (SIZE, SIZE)
+    return px
+
+
+def stretched(values):
+    """values stretched between their 2nd and 98th percentiles to 0..1 (clamped)."""
+    s = sorted(values)
     lo, hi = s[int(0.02 * len(s))], s[int(0.98 * len(s))]
-    return [max(0.0, min(1.0, (x - lo) / (hi - lo))) for x in redness]
+    return [max(0.0, min(1.0, (x - lo) / (hi - lo))) for x in values]
+
+
+def redness_map():
+    """The procedural scene's blood map: the redness (R - G) / (R + G + B) of the albedo photo."""
+    px = read_rgb(os.path.join(HEAD, 'Map-COL.jpg'))
+    return stretched([(px[3 * i] - px[3 * i + 1]) / max(1, sum(px[3 * i:3 * i + 3]))
+                      for i in range(SIZE * SIZE)])
+
+
+def spec_oil_map():
+    """The sebum film from the asset's specular map: brighter specular = oilier, smoother skin."""
+    px = read_rgb(os.path.join(HEAD, 'Map-SPEC.jpg'))
+    return stretched([(0.2126 * px[3 * i] + 0.7152 * px[3 * i + 1] + 0.0722 * px[3 * i + 2]) / 255
+                      for i in range(SIZE * SIZE)])
+
+
+def fitted_maps(lamina):
+    """melanin_fitted.png, blood_fitted.png, fitted_albedo.png: `lamina fit --albedo-texture` on
+    the albedo photo. The fit's forward model (adding-doubling) has a smooth top, so it fits
+    skin_oily_smooth.json; the diffuse albedo it matches (R_h less the specular reflection) is what
+    the rough top leaves too, to the rough interface's small loss (docs/fitting.md)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        col = os.path.join(tmp, 'col.png')
+        subprocess.run(['oiiotool', os.path.join(HEAD, 'Map-COL.jpg'), '--resize', '%dx%d' % (SIZE, SIZE),
+                        '-o', col], check=True)
+        fit = os.path.join(tmp, 'fit')
+        os.makedirs(fit)
+        subprocess.run([lamina, 'fit', os.path.join(ROOT, 'scenes', 'materials', 'skin_oily_smooth.json'),
+                        '--albedo-texture', col, '--threads', '0', '--out-dir', fit,
+                        '--param', '%s=%g:%g' % MELANIN, '--param', '%s=%g:%g' % BLOOD], check=True)
+        report = json.load(open(os.path.join(fit, 'albedo_fit.json')))
+        for (name, lo, hi), out in ((MELANIN, 'melanin_fitted.png'), (BLOOD, 'blood_fitted.png')):
+            entry = next(p for p in report['parameters'] if p['name'] == name)
+            assert (entry['lower'], entry['upper']) == (lo, hi), entry
+            shutil.copyfile(os.path.join(fit, entry['map']), os.path.join(OUT, out))
+        shutil.copyfile(os.path.join(fit, 'fitted_albedo.png'), os.path.join(OUT, 'fitted_albedo.png'))
 
 
 def oil_map():
@@ -117,63 +169,92 @@ def freckle_mask():
     return vals
 
 
+def bind(parameter, texture, lo, hi):
+    return {'parameter': parameter, 'texture': texture, 'channel': 'r', 'range': [lo, hi]}
+
+
+def oil_bindings(texture):
+    return [
+        # The sebum film: index 1.40 (= the epidermis: the film is optically absent) where dry,
+        # 1.47 (skin surface lipids, Tuchin 2007) where oily. A clear film's thickness does not
+        # matter in the position-free model (no absorption, no scattering, no interference), its
+        # index does: it sets the Fresnel reflection of the top interface.
+        bind('layers[0].ior', texture, 1.40, 1.47),
+        # The skin surface's roughness (GGX alpha of the top interface): 0.4 where dry, 0.2 where
+        # oily (the film fills the surface's micro-relief and makes it smoother and glossier).
+        # Measured faces: Torrance-Sparrow (Beckmann) roughness m = 0.3-0.45 (Weyrich et al.,
+        # "Analysis of Human Faces using a Measurement-Based Skin Reflectance Model", SIGGRAPH
+        # 2006, Table 2), and GGX alpha ~ Beckmann m.
+        bind('roughness', texture, 0.4, 0.2),
+    ]
+
+
+# Freckles: melanin fraction +0 .. +6 % in spots of ~1.5 mm (radius 0.004 in UV, the face spans
+# ~0.3 UV for ~15 cm) on the cheeks and nose.
+FRECKLES = {'parameter': 'layers[1].components[0].fraction', 'density': 2500, 'radius': 0.004,
+            'amplitude': 0.06, 'seed': 7, 'mask': {'texture': 'freckle_mask.png', 'channel': 'r'}}
+
+
+def write_gltf(j, name, note, extras):
+    j = json.loads(json.dumps(j))
+    j['asset'].setdefault('extras', {})['lamina'] = note
+    if extras is None:
+        j['materials'][0].pop('extras', None)
+    else:
+        j['materials'][0]['extras'] = {'lamina': extras}
+    with open(os.path.join(OUT, name), 'w') as f:
+        json.dump(j, f, indent=1)
+        f.write('\n')
+
+
 def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--lamina', default=os.path.join(ROOT, 'build', 'renderer', 'lamina'))
+    parser.add_argument('--freckles', action='store_true', help='add the procedural freckles to head_skin.gltf')
+    args = parser.parse_args()
     os.makedirs(OUT, exist_ok=True)
-    write_png_grey(os.path.join(OUT, 'blood.png'), blood_map())
+    fitted_maps(args.lamina)
+    write_png_grey(os.path.join(OUT, 'oil_spec.png'), spec_oil_map())
+    write_png_grey(os.path.join(OUT, 'blood.png'), redness_map())
     write_png_grey(os.path.join(OUT, 'oil.png'), oil_map())
     write_png_grey(os.path.join(OUT, 'freckle_mask.png'), freckle_mask())
 
     j = json.load(open(os.path.join(HEAD, 'LeePerrySmith_textured.gltf')))
-    j['asset'].setdefault('extras', {})['lamina'] = (
-        'Lamina demo wrapper of ../lee_perry_smith_head/LeePerrySmith_textured.gltf (written by '
-        'scripts/make_head_skin_scene.py): layered skin driven by maps, a camera, a front key light '
-        'and a rim light; geometry and textures unchanged and referenced.')
     for b in j['buffers']:
         b['uri'] = '../lee_perry_smith_head/' + b['uri']
     for im in j['images']:
         im['uri'] = '../lee_perry_smith_head/' + im['uri']
-    # skin_oily.json: layers[0] sebum film, layers[1] epidermis (components[0] melanin),
-    # layers[2] dermis (components[0] blood).
-    j['materials'][0]['extras'] = {'lamina': {
-        'stack': '../materials/skin_oily.json',
-        'bind': [
-            # Blood volume fraction 0.5 % .. 4 % (Jacques 2013; Donner and Jensen 2006: 0.1-5 %).
-            {'parameter': 'layers[2].components[0].fraction', 'texture': 'blood.png', 'channel': 'r',
-             'range': [0.005, 0.04]},
-            # The sebum film: index 1.40 (= the epidermis: the film is optically absent) where dry,
-            # 1.47 (skin surface lipids, Tuchin 2007) on the T-zone. A clear film's thickness does
-            # not matter in the position-free model (no absorption, no scattering, no
-            # interference), its index does: it sets the Fresnel reflection of the top interface.
-            {'parameter': 'layers[0].ior', 'texture': 'oil.png', 'channel': 'r', 'range': [1.40, 1.47]},
-            # The skin surface's roughness (GGX alpha of the top interface): 0.4 where dry, 0.2
-            # where oily (the film fills the surface's micro-relief and makes it smoother and
-            # glossier). Measured faces: Torrance-Sparrow (Beckmann) roughness m = 0.3-0.45
-            # (Weyrich et al., "Analysis of Human Faces using a Measurement-Based Skin
-            # Reflectance Model", SIGGRAPH 2006, Table 2), and GGX alpha ~ Beckmann m.
-            {'parameter': 'roughness', 'texture': 'oil.png', 'channel': 'r', 'range': [0.4, 0.2]},
-        ],
-        # Freckles: melanin fraction +0 .. +6 % in spots of ~1.5 mm (radius 0.004 in UV, the face
-        # spans ~0.3 UV for ~15 cm) on the cheeks and nose.
-        'freckles': {'parameter': 'layers[1].components[0].fraction', 'density': 2500, 'radius': 0.004,
-                     'amplitude': 0.06, 'seed': 7,
-                     'mask': {'texture': 'freckle_mask.png', 'channel': 'r'}},
-    }}
     # The key at ~12 units gives irradiance ~ 500/144 ~ 3.5 on the face; the rim light grazes the
     # head from behind.
     add_portrait_rig(j, eye=(2.0, 1.0, 12.0), target=(0.0, 0.3, 0.0), key_position=(4.0, 3.0, 11.0),
                      key_color=(1.0, 0.97, 0.93), key_intensity=500.0, rim_from=(-6.0, 3.0, -6.0),
                      rim_intensity=4.0)
-    with open(os.path.join(OUT, 'head_skin.gltf'), 'w') as f:
-        json.dump(j, f, indent=1)
-        f.write('\n')
+    # skin_oily.json: layers[0] sebum film, layers[1] epidermis (components[0] melanin),
+    # layers[2] dermis (components[0] blood).
+    fitted = {'stack': '../materials/skin_oily.json',
+              'bind': [bind(MELANIN[0], 'melanin_fitted.png', *MELANIN[1:]),
+                       bind(BLOOD[0], 'blood_fitted.png', *BLOOD[1:])] + oil_bindings('oil_spec.png')}
+    if args.freckles:
+        fitted['freckles'] = FRECKLES
+    write_gltf(j, 'head_skin.gltf',
+               'Lamina demo wrapper of ../lee_perry_smith_head/LeePerrySmith_textured.gltf (written by '
+               'scripts/make_head_skin_scene.py): layered skin driven by maps fitted to the asset\'s '
+               'albedo and specular photographs, a camera, a front key light and a rim light; geometry '
+               'and textures unchanged and referenced.', fitted)
+    procedural = {'stack': '../materials/skin_oily.json',
+                  # Blood volume fraction 0.5 % .. 4 % (Jacques 2013; Donner and Jensen 2006: 0.1-5 %).
+                  'bind': [bind('layers[2].components[0].fraction', 'blood.png', 0.005, 0.04)] +
+                  oil_bindings('oil.png'),
+                  'freckles': FRECKLES}
+    write_gltf(j, 'head_skin_procedural.gltf',
+               'Lamina demo wrapper of ../lee_perry_smith_head/LeePerrySmith_textured.gltf (written by '
+               'scripts/make_head_skin_scene.py): layered skin driven by procedural maps, a camera, a '
+               'front key light and a rim light; geometry and textures unchanged and referenced.',
+               procedural)
     # The same head, camera and lights with the asset's own glTF material (base colour texture,
     # normal map, metallic-roughness): the portrait's reference beside the layered skin.
-    del j['materials'][0]['extras']
-    j['asset']['extras']['lamina'] = ('The textured glTF head in the rig of head_skin.gltf (written by '
-                                      'scripts/make_head_skin_scene.py): no layered material.')
-    with open(os.path.join(OUT, 'head_textured.gltf'), 'w') as f:
-        json.dump(j, f, indent=1)
-        f.write('\n')
+    write_gltf(j, 'head_textured.gltf', 'The textured glTF head in the rig of head_skin.gltf (written by '
+               'scripts/make_head_skin_scene.py): no layered material.', None)
 
 
 if __name__ == '__main__':

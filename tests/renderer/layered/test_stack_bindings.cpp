@@ -468,11 +468,22 @@ void check_scene(const std::string& rel, int expected_maps, const std::vector<Va
   EXPECT_EQ(validate_stack(m->stack_at(sp, scratch)), "");
 }
 
-TEST(DemoScenes, HeadSkinBindsBloodOilAndFreckles) {
+TEST(DemoScenes, HeadSkinBindsItsFittedMaps) {
+  // The maps fitted to the asset's photographs: an eyebrow (more melanin) against a cheek; the
+  // lips (more blood) against the scalp; the specular map's bright forehead against a cheek for
+  // oil, which drives the sebum's index and the surface roughness (4 bindings, no freckles).
+  check_scene("scenes/head_skin/head_skin.gltf", 4,
+              {{"layers[1].components[0].fraction", {0.42, 0.245}, {0.4, 0.38}},
+               {"layers[2].components[0].fraction", {0.5, 0.47}, {0.5, 0.03}},
+               {"layers[0].ior", {0.5, 0.15}, {0.3, 0.45}},
+               {"roughness", {0.5, 0.15}, {0.3, 0.45}}});
+}
+
+TEST(DemoScenes, ProceduralHeadSkinBindsBloodOilAndFreckles) {
   // Lips (red: more blood) against the scalp; the T-zone (forehead) against a cheek for oil; a
   // freckled cheek varies the melanin fraction somewhere along a short row of points. The oil
   // map drives the sebum's index and the surface roughness (blood, oil twice, freckle mask: 4).
-  check_scene("scenes/head_skin/head_skin.gltf", 4,
+  check_scene("scenes/head_skin/head_skin_procedural.gltf", 4,
               {{"layers[2].components[0].fraction", {0.5, 0.47}, {0.5, 0.03}},
                {"layers[0].ior", {0.5, 0.15}, {0.3, 0.45}},
                {"roughness", {0.5, 0.15}, {0.3, 0.45}}});
