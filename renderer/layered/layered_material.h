@@ -86,7 +86,7 @@ class LayeredMaterial {
   // The lambert mode's albedo at a hit, honouring texture-driven parameters: without bindings,
   // lambert_albedo(). With them, a separable model around the template stack t (the file's
   // values): A(p) = A(t) prod_k A(t with p_k) / A(t), each factor interpolated linearly between
-  // kLambertNodes values of p_k over its range (StackBindings::value_range), computed by the walk
+  // kLambertNodes values of p_k where its map's texels are (StackBindings::nodes), computed by the walk
   // on first use (kLambertNodeWalks walks each, one seed: the ratios share their random numbers).
   // Exact for one parameter at the nodes; the cross terms of several are left out (docs/modes.md measures
   // the error on head_skin and leaves_back).

@@ -5,8 +5,8 @@
 // Texture-driven parameters (renderer/layered/stack_bindings.h) in the table mode: a separable
 // model, as the lambert mode's albedo (LayeredMaterial::lambert_albedo_at). With T_0 the table of
 // the template (every parameter at its template value) and T_k(x) the table with parameter k at
-// x and the others at their template values, tabulated at kParameterNodes values of x over the
-// parameter's range and interpolated linearly between them, a hit whose parameters are
+// x and the others at their template values, tabulated at kParameterNodes values of x where the
+// parameter's map has its texels (StackBindings::nodes) and interpolated linearly between them, a hit whose parameters are
 // (x_1 .. x_K) gets, per incidence node, bin and channel,
 //     f = T_0 prod_k T_k(x_k) / T_0,
 // exact when at most one parameter differs from its template value and that one sits on a node,

@@ -53,6 +53,48 @@ double ParameterMap::lookup(glm::dvec2 uv, int channel) const {
   return s;
 }
 
+std::vector<double> map_nodes(const std::vector<double>& t, int count) {
+  if (t.empty()) return {0.0};
+  const auto [mn, mx] = std::minmax_element(t.begin(), t.end());
+  const double lo = *mn, hi = *mx;
+  if (!(hi > lo)) return {lo};
+  // 4096 bins over [lo, hi]; nodes sit on bin edges e_i = lo + i w. Prefix sums of the texels'
+  // count, sum and sum of squares by bin give an interval's cost sum (x - a)(b - x) in O(1).
+  constexpr int kBins = 4096;
+  const double w = (hi - lo) / kBins;
+  std::vector<double> s0(kBins + 1, 0.0), s1(kBins + 1, 0.0), s2(kBins + 1, 0.0);
+  for (double v : t) {
+    const int i = std::min(kBins - 1, static_cast<int>((v - lo) / w)) + 1;
+    s0[i] += 1.0, s1[i] += v, s2[i] += v * v;
+  }
+  for (int i = 0; i < kBins; ++i) s0[i + 1] += s0[i], s1[i + 1] += s1[i], s2[i + 1] += s2[i];
+  auto edge = [&](int i) { return i == kBins ? hi : lo + i * w; };
+  auto cost = [&](int p, int q) {  // bins p .. q-1 between edges p and q
+    const double a = edge(p), b = edge(q);
+    return -(s2[q] - s2[p]) + (a + b) * (s1[q] - s1[p]) - a * b * (s0[q] - s0[p]);
+  };
+  std::vector<int> edges = {0, kBins};
+  // Gains below the sums' rounding (texels on nodes already) are none.
+  const double negligible = 1e-9 * s0[kBins] * (hi - lo) * (hi - lo);
+  while (static_cast<int>(edges.size()) < count) {
+    double best_gain = negligible;
+    int best_split = -1;
+    for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
+      const int p = edges[k], q = edges[k + 1];
+      const double whole = cost(p, q);
+      for (int r = p + 1; r < q; ++r) {
+        const double gain = whole - cost(p, r) - cost(r, q);
+        if (gain > best_gain) best_gain = gain, best_split = r;
+      }
+    }
+    if (best_split < 0) break;  // no interval holds a texel strictly inside: exact already
+    edges.insert(std::upper_bound(edges.begin(), edges.end(), best_split), best_split);
+  }
+  std::vector<double> nodes;
+  for (int e : edges) nodes.push_back(edge(e));
+  return nodes;
+}
+
 ParameterMap read_parameter_map(const std::string& path) {
   // The stored values with no colour transform and no alpha premultiplication (integer files
   // as value / max, 0..255 -> 0..1): what a data map means.
@@ -160,6 +202,19 @@ double StackBindings::Source::sample(glm::dvec2 uv, int c) const {
   else
     t = map->lookup(uv, channel);
   return std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
+}
+
+std::vector<double> StackBindings::Source::texel_values(int c) const {
+  const std::size_t n = static_cast<std::size_t>(map->width) * map->height;
+  std::vector<double> t(n);
+  auto at = [&](std::size_t p, int ch) { return static_cast<double>(map->values[p * map->channels + std::min(ch, map->channels - 1)]); };
+  for (std::size_t p = 0; p < n; ++p) {
+    double v;
+    if (channel == kLuminance) v = 0.2126 * at(p, 0) + 0.7152 * at(p, 1) + 0.0722 * at(p, 2);
+    else v = at(p, channel == kRgb ? c : channel);
+    t[p] = std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0;
+  }
+  return t;
 }
 
 StackBindings::Source StackBindings::parse_source(const json& j, const std::string& where, bool allow_rgb) {
@@ -348,17 +403,34 @@ StackBindings::Nodes StackBindings::nodes(std::size_t k, int count) const {
   Nodes n;
   for (int c = 1; c < kChannels; ++c)
     if (hi[c] - lo[c] > hi[n.channel] - lo[n.channel]) n.channel = c;
+  if (k < bindings_.size() && !(has_freckles_ && static_cast<int>(k) == freckle_parameter_)) {
+    const Binding& b = bindings_[k];
+    std::vector<double> t = map_nodes(b.source.texel_values(n.channel), count);
+    // Increasing in the channel's value: a binding whose range runs downwards reverses them.
+    if (b.hi[n.channel] < b.lo[n.channel]) std::reverse(t.begin(), t.end());
+    for (double tj : t) n.values.push_back(b.lo + (b.hi - b.lo) * tj);
+    n.even = false;
+    return n;
+  }
   const int m = hi[n.channel] > lo[n.channel] ? count : 1;
   for (int j = 0; j < m; ++j) n.values.push_back(lo + (hi - lo) * (m > 1 ? static_cast<double>(j) / (m - 1) : 0.0));
   return n;
 }
 
 void StackBindings::Nodes::bracket(double x, std::size_t* j, double* t) const {
-  // Evenly spaced: the position in node units, clamped to the range.
   const double first = values.front()[channel], last = values.back()[channel];
-  const double pos = std::clamp((x - first) / (last - first), 0.0, 1.0) * static_cast<double>(values.size() - 1);
-  *j = std::min(static_cast<std::size_t>(pos), values.size() - 2);
-  *t = pos - static_cast<double>(*j);
+  if (even) {  // evenly spaced: the position in node units, clamped to the range
+    const double pos = std::clamp((x - first) / (last - first), 0.0, 1.0) * static_cast<double>(values.size() - 1);
+    *j = std::min(static_cast<std::size_t>(pos), values.size() - 2);
+    *t = pos - static_cast<double>(*j);
+    return;
+  }
+  const double xc = std::clamp(x, first, last);
+  std::size_t i = 1;
+  while (i + 1 < values.size() && values[i][channel] < xc) ++i;
+  *j = i - 1;
+  const double a = values[i - 1][channel], b = values[i][channel];
+  *t = std::clamp((xc - a) / (b - a), 0.0, 1.0);
 }
 
 void StackBindings::evaluate(glm::dvec2 uv, LayerStack* out) const {

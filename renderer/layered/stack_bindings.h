@@ -64,6 +64,14 @@ struct ParameterMap {
   double lookup(glm::dvec2 uv, int channel) const;
 };
 
+// Nodes for a piecewise-linear model over a map's texel values t (each in [0, 1]): at most `count`
+// increasing values from min(t) to max(t) (one if they are all equal), placed greedily so that
+// sum over texels (t - a)(b - t), with [a, b] the texel's interval, falls fastest: the error of
+// linear interpolation between nodes for a model of even curvature, weighted by how many texels
+// see it. Nodes crowd where the texels are (a face's melanin map is mostly near 0, with eyebrows
+// far above it), instead of spreading evenly over the binding's range. Deterministic.
+std::vector<double> map_nodes(const std::vector<double>& t, int count);
+
 // Reads an image file's stored values (no colour conversion). Throws SceneError naming it.
 ParameterMap read_parameter_map(const std::string& path);
 
@@ -138,12 +146,15 @@ class StackBindings {
   // parameter only the freckles drive, plus [0, amplitude].
   void value_range(std::size_t k, Spectrum* lo, Spectrum* hi) const;
   // The nodes of the separable models along parameter k (the lambert mode's albedo factors,
-  // LayeredMaterial::lambert_albedo_at; the table mode's parameter tables, LayeredTables):
-  // `count` values evenly over value_range, and the channel of the widest range, whose value
-  // places a hit between them. One node if the parameter is constant over the surface.
+  // LayeredMaterial::lambert_albedo_at; the table mode's parameter tables, LayeredTables), and
+  // the channel of the widest range, whose value places a hit between them. A parameter driven
+  // by a map alone gets `count` nodes where its texels are (map_nodes: from the smallest to the
+  // largest texel value, placed to minimise the texels' interpolation error); one the freckles
+  // drive, `count` values evenly over value_range. One node if it is constant over the surface.
   struct Nodes {
     int channel = 0;
-    std::vector<Spectrum> values;
+    std::vector<Spectrum> values;  // increasing in `channel`
+    bool even = true;              // evenly spaced (bracket's arithmetic shortcut)
     // Where a hit's value x (of `channel`) falls: between node j and j + 1 with weight t on
     // j + 1, clamped at the ends (at least two nodes).
     void bracket(double x, std::size_t* j, double* t) const;
@@ -159,6 +170,7 @@ class StackBindings {
     int channel = 0;  // 0..3, kLuminance, or kRgb
     bool srgb_encoded = false;  // a glTF texture decoded by the loader: re-encode
     double sample(glm::dvec2 uv, int c) const;  // the value driving colour channel c
+    std::vector<double> texel_values(int c) const;  // sample's value at every texel's centre
   };
   struct Binding {
     Source source;

@@ -3,6 +3,7 @@
 // demo scenes (head_skin, leaves) load, bind and find their maps.
 #include "renderer/layered/stack_bindings.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "materials/base/sampling.h"
 #include "materials/tables/albedo.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/image/image_io.h"
@@ -198,6 +200,54 @@ TEST(StackBindings, ChannelThroughRangeIntoTheStack) {
   EXPECT_EQ(got.layers[2].sigma_a, expected.layers[2].sigma_a);
   EXPECT_EQ(got.layers[0].thickness, expected.layers[0].thickness);
   EXPECT_EQ(validate_stack(got), "");
+}
+
+// map_nodes: the ends are the smallest and largest texel values, a constant map gives one node, a
+// map of two values two nodes (every texel on a node: nothing to gain from a third), and the
+// nodes are increasing and the same on every call.
+TEST(MapNodes, EndsAtTheTexelsAndIncreasing) {
+  EXPECT_EQ(map_nodes({0.3, 0.3, 0.3}, 5), std::vector<double>({0.3}));
+  EXPECT_EQ(map_nodes({0.2, 0.7, 0.2, 0.7}, 5), std::vector<double>({0.2, 0.7}));
+  Rng rng(5, 0);
+  std::vector<double> t;
+  for (int i = 0; i < 10000; ++i) t.push_back(0.1 + 0.6 * rng.uniform() * rng.uniform());
+  const std::vector<double> n = map_nodes(t, 5);
+  ASSERT_EQ(n.size(), 5u);
+  EXPECT_EQ(n.front(), *std::min_element(t.begin(), t.end()));
+  EXPECT_EQ(n.back(), *std::max_element(t.begin(), t.end()));
+  for (std::size_t i = 1; i < n.size(); ++i) EXPECT_LT(n[i - 1], n[i]);
+  EXPECT_EQ(map_nodes(t, 5), n);
+}
+
+// Why the nodes follow the texels: a face's melanin map is mostly near 0 with a few dark texels
+// far above (eyebrows), and a layer's albedo falls steeply, convexly, with melanin. Linear
+// interpolation of such a response, exp(-20 t), between map_nodes' five nodes errs over the
+// texels at most a third as much as between five nodes evenly over the range (measured 14x
+// less on this map).
+TEST(MapNodes, InterpolateASkewedMapBetterThanEvenNodes) {
+  Rng rng(11, 0);
+  std::vector<double> t;
+  for (int i = 0; i < 20000; ++i) {
+    const double u = rng.uniform();
+    t.push_back(i % 100 == 0 ? 0.5 + 0.5 * u : 0.05 * u * u);  // 1 % eyebrows, the rest light skin
+  }
+  auto f = [](double x) { return std::exp(-20.0 * x); };
+  auto mean_error = [&](const std::vector<double>& nodes) {
+    double sum = 0.0;
+    for (double x : t) {
+      std::size_t j = 1;
+      while (j + 1 < nodes.size() && nodes[j] < x) ++j;
+      const double a = nodes[j - 1], b = nodes[j], w = std::clamp((x - a) / (b - a), 0.0, 1.0);
+      sum += std::abs((1 - w) * f(a) + w * f(b) - f(x));
+    }
+    return sum / static_cast<double>(t.size());
+  };
+  const double lo = *std::min_element(t.begin(), t.end()), hi = *std::max_element(t.begin(), t.end());
+  std::vector<double> even;
+  for (int j = 0; j < 5; ++j) even.push_back(lo + (hi - lo) * j / 4.0);
+  const double e_map = mean_error(map_nodes(t, 5)), e_even = mean_error(even);
+  std::printf("mean interpolation error: map_nodes %.3g, even %.3g (%.1fx)\n", e_map, e_even, e_even / e_map);
+  EXPECT_LT(3.0 * e_map, e_even);
 }
 
 // The lambert mode follows texture-driven parameters (LayeredMaterial::lambert_albedo_at): with
