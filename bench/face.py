@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+"""The face benchmark: time to a clean image, and the bias of the fast modes, on the showcase.
+
+    bench/face.py [--lamina build/renderer/lamina] [--out out/face] [--scenes head_skin,leaves_back]
+                  [--methods walk,auto] [--tolerance 0.01] [--ref-spp 1024] [--quick]
+
+For each scene it renders a long walk reference once (kept in OUT/, its file name carries its
+settings) and then each method at 1, 2, 4, ... spp until its relative RMSE over the subject (a crop
+around the face or the leaves) is below the target (default 5 %) or --max-spp is reached. A
+method is `walk` (--subsurface random-walk, the unbiased reference technique) or `auto`
+(--subsurface auto --tolerance T: tables, lambert or the walk per material, its precomputation
+included). Every number is of one run on this machine, wall-clock seconds of the whole `lamina
+render` process (scene loading and tables included); the machine is shared, so read them as an
+order of magnitude and compare methods within one run of this script.
+
+Per method it prints and writes to OUT/face.md and OUT/face.csv:
+  seconds to the target   interpolated log-log between the two runs around it
+  mean bias               mean(method) / mean(reference) - 1 over the crop, at the last run
+  smoothed pixel bias     `lamina compare --smooth 1` (a Gaussian of sigma 1 pixel, about 5 x 5):
+                          the RMS relative difference at the last run; it holds the residual noise
+                          of both images too, so it bounds the bias from above
+Python does no image maths: every figure comes from `lamina compare --json` (the mean of an image
+over the crop is its guard floor divided by the guard epsilon).
+Exits non-zero if a render or a comparison fails.
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# name -> (glTF, extra render arguments, crop as fractions x, y, w, h of the image)
+SCENES = {
+    "head_skin": ("scenes/head_skin/head_skin.gltf", ["--env", "0.05"], (0.33, 0.13, 0.34, 0.50)),
+    "leaves_back": ("scenes/leaves/leaves_back.gltf", [], (0.20, 0.15, 0.60, 0.75)),
+}
+SIZES = {"head_skin": (480, 600), "leaves_back": (320, 240)}
+
+
+def fail(message):
+    print(f"face.py: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def run(cmd):
+    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    if p.returncode != 0:
+        fail(f"{' '.join(cmd)} failed: {p.stderr.strip() or p.stdout.strip()}")
+    return p
+
+
+def render(args, scene, method, spp, seed, exr, size):
+    gltf, extra, _ = SCENES[scene]
+    mode = ["--subsurface", "random-walk"] if method == "walk" else \
+        ["--subsurface", "auto", "--tolerance", str(args.tolerance)]
+    cmd = [args.lamina, "render", gltf, *extra, *mode, "--width", str(size[0]), "--height", str(size[1]),
+           "--spp", str(spp), "--seed", str(seed), "--threads", str(args.threads), "-o", exr]
+    t0 = time.monotonic()
+    run(cmd)
+    return time.monotonic() - t0
+
+
+def crop_arguments(scene, size):
+    fx, fy, fw, fh = SCENES[scene][2]
+    w, h = size
+    return ["--crop", str(round(fx * w)), str(round(fy * h)), str(max(1, round(fw * w))), str(max(1, round(fh * h)))]
+
+
+def compare(args, ref, test, crop, smooth=None):
+    out = test[:-4] + (f"-smooth{smooth}" if smooth else "") + ".json"
+    cmd = [args.lamina, "compare", ref, test, *crop, "--json", out] + (["--smooth", str(smooth)] if smooth else [])
+    run(cmd)
+    with open(out) as f:
+        return json.load(f)
+
+
+def image_mean(j):
+    """The mean of the reference image over the crop: compare's guard floor is epsilon * mean(REF)."""
+    return j["guard_floor"] / j["guard_epsilon"]
+
+
+def time_to(rows, target):
+    """Seconds at which relative RMSE first reaches target, log-log between the runs around it."""
+    for a, b in zip([None] + rows[:-1], rows):
+        if b["rel_rmse"] <= target:
+            if a is None:
+                return b["seconds"]
+            la, lb = math.log(a["rel_rmse"]), math.log(b["rel_rmse"])
+            t = (math.log(target) - la) / (lb - la) if lb != la else 1.0
+            return math.exp(math.log(a["seconds"]) + t * (math.log(b["seconds"]) - math.log(a["seconds"])))
+    return None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--lamina", default=os.path.join(ROOT, "build/renderer/lamina"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "out/face"))
+    ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--methods", default="walk,auto")
+    ap.add_argument("--tolerance", type=float, default=0.01, help="auto's --tolerance")
+    ap.add_argument("--target", type=float, default=0.05, help="relative RMSE target over the crop")
+    ap.add_argument("--ref-spp", type=int, default=1024)
+    ap.add_argument("--max-spp", type=int, default=512)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--quick", action="store_true", help="pipeline check: 1/8 size, reference 16 spp, max 4 spp")
+    args = ap.parse_args()
+    args.lamina = os.path.abspath(args.lamina)
+    args.out = os.path.abspath(args.out)
+    if not os.access(args.lamina, os.X_OK):
+        fail(f"{args.lamina}: no lamina executable (build it, or pass --lamina)")
+    scenes, methods = args.scenes.split(","), args.methods.split(",")
+    for s in scenes:
+        if s not in SCENES:
+            fail(f"unknown scene {s!r} (known: {', '.join(SCENES)})")
+    for m in methods:
+        if m not in ("walk", "auto"):
+            fail(f"unknown method {m!r} (known: walk, auto)")
+    if args.quick:
+        args.ref_spp, args.max_spp = 16, 4
+    os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
+    results = []
+    for scene in scenes:
+        size = SIZES[scene] if not args.quick else tuple(max(8, v // 8) for v in SIZES[scene])
+        crop = crop_arguments(scene, size)
+        ref = os.path.join(args.out, f"ref-{scene}-{size[0]}x{size[1]}-{args.ref_spp}spp.exr")
+        if not os.path.exists(ref):
+            print(f"{scene}: the reference, random-walk {args.ref_spp} spp at {size[0]}x{size[1]} ...", flush=True)
+            secs = render(args, scene, "walk", args.ref_spp, 1000, ref + ".tmp.exr", size)
+            os.replace(ref + ".tmp.exr", ref)
+            print(f"{scene}: reference in {secs:.0f} s", flush=True)
+        for method in methods:
+            rows, spp = [], 1
+            while spp <= args.max_spp:
+                exr = os.path.join(args.out, "runs", f"{scene}-{method}-{spp}.exr")
+                secs = render(args, scene, method, spp, 1, exr, size)
+                j = compare(args, ref, exr, crop)
+                self_j = compare(args, exr, exr, crop)
+                ref_mean, test_mean = image_mean(j), image_mean(self_j)
+                rows.append(dict(spp=spp, seconds=secs, rel_rmse=j["rmse"] / ref_mean,
+                                 mean_bias=test_mean / ref_mean - 1.0))
+                print(f"{scene} {method} {spp} spp: {secs:.1f} s, relative RMSE {rows[-1]['rel_rmse']:.4f}, "
+                      f"mean {rows[-1]['mean_bias']:+.4f}", flush=True)
+                if rows[-1]["rel_rmse"] <= args.target:
+                    break
+                spp *= 2
+            smooth = compare(args, ref, exr, crop, smooth=1)
+            t = time_to(rows, args.target)
+            results.append(dict(scene=scene, method=method, spp=rows[-1]["spp"], seconds=rows[-1]["seconds"],
+                                rel_rmse=rows[-1]["rel_rmse"], seconds_to_target=t,
+                                mean_bias=rows[-1]["mean_bias"], smoothed_pixel_bias=smooth["rms_relative"]))
+    with open(os.path.join(args.out, "face.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(results[0]))
+        w.writeheader()
+        w.writerows(results)
+    lines = [f"| scene | method | seconds to {args.target:.0%} relative RMSE | last run: spp, seconds, relative RMSE "
+             "| mean bias | smoothed pixel bias |", "| --- | --- | --- | --- | --- | --- |"]
+    for r in results:
+        t = f"{r['seconds_to_target']:.1f}" if r["seconds_to_target"] is not None else f"not reached by {r['spp']} spp"
+        name = r["method"] if r["method"] == "walk" else f"auto --tolerance {args.tolerance:g}"
+        lines.append(f"| {r['scene']} | {name} | {t} | {r['spp']}, {r['seconds']:.1f}, {r['rel_rmse']:.4f} "
+                     f"| {r['mean_bias']:+.2%} | {r['smoothed_pixel_bias']:.2%} |")
+    with open(os.path.join(args.out, "face.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
