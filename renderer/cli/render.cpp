@@ -134,14 +134,22 @@ RenderLog render_log() {
   return log;
 }
 
+// The samples per pixel the image holds: --spp, or with adaptive sampling or a time limit their
+// mean over the pixels (the next summary line gives the least and the most).
+static std::string spp_taken(const RenderResult& r, const RenderSettings& settings) {
+  if (r.stats.pixel_samples.empty()) return std::to_string(settings.spp);
+  return string_printf("mean %.1f", mean_spp(r.stats, settings));
+}
+
 void print_render_summary(const RenderRequest& request, const RenderResult& r) {
   const RenderSettings& settings = request.settings;
   const RayCounters& rays = r.stats.rays;
   const double s = std::max(r.seconds, 1e-9);
   std::printf(
-      "lamina render: %s -> %s: %dx%d, %d spp, %.2f s; rays: %.3g closest-hit (%.3g camera) = %.3g/s, %.3g shadow = "
+      "lamina render: %s -> %s: %dx%d, %s spp, %.2f s; rays: %.3g closest-hit (%.3g camera) = %.3g/s, %.3g shadow = "
       "%.3g/s; peak memory %.0f MB\n",
-      request.scene_path.c_str(), request.out_path.c_str(), settings.width, settings.height, settings.spp, r.seconds,
+      request.scene_path.c_str(), request.out_path.c_str(), settings.width, settings.height, spp_taken(r, settings).c_str(),
+      r.seconds,
       static_cast<double>(rays.closest), static_cast<double>(rays.camera), rays.closest / s,
       static_cast<double>(rays.shadow), rays.shadow / s, peak_memory_bytes() / 1048576.0);
   if (r.layered_materials > 0)

@@ -1,0 +1,65 @@
+// The conventions a user expects of `lamina render` and `lamina --version` (docs/rendering.md,
+// docs/outputs.md): progress and summaries that tell the truth, outputs chosen by their name,
+// the version naming the build.
+#include <cstdlib>
+#include <filesystem>
+#include <regex>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "renderer/image/image_io.h"
+#include "tests/renderer/cli/cli_runner.h"
+#include "tests/renderer/gltf_fixture.h"
+
+namespace lamina {
+namespace {
+
+using testing::GltfBuilder;
+using testing::TempDir;
+using Result = test::CliResult;
+
+Result run(const TempDir& dir, const std::string& args) { return test::run_lamina(dir.path, args); }
+
+void write_quad(const std::string& path) {
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.write_gltf(path);
+}
+
+// Seconds of a duration as Progress prints it: "4.2s", "3m02s", "1h05m".
+double seconds_of(const std::string& text) {
+  std::smatch m;
+  if (std::regex_match(text, m, std::regex(R"(([0-9.]+)s)"))) return std::stod(m[1]);
+  if (std::regex_match(text, m, std::regex(R"(([0-9]+)m([0-9]+)s)"))) return 60.0 * std::stod(m[1]) + std::stod(m[2]);
+  if (std::regex_match(text, m, std::regex(R"(([0-9]+)h([0-9]+)m)"))) return 3600.0 * std::stod(m[1]) + 60.0 * std::stod(m[2]);
+  ADD_FAILURE() << "not a duration: " << text;
+  return 0.0;
+}
+
+// A render under --time-limit whose --spp alone would take hours: every progress line's
+// elapsed time plus its ETA stays within the limit (plus the time to finish the tiles in
+// flight), and the summary gives the samples taken, not the --spp ceiling. The log prints a line
+// every 5 s, so the limit is a little above that.
+TEST(ConventionsCli, TimeLimitedProgressAndSummaryTellTheTruth) {
+  TempDir dir("conv-eta");
+  write_quad(dir / "quad.gltf");
+  constexpr double kLimit = 5.5;
+  const Result r = run(dir, "render " + dir / "quad.gltf" + " -o " + dir / "q.exr" +
+                                " --width 8 --height 8 --spp 1048576 --env 1 --threads 1 --time-limit 5.5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::regex line(R"(render: [0-9.]+% \(([0-9.hms]+) elapsed, ETA ([0-9.hms?]+)\))");
+  int lines = 0;
+  for (std::sregex_iterator it(r.err.begin(), r.err.end(), line), end; it != end; ++it, ++lines) {
+    const double elapsed = seconds_of((*it)[1]), eta = seconds_of((*it)[2]);
+    EXPECT_LE(eta, kLimit) << it->str();
+    EXPECT_LE(elapsed + eta, kLimit + 0.2) << it->str();  // the print rounds to 0.1 s
+  }
+  EXPECT_GE(lines, 1) << r.err;
+  EXPECT_EQ(r.out.find("1048576 spp"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(8x8, mean [0-9.]+ spp)"))) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(samples per pixel: mean [0-9.]+ \(min [0-9]+, max [0-9]+\))"))) << r.out;
+}
+
+}  // namespace
+}  // namespace lamina
