@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
+#include "renderer/util/version.h"
 #include "tests/renderer/cli/cli_runner.h"
 #include "tests/renderer/gltf_fixture.h"
 
@@ -59,6 +60,30 @@ TEST(ConventionsCli, TimeLimitedProgressAndSummaryTellTheTruth) {
   EXPECT_EQ(r.out.find("1048576 spp"), std::string::npos) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(8x8, mean [0-9.]+ spp)"))) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(samples per pixel: mean [0-9.]+ \(min [0-9]+, max [0-9]+\))"))) << r.out;
+}
+
+// `lamina --version` names the release and the commit (git describe of the sources, when they
+// are a git checkout: then the commit exists in it), while every hash takes the release alone.
+TEST(ConventionsCli, VersionNamesTheCommitButHashesTakeTheReleaseOnly) {
+  TempDir dir("conv-version");
+  const Result r = run(dir, "--version");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_match(r.out, m, std::regex(R"(lamina ([0-9]+\.[0-9]+\.[0-9]+) \(commit ([^ )]+)\)\n)"))) << r.out;
+  EXPECT_EQ(m[1].str(), lamina_version());
+  EXPECT_EQ(m[2].str(), lamina_commit());
+  EXPECT_TRUE(std::regex_match(std::string(lamina_version()), std::regex(R"([0-9]+\.[0-9]+\.[0-9]+)")));
+  const std::string source = LAMINA_SOURCE_DIR;
+  const bool git = std::system(("git -C '" + source + "' rev-parse --show-toplevel >/dev/null 2>&1").c_str()) == 0;
+  if (!git) {
+    EXPECT_EQ(m[2].str(), "unknown");
+    return;
+  }
+  // describe gives TAG-N-gHASH, or HASH without tags, with -dirty for uncommitted changes.
+  std::string commit = std::regex_replace(m[2].str(), std::regex("-dirty$"), "");
+  commit = std::regex_replace(commit, std::regex("^.*-g([0-9a-f]+)$"), "$1");
+  EXPECT_EQ(std::system(("git -C '" + source + "' cat-file -e '" + commit + "^{commit}' 2>/dev/null").c_str()), 0)
+      << commit << " is not a commit of " << source;
 }
 
 }  // namespace
