@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -119,6 +120,17 @@ void add_walk_options(CLI::App& app, RandomWalkOptions* walk, std::vector<std::s
   }
 }
 
+// -o chooses the format by its extension, and the render writes OpenEXR only: a .png (or any
+// other) name would hold an EXR under the wrong name, so it is refused, and the display PNG has
+// its own option.
+void check_out_extension(const std::string& out_path) {
+  std::string ext = std::filesystem::path(out_path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext == ".exr") return;
+  throw UsageError("--out '" + out_path + "': " + (ext.empty() ? "no extension" : "'" + ext + "' is not written") +
+                   "; lamina render writes OpenEXR (.exr), and a display PNG beside it with --png FILE.png");
+}
+
 std::string join_command_line(int argc, char** argv) {
   std::string s = "lamina";
   for (int i = 0; i < argc; ++i) s += std::string(" ") + argv[i];
@@ -194,7 +206,7 @@ int run_render(int argc, char** argv) {
   SubsurfaceChoice choice;
   double tolerance = 0.0;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
-  app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
+  app.add_option("-o,--out", out_path, "output EXR, named .exr (default: the scene's name with .exr, here)");
   app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str()->check(cli::integer(1, kMaxSpp));
   app.add_option("--width", settings.width, "image width in pixels")
       ->capture_default_str()
@@ -316,6 +328,7 @@ int run_render(int argc, char** argv) {
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     cli::check_output_paths({{"--out", out_path}, {"--png", png_path}});
+    check_out_extension(out_path);
     if (!cache_dir.empty()) {
       try {
         WalkCache check(cache_dir);  // created and writable, or a usage error now

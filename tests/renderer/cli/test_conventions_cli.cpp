@@ -1,11 +1,14 @@
 // The conventions a user expects of `lamina render` and `lamina --version` (docs/rendering.md,
 // docs/outputs.md): progress and summaries that tell the truth, outputs chosen by their name,
 // the version naming the build.
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <regex>
 #include <string>
 
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
@@ -60,6 +63,38 @@ TEST(ConventionsCli, TimeLimitedProgressAndSummaryTellTheTruth) {
   EXPECT_EQ(r.out.find("1048576 spp"), std::string::npos) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(8x8, mean [0-9.]+ spp)"))) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(samples per pixel: mean [0-9.]+ \(min [0-9]+, max [0-9]+\))"))) << r.out;
+}
+
+// The EXR says its colour space in the standard attribute: linear Rec. 709 primaries, D65 white.
+TEST(ConventionsCli, ExrCarriesRec709Chromaticities) {
+  TempDir dir("conv-chroma");
+  write_quad(dir / "quad.gltf");
+  const Result r = run(dir, "render " + dir / "quad.gltf" + " -o " + dir / "q.exr" + " --width 4 --height 4 --spp 1 --env 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  Imf::InputFile file((dir / "q.exr").c_str());
+  ASSERT_TRUE(Imf::hasChromaticities(file.header()));
+  const Imf::Chromaticities& c = Imf::chromaticities(file.header());
+  EXPECT_EQ(c.red, Imath::V2f(0.64f, 0.33f));
+  EXPECT_EQ(c.green, Imath::V2f(0.30f, 0.60f));
+  EXPECT_EQ(c.blue, Imath::V2f(0.15f, 0.06f));
+  EXPECT_EQ(c.white, Imath::V2f(0.3127f, 0.3290f));
+}
+
+// -o's extension chooses the format; the render writes OpenEXR, so any other name is refused
+// with one line naming the argument (and nothing is written), before the scene is read.
+TEST(ConventionsCli, OutputExtensionOtherThanExrIsRefused) {
+  TempDir dir("conv-ext");
+  write_quad(dir / "quad.gltf");
+  for (const std::string name : {"q.png", "q.tif", "q", "q.exr.txt"}) {
+    const Result r = run(dir, "render " + dir / "quad.gltf" + " -o " + dir / name + " --width 4 --height 4 --spp 1");
+    EXPECT_EQ(r.exit_code, 2) << name;
+    EXPECT_NE(r.err.find("--out '" + dir / name + "'"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--png"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+  }
+  const Result upper = run(dir, "render " + dir / "quad.gltf" + " -o " + dir / "Q.EXR" + " --width 4 --height 4 --spp 1");
+  EXPECT_EQ(upper.exit_code, 0) << upper.err;
 }
 
 // `lamina --version` names the release and the commit (git describe of the sources, when they
