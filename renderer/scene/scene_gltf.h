@@ -41,9 +41,12 @@ struct SceneError : std::runtime_error {
 // KHR_texture_transform of one textureInfo: uv' = T(offset) R(rotation) S(scale) uv, with the
 // ratified extension's matrices (KHR_texture_transform README, "Overview"):
 //   u' = offset.x + cos(r) scale.x u - sin(r) scale.y v,  v' = offset.y + sin(r) scale.x u + cos(r) scale.y v.
+// `set` is the TEXCOORD_n the slot reads (textureInfo.texCoord, or the extension's texCoord
+// override): 0 or 1 (Mesh::texcoord_set).
 struct UvTransform {
   double a = 1.0, b = 0.0, c = 0.0;  // u' = a u + b v + c
   double d = 0.0, e = 1.0, f = 0.0;  // v' = d u + e v + f
+  int set = 0;
   glm::dvec2 apply(glm::dvec2 uv) const { return {a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f}; }
   static UvTransform from(double offset_u, double offset_v, double rotation, double scale_u, double scale_v);
 };
@@ -125,7 +128,10 @@ struct Mesh {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;    // one per position, unit length; empty: flat shading
                                      // (glTF: "calculate flat normals" when NORMAL is absent)
-  std::vector<glm::vec2> texcoords;  // empty, or one per position
+  std::vector<glm::vec2> texcoords;  // TEXCOORD_0: empty, or one per position
+  std::vector<glm::vec2> texcoords1;  // TEXCOORD_1: empty, or one per position
+  // The texture coordinates of set 0 or 1 (UvTransform::set).
+  const std::vector<glm::vec2>& texcoord_set(int set) const { return set == 1 ? texcoords1 : texcoords; }
   std::vector<glm::vec3> colours;    // COLOR_0 (linear RGB; multiplies the base colour), or empty
   std::vector<float> colour_alphas;  // COLOR_0's alpha (a VEC4 COLOR_0 on a MASK or BLEND material), or empty
   // Tangents for the material's normal map (xyz unit, w = +-1 the bitangent's handedness:

@@ -97,6 +97,37 @@ TEST(ConventionsCli, OutputExtensionOtherThanExrIsRefused) {
   EXPECT_EQ(upper.exit_code, 0) << upper.err;
 }
 
+// A render reads an emissive texture through TEXCOORD_1 when the textureInfo says texCoord 1:
+// the quad's TEXCOORD_0 points at the texture's red half, TEXCOORD_1 at its green half, and the
+// camera sees green (before, set 0 was read whatever texCoord said).
+TEST(ConventionsCli, EmissiveTextureReadsTexCoord1) {
+  TempDir dir("conv-texcoord1");
+  Image im(2, 1);
+  im.pixel(0, 0)[0] = 1.0f;
+  im.pixel(1, 0)[1] = 1.0f;
+  write_png(dir / "tex.png", im);
+  GltfBuilder b;
+  nlohmann::json& j = b.json();
+  j["images"] = {{{"uri", "tex.png"}}};
+  j["samplers"] = {{{"wrapS", 33071}, {"wrapT", 33071}}};
+  j["textures"] = {{{"source", 0}, {"sampler", 0}}};
+  j["materials"].push_back({{"name", "glow"},
+                            {"pbrMetallicRoughness", {{"baseColorFactor", {0.0, 0.0, 0.0, 1.0}}}},
+                            {"emissiveFactor", {1.0, 1.0, 1.0}},
+                            {"emissiveTexture", {{"index", 0}, {"texCoord", 1}}}});
+  const int mesh = b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0);
+  nlohmann::json& attributes = j["meshes"][mesh]["primitives"][0]["attributes"];
+  attributes["TEXCOORD_0"] = b.add_floats({0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f}, 2);
+  attributes["TEXCOORD_1"] = b.add_floats({0.75f, 0.5f, 0.75f, 0.5f, 0.75f, 0.5f, 0.75f, 0.5f}, 2);
+  b.add_node({{"mesh", mesh}});
+  b.write_gltf(dir / "glow.gltf");
+  const Result r = run(dir, "render " + dir / "glow.gltf" + " -o " + dir / "g.exr" + " --width 8 --height 8 --spp 1 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image out = read_image(dir / "g.exr");
+  EXPECT_NEAR(out.pixel(4, 4)[0], 0.0, 1e-6);
+  EXPECT_NEAR(out.pixel(4, 4)[1], 1.0, 1e-5);
+}
+
 // `lamina --version` names the release and the commit (git describe of the sources, when they
 // are a git checkout: then the commit exists in it), while every hash takes the release alone.
 TEST(ConventionsCli, VersionNamesTheCommitButHashesTakeTheReleaseOnly) {
