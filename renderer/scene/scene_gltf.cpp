@@ -685,7 +685,7 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     l.name = gl.name;
     Spectrum colour(1.0);
     if (gl.color.size() == 3) colour = Spectrum(gl.color[0], gl.color[1], gl.color[2]);
-    l.intensity = colour * gl.intensity;
+    l.intensity = colour * gl.intensity * out_->light_scale;
     l.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
     // A light shines down its local -Z (KHR_lights_punctual); point lights have no direction.
     const auto direction = unit(m3 * glm::dvec3(0.0, 0.0, -1.0));
@@ -714,6 +714,11 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
 }
 
 void Loader::run() {
+  out_->generator = m_.asset.generator;
+  if (is_blender_generator(m_.asset.generator) && !m_.lights.empty()) {
+    out_->light_scale = 1.0 / kBlenderLumensPerWatt;
+    warn("exported by Blender (" + m_.asset.generator + "): light intensities divided by 683 lm/W, back to Blender's watts");
+  }
   static const std::set<std::string> supported = {
       "KHR_lights_punctual",        "KHR_materials_emissive_strength",    "KHR_texture_transform",
       "KHR_materials_transmission", "KHR_materials_diffuse_transmission", "KHR_materials_volume",
@@ -1024,6 +1029,10 @@ std::string light_strength_limit() {
   char text[64];
   std::snprintf(text, sizeof text, "%g (the image is float radiance, at most 3.4e38)", kMaxLightStrength);
   return text;
+}
+
+bool is_blender_generator(const std::string& generator) {
+  return generator.rfind("Khronos glTF Blender I/O", 0) == 0;
 }
 
 }  // namespace lamina

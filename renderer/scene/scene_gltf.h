@@ -7,6 +7,13 @@
 // light) with no 683 lm/W factor: a point light of intensity I puts irradiance I cos/d^2 on a
 // surface. Emissive materials give radiance emissiveFactor x KHR_materials_emissive_strength x
 // emissiveTexture (W/(m^2 sr), the same arbitrary unit).
+// Blender's exporter writes a point or spot light of P watts as intensity P / (4 pi) x 683 "cd"
+// and a sun of S W/m^2 as 683 S "lux" (its default lighting mode, "Standard":
+// io_scene_gltf2/blender/exp/lights.py, PBR_WATTS_TO_LUMENS = 683 in blender/com/conversion.py).
+// Read as W/sr and W/m^2 that is 683 times Blender's own light, so for files whose
+// asset.generator names Blender's exporter the loader divides punctual intensities by 683: a
+// P-watt Blender point light becomes P / (4 pi) W/sr, its radiant intensity (docs/rendering.md,
+// "Lights and units").
 #pragma once
 
 #include <cstdint>
@@ -30,6 +37,10 @@ namespace lamina {
 // radiance (at most 3.4e38); a source finite as a double but beyond this would write Inf, and
 // the margin of 1e18 leaves room for the inverse square of a light near a surface.
 constexpr double kMaxLightStrength = 1e20;
+// Blender's lumens per watt (PBR_WATTS_TO_LUMENS), divided out of its exported lights.
+constexpr double kBlenderLumensPerWatt = 683.0;
+// True for an asset.generator of Blender's glTF exporter ("Khronos glTF Blender I/O vX.Y.Z").
+bool is_blender_generator(const std::string& generator);
 // The limit as every message gives it: "1e+20 (the image is float radiance, at most 3.4e38)".
 std::string light_strength_limit();
 
@@ -183,6 +194,10 @@ struct SceneDesc {
   std::uint64_t triangles = 0;
   std::uint64_t degenerate_triangles = 0;  // skipped
   std::vector<std::string> warnings;       // each once
+  // asset.generator, and the factor applied to every punctual light's intensity (1, or
+  // 1 / kBlenderLumensPerWatt for Blender's exporter).
+  std::string generator;
+  double light_scale = 1.0;
 
   const Material& material(int index) const;
   void compute_bounds();

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "materials/base/sampling.h"
 #include "renderer/image/image_io.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
@@ -137,6 +138,34 @@ TEST(GltfAsAuthored, UnsupportedMaterialExtensionsWarnOncePerMaterial) {
   EXPECT_EQ(count_warnings(desc, "material 'car paint'", "KHR_materials_clearcoat"), 1);
   EXPECT_EQ(count_warnings(desc, "KHR_materials_ior"), 0);
   EXPECT_EQ(count_warnings(desc, "KHR_materials_sheen"), 2);  // not listed again for the file
+}
+
+// Blender's exporter writes a P-watt point light as P / (4 pi) x 683 "cd" and a sun of S W/m^2
+// as 683 S "lux" (io_scene_gltf2/blender/exp/lights.py, "Standard" lighting mode): read back
+// as W/sr and W/m^2 once its generator is recognised, with one warning; other files as written.
+TEST(GltfAsAuthored, BlenderLightsAreConvertedBackToWatts) {
+  for (const std::string generator : {"Khronos glTF Blender I/O v4.1.63", "some other exporter"}) {
+    TempDir dir("gltf-blender-lights");
+    GltfBuilder b;
+    json& j = b.json();
+    j["asset"]["generator"] = generator;
+    j["extensionsUsed"] = {"KHR_lights_punctual"};
+    const double watts = 100.0, sun = 2.0;
+    j["extensions"]["KHR_lights_punctual"]["lights"] = {
+        {{"name", "bulb"}, {"type", "point"}, {"intensity", watts / (4.0 * kPi) * 683.0}},
+        {{"name", "sun"}, {"type", "directional"}, {"intensity", sun * 683.0}}};
+    b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0})}});
+    b.add_node({{"translation", {0, 0, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    b.add_node({{"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+    b.write_gltf(dir / "l.gltf");
+    const SceneDesc s = load_gltf(dir / "l.gltf");
+    ASSERT_EQ(s.lights.size(), 2u);
+    const bool blender = generator.find("Blender") != std::string::npos;
+    const double scale = blender ? 1.0 / 683.0 : 1.0;
+    EXPECT_NEAR(s.lights[0].intensity[1], watts / (4.0 * kPi) * 683.0 * scale, 1e-9) << generator;
+    EXPECT_NEAR(s.lights[1].intensity[1], sun * 683.0 * scale, 1e-9) << generator;
+    EXPECT_EQ(count_warnings(s, "exported by Blender", "683"), blender ? 1 : 0);
+  }
 }
 
 }  // namespace
