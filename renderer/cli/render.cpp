@@ -215,6 +215,8 @@ int run_render(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::integer(1, kMaxResolution));
   app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
+  std::vector<std::string> stack_args;
+  app.add_option(kStackFlag, stack_args, kStackHelp);
   app.add_option("--materials", materials_path, "material map JSON: {\"glTF material name\": \"stack.json\", ...} (paths relative to the map)");
   app.add_option("--seed", settings.seed, "random seed")->capture_default_str()->check(cli::seed());
   app.add_option("--threads", settings.threads, "worker threads (0: all cores)")
@@ -284,6 +286,7 @@ int run_render(int argc, char** argv) {
                  "BIASED: scale down any path sample whose largest channel exceeds this radiance (fireflies); "
                  "the light removed is lost, and the count of clamped samples is printed")
       ->check(cli::real(0.0, 1e30, true, false));
+  std::vector<StackAssignment> stacks;
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
@@ -323,6 +326,12 @@ int run_render(int argc, char** argv) {
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
     if (table_method_opt->count() > 0 && !auto_mode && choice.mode != SubsurfaceMode::Table)
       throw UsageError("--table-method is only meaningful with --subsurface table or auto");
+    for (const std::string& text : stack_args) {
+      StackAssignment a;
+      std::string why;
+      if (!parse_stack_assignment(text, &a, &why)) throw UsageError(std::string(kStackFlag) + " '" + text + "': " + why);
+      stacks.push_back(a);
+    }
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
@@ -349,6 +358,7 @@ int run_render(int argc, char** argv) {
   request.tone_map = tone_map;
   request.camera_name = camera_name;
   request.materials_map_path = materials_path;
+  request.stacks = stacks;
   request.env = env_value;
   request.subsurface = choice;
   request.cache_dir = cache_dir;

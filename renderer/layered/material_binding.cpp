@@ -55,8 +55,51 @@ std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, c
 
 }  // namespace
 
+void adopt_meshes_without_material(const std::vector<StackAssignment>& stacks, SceneDesc* scene) {
+  bool all = false;
+  for (const StackAssignment& a : stacks) all |= a.all();
+  if (!all) return;
+  int slot = -1;
+  for (Mesh& mesh : scene->meshes) {
+    if (mesh.material >= 0 && mesh.material < static_cast<int>(scene->materials.size())) continue;
+    if (slot < 0) {
+      Material none = scene->material(-1);
+      none.name = kNoMaterialName;
+      scene->materials.push_back(none);
+      slot = static_cast<int>(scene->materials.size()) - 1;
+    }
+    mesh.material = slot;
+  }
+}
+
+namespace {
+
+// --stack's assignments by material ("" for all), checked against the scene's names.
+std::map<std::string, std::string> stacks_by_material(const SceneDesc& scene, const std::vector<StackAssignment>& stacks) {
+  std::map<std::string, std::string> out;
+  for (const StackAssignment& a : stacks) {
+    if (!a.all()) {
+      bool found = false;
+      std::string names;
+      for (const Material& m : scene.materials) {
+        found |= m.name == a.material;
+        if (m.name != kNoMaterialName) names += (names.empty() ? "'" : ", '") + m.name + "'";
+      }
+      if (!found)
+        throw SceneError(std::string(kStackFlag) + " '" + stack_assignment_text(a) + "': no material '" + a.material + "' in " +
+                         scene.path + " (its materials: " + (names.empty() ? "none" : names) + ")");
+    }
+    out[a.material] = a.path;
+  }
+  return out;
+}
+
+}  // namespace
+
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& map_path,
-                                       const std::vector<InlineStack>& inline_stacks) {
+                                       const std::vector<InlineStack>& inline_stacks,
+                                       const std::vector<StackAssignment>& stacks) {
+  const std::map<std::string, std::string> assigned = stacks_by_material(scene, stacks);
   LayeredBindings out;
   out.by_material.resize(scene.materials.size());
   std::map<std::string, std::shared_ptr<const LayeredMaterial>> cache;  // one material per file
@@ -120,6 +163,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
         }
       }
       out.by_material[i] = slot;
+    } else if (auto st = assigned.count(m.name) ? assigned.find(m.name) : assigned.find(""); st != assigned.end()) {
+      out.by_material[i] = load_bound(kStackFlag, m.name, st->second, st->second, &cache);
     } else if (auto it = map.find(m.name); it != map.end()) {
       const auto spec = map_specs.find(m.name);
       out.by_material[i] = load_bound(map_path, m.name, it->second, resolve_relative_to(it->second, map_path), &cache,

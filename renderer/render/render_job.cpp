@@ -87,8 +87,9 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   const RenderSettings& settings = request.settings;
   if (!request.env.empty()) out->env = EnvironmentMap::from_argument(request.env);
   SceneDesc desc = load_gltf(request.scene_path);
+  adopt_meshes_without_material(request.stacks, &desc);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
-  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks);
+  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()

@@ -12,6 +12,8 @@
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
+#include "renderer/layered/material_binding.h"
+#include "renderer/scene/scene_gltf.h"
 #include "renderer/util/version.h"
 #include "tests/renderer/cli/cli_runner.h"
 #include "tests/renderer/gltf_fixture.h"
@@ -126,6 +128,66 @@ TEST(ConventionsCli, EmissiveTextureReadsTexCoord1) {
   const Image out = read_image(dir / "g.exr");
   EXPECT_NEAR(out.pixel(4, 4)[0], 0.0, 1e-6);
   EXPECT_NEAR(out.pixel(4, 4)[1], 1.0, 1e-5);
+}
+
+// --stack: NAME=FILE wins over FILE, which wins over the map and the extras, and FILE reaches
+// meshes without a material (they get the material "(no material)"); the sources say which.
+TEST(ConventionsCli, StackAssignmentsBindByPrecedence) {
+  TempDir dir("conv-stack-bind");
+  const std::string source = LAMINA_SOURCE_DIR;
+  const std::string skin = source + "/scenes/materials/skin.json", leaf = source + "/scenes/materials/leaf.json";
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "a"}, {"extras", {{"lamina", {{"stack", leaf}}}}}});
+  b.json()["materials"].push_back({{"name", "b"}});
+  b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+  b.add_node({{"mesh", b.add_mesh({0, 0, 1, 1, 0, 1, 0, 1, 1}, {}, {}, 1)}});
+  b.add_node({{"mesh", b.add_mesh({0, 0, 2, 1, 0, 2, 0, 1, 2})}});  // no material
+  b.write_gltf(dir / "s.gltf");
+  SceneDesc desc = load_gltf(dir / "s.gltf");
+  const std::vector<StackAssignment> stacks = {{"", skin}, {"b", leaf}};
+  adopt_meshes_without_material(stacks, &desc);
+  ASSERT_EQ(desc.materials.size(), 3u);
+  EXPECT_EQ(desc.materials[2].name, kNoMaterialName);
+  EXPECT_EQ(desc.meshes[2].material, 2);
+  const LayeredBindings bound = bind_layered_materials(desc, "", {}, stacks);
+  ASSERT_EQ(bound.count(), 3);
+  EXPECT_EQ(bound.by_material[0]->source(), skin);  // FILE over the extras
+  EXPECT_EQ(bound.by_material[1]->source(), leaf);  // NAME=FILE over FILE
+  EXPECT_EQ(bound.by_material[2]->source(), skin);  // the mesh without a material
+  // Without --stack: the extras bind "a" only, and no material is added.
+  SceneDesc plain = load_gltf(dir / "s.gltf");
+  adopt_meshes_without_material({}, &plain);
+  EXPECT_EQ(plain.materials.size(), 2u);
+  EXPECT_EQ(bind_layered_materials(plain, "").count(), 1);
+}
+
+// On the command line: the header records --stack; an unknown name is one line listing the
+// scene's materials; a malformed argument is a usage error naming it.
+TEST(ConventionsCli, StackOptionRendersRecordsAndRefuses) {
+  TempDir dir("conv-stack-cli");
+  write_quad(dir / "quad.gltf");  // one mesh, no material
+  const std::string skin = std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json";
+  const Result r = run(dir, "render " + dir / "quad.gltf" + " -o " + dir / "q.exr" + " --stack " + skin +
+                                " --width 4 --height 4 --spp 1 --env 1 --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("1 material(s)"), std::string::npos) << r.out;
+  std::string recorded;
+  for (const auto& [k, v] : read_metadata(dir / "q.exr"))
+    if (k == "lamina:stack") recorded = v;
+  EXPECT_EQ(recorded, skin);
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "Skin"}});
+  b.json()["materials"].push_back({{"name", "Lips"}});
+  b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+  b.write_gltf(dir / "two.gltf");
+  const Result unknown = run(dir, "render " + dir / "two.gltf" + " -o " + dir / "u.exr" + " --stack Skn=" + skin);
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_NE(unknown.err.find("--stack 'Skn=" + skin + "': no material 'Skn'"), std::string::npos) << unknown.err;
+  EXPECT_NE(unknown.err.find("'Skin', 'Lips'"), std::string::npos) << unknown.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "u.exr"));
+  const Result bad = run(dir, "render " + dir / "two.gltf" + " -o " + dir / "u.exr" + " --stack =" + skin);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--stack '=" + skin + "'"), std::string::npos) << bad.err;
 }
 
 // `lamina --version` names the release and the commit (git describe of the sources, when they
