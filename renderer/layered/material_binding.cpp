@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "materials/stack/stack_file.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/scene/scene_gltf.h"
@@ -92,6 +93,36 @@ std::map<std::string, std::string> stacks_by_material(const SceneDesc& scene, co
     out[a.material] = a.path;
   }
   return out;
+}
+
+}  // namespace
+
+namespace {
+
+// The stack of a material's glTF extensions; with KHR_materials_volume's thicknessTexture, its
+// layer's thickness is a texture-driven parameter: the texture's G channel t gives thickness
+// t x (the thickness from thicknessFactor), so the optical depth scales with it as the
+// extension's thickness does (stack_bindings.h; docs/gltf_materials.md).
+std::shared_ptr<const LayeredMaterial> gltf_layered_material(const SceneDesc& scene, const Material& m) {
+  const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
+  LayerStack stack = gltf_stack(m, scene.path);
+  const Material::Transmissive& t = m.transmissive;
+  if (t.thickness_texture < 0 || !(t.volume && t.thickness > 0.0))
+    return std::make_shared<const LayeredMaterial>(std::move(stack), source);
+  auto templ = std::make_shared<StackTemplate>();
+  templ->stack = stack;
+  for (const Layer& layer : stack.layers) {
+    LayerDesc desc;
+    desc.components.push_back(ComponentDesc{1.0, layer.sigma_a, layer.sigma_s(), layer.lobes.empty() ? Spectrum(0.0) : layer.lobes[0].g});
+    templ->layers.push_back(desc);
+  }
+  const nlohmann::json spec = {{"bind",
+                                {{{"parameter", "layers[0].thickness"},
+                                  {"texture", t.thickness_texture},
+                                  {"channel", "g"},
+                                  {"range", {0.0, stack.layers[0].thickness}}}}}};
+  auto bindings = std::make_shared<const StackBindings>(spec, templ, scene, scene.path, m.name, scene.path);
+  return std::make_shared<const LayeredMaterial>(std::move(stack), source, std::move(bindings));
 }
 
 }  // namespace
@@ -182,8 +213,7 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
       out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
     } else if (has_gltf_stack(m)) {
       // glTF transmission, diffuse transmission, volume and IOR as a stack (gltf_stack.h).
-      const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
-      out.by_material[i] = std::make_shared<const LayeredMaterial>(gltf_stack(m, scene.path), source);
+      out.by_material[i] = gltf_layered_material(scene, m);
     }
   }
   return out;

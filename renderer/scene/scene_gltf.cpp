@@ -70,6 +70,7 @@ class Loader {
   void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, int set, Mesh* mesh);
   int texture(int gltf_texture, bool linear = false);
   void read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out);
+  void read_thickness_texture(const tinygltf::Value& volume, const std::string& material, Material::Transmissive* out);
   void warn(const std::string& w) {
     if (warned_.insert(w).second) out_->warnings.push_back(w);
   }
@@ -541,6 +542,24 @@ void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m
   }
 }
 
+// KHR_materials_volume's thicknessTexture: a textureInfo whose G channel scales thicknessFactor.
+// It is read as a texture-driven parameter, which reads TEXCOORD_0 (docs/gltf_materials.md).
+void Loader::read_thickness_texture(const tinygltf::Value& volume, const std::string& material,
+                                    Material::Transmissive* out) {
+  if (!volume.Has("thicknessTexture")) return;
+  const tinygltf::Value& info = volume.Get("thicknessTexture");
+  const std::string where = "material '" + material + "': extensions.KHR_materials_volume.thicknessTexture";
+  if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsNumber())
+    fail(path_, where + ": expected a textureInfo with an index");
+  const int index = info.Get("index").GetNumberAsInt();
+  if (index < 0 || index >= static_cast<int>(m_.textures.size()))
+    fail(path_, where + ".index: " + std::to_string(index) + " is not a texture of the file");
+  if (info.Has("texCoord") && info.Get("texCoord").IsNumber() && info.Get("texCoord").GetNumberAsInt() != 0)
+    warn(where + " reads TEXCOORD_" + std::to_string(info.Get("texCoord").GetNumberAsInt()) +
+         ": texture-driven parameters read TEXCOORD_0, which is used");
+  out->thickness_texture = index;
+}
+
 // KHR_materials_transmission, _diffuse_transmission, _volume and _ior, as written (defaults from
 // each extension's README). Values outside the ranges the extensions give are errors naming the
 // material and the key; their textures are not read (warned).
@@ -593,7 +612,7 @@ void Loader::read_transmissive(const tinygltf::Material& gm, Material::Transmiss
     out->attenuation_color = colour(it->second, it->first, "attenuationColor");
     out->attenuation_distance = number(it->second, it->first, "attenuationDistance", inf, 0.0, inf);
     if (!(out->attenuation_distance > 0.0)) bad(it->first, "attenuationDistance", "must be > 0");
-    textures_ignored(it->second, {"thicknessTexture"});
+    read_thickness_texture(it->second, gm.name, out);
   }
   if (auto it = gm.extensions.find("KHR_materials_ior"); it != gm.extensions.end()) {
     // Any finite value >= 0 loads (the extension's schema has minimum 0); a transmitting

@@ -116,6 +116,9 @@ struct Material {
     Spectrum diffuse_transmission_color{1.0};
     bool volume = false;  // KHR_materials_volume present
     double thickness = 0.0;  // thicknessFactor (0: thin-walled)
+    // thicknessTexture: its glTF texture index (-1: none); its G channel scales thicknessFactor
+    // (renderer/layered/material_binding.cpp binds it as a texture-driven layer thickness).
+    int thickness_texture = -1;
     Spectrum attenuation_color{1.0};
     double attenuation_distance = std::numeric_limits<double>::infinity();
     double ior = 1.5;  // KHR_materials_ior (glTF's default 1.5 without it)
