@@ -2,9 +2,24 @@
 # Installs the Debian packages Lamina needs, only those missing. Run as root (or with sudo).
 # Idempotent: does nothing (and needs no network) when everything is installed. Also the pinned
 # pyoidn wheel (pip), whose Open Image Denoise library `lamina denoise` loads.
+# Usage: scripts/setup.sh [--render-only] [--list]
+#   --render-only  only what building and running `lamina` needs: no test, benchmark, figure or
+#                  cluster (Slurm) packages (docs/README.md, "Installing")
+#   --list         print the missing packages, one a line, and install nothing (needs no root)
 set -euo pipefail
 
-packages=(
+render_only=0
+list_only=0
+for arg in "$@"; do
+  case $arg in
+    --render-only) render_only=1 ;;
+    --list) list_only=1 ;;
+    *) echo "setup: unknown option '$arg' (expected --render-only, --list)" >&2; exit 2 ;;
+  esac
+done
+
+# What building and running lamina needs.
+render_packages=(
   build-essential cmake ninja-build pkg-config
   libembree-dev            # Embree 3: ray tracing kernels
   libopenexr-dev           # EXR reading and writing
@@ -18,15 +33,26 @@ packages=(
   libcli11-dev             # command-line parsing
   libglm-dev libtbb-dev
   libnlopt-dev             # lamina fit's optimiser (materials/fit/stack_fit)
+  python3 python3-pip      # finds and installs Open Image Denoise (below) for lamina denoise
+)
+# The rest: tests, benchmarks, figures, the local Slurm cluster of the batch tests.
+other_packages=(
   libgtest-dev libbenchmark-dev
-  python3 python3-pip python3-numpy python3-matplotlib  # figures and reports only, never the render path
+  python3-numpy python3-matplotlib  # figures and reports only, never the render path
   slurm-wlm munge          # a private local Slurm cluster for scripts/batch_slurm.sh's test (scripts/lib/local_slurm.sh)
 )
+
+packages=("${render_packages[@]}")
+if [ "$render_only" -eq 0 ]; then packages+=("${other_packages[@]}"); fi
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+if [ "$list_only" -eq 1 ]; then
+  if [ ${#missing[@]} -gt 0 ]; then printf '%s\n' "${missing[@]}"; fi
+  exit 0
+fi
 if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${missing[*]}"
   SUDO=""

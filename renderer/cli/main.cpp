@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   }
   if (command == "brdf") return run_brdf(argc - 1, argv + 1);
   if (command == "--version") {
-    std::printf("lamina %s\n", lamina::lamina_version());
+    std::printf("lamina %s (commit %s)\n", lamina::lamina_version(), lamina::lamina_commit());
     return 0;
   }
   // One line per command: it sees argv[1..] (its own name as argv[0]).

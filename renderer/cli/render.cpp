@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -119,6 +120,17 @@ void add_walk_options(CLI::App& app, RandomWalkOptions* walk, std::vector<std::s
   }
 }
 
+// -o chooses the format by its extension, and the render writes OpenEXR only: a .png (or any
+// other) name would hold an EXR under the wrong name, so it is refused, and the display PNG has
+// its own option.
+void check_out_extension(const std::string& out_path) {
+  std::string ext = std::filesystem::path(out_path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext == ".exr") return;
+  throw UsageError("--out '" + out_path + "': " + (ext.empty() ? "no extension" : "'" + ext + "' is not written") +
+                   "; lamina render writes OpenEXR (.exr), and a display PNG beside it with --png FILE.png");
+}
+
 std::string join_command_line(int argc, char** argv) {
   std::string s = "lamina";
   for (int i = 0; i < argc; ++i) s += std::string(" ") + argv[i];
@@ -134,14 +146,22 @@ RenderLog render_log() {
   return log;
 }
 
+// The samples per pixel the image holds: --spp, or with adaptive sampling or a time limit their
+// mean over the pixels (the next summary line gives the least and the most).
+static std::string spp_taken(const RenderResult& r, const RenderSettings& settings) {
+  if (r.stats.pixel_samples.empty()) return std::to_string(settings.spp);
+  return string_printf("mean %.1f", mean_spp(r.stats, settings));
+}
+
 void print_render_summary(const RenderRequest& request, const RenderResult& r) {
   const RenderSettings& settings = request.settings;
   const RayCounters& rays = r.stats.rays;
   const double s = std::max(r.seconds, 1e-9);
   std::printf(
-      "lamina render: %s -> %s: %dx%d, %d spp, %.2f s; rays: %.3g closest-hit (%.3g camera) = %.3g/s, %.3g shadow = "
+      "lamina render: %s -> %s: %dx%d, %s spp, %.2f s; rays: %.3g closest-hit (%.3g camera) = %.3g/s, %.3g shadow = "
       "%.3g/s; peak memory %.0f MB\n",
-      request.scene_path.c_str(), request.out_path.c_str(), settings.width, settings.height, settings.spp, r.seconds,
+      request.scene_path.c_str(), request.out_path.c_str(), settings.width, settings.height, spp_taken(r, settings).c_str(),
+      r.seconds,
       static_cast<double>(rays.closest), static_cast<double>(rays.camera), rays.closest / s,
       static_cast<double>(rays.shadow), rays.shadow / s, peak_memory_bytes() / 1048576.0);
   if (r.layered_materials > 0)
@@ -186,7 +206,7 @@ int run_render(int argc, char** argv) {
   SubsurfaceChoice choice;
   double tolerance = 0.0;
   app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb)")->required();
-  app.add_option("-o,--out", out_path, "output EXR (default: the scene's name with .exr, here)");
+  app.add_option("-o,--out", out_path, "output EXR, named .exr (default: the scene's name with .exr, here)");
   app.add_option("--spp", settings.spp, "samples per pixel")->capture_default_str()->check(cli::integer(1, kMaxSpp));
   app.add_option("--width", settings.width, "image width in pixels")
       ->capture_default_str()
@@ -195,6 +215,8 @@ int run_render(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::integer(1, kMaxResolution));
   app.add_option("--camera", camera_name, "camera name (default: the first; none: one framing the scene)");
+  std::vector<std::string> stack_args;
+  app.add_option(kStackFlag, stack_args, kStackHelp);
   app.add_option("--materials", materials_path, "material map JSON: {\"glTF material name\": \"stack.json\", ...} (paths relative to the map)");
   app.add_option("--seed", settings.seed, "random seed")->capture_default_str()->check(cli::seed());
   app.add_option("--threads", settings.threads, "worker threads (0: all cores)")
@@ -264,6 +286,7 @@ int run_render(int argc, char** argv) {
                  "BIASED: scale down any path sample whose largest channel exceeds this radiance (fireflies); "
                  "the light removed is lost, and the count of clamped samples is printed")
       ->check(cli::real(0.0, 1e30, true, false));
+  std::vector<StackAssignment> stacks;
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
@@ -303,11 +326,18 @@ int run_render(int argc, char** argv) {
     if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
     if (table_method_opt->count() > 0 && !auto_mode && choice.mode != SubsurfaceMode::Table)
       throw UsageError("--table-method is only meaningful with --subsurface table or auto");
+    for (const std::string& text : stack_args) {
+      StackAssignment a;
+      std::string why;
+      if (!parse_stack_assignment(text, &a, &why)) throw UsageError(std::string(kStackFlag) + " '" + text + "': " + why);
+      stacks.push_back(a);
+    }
     for (const std::string& kv : extra_meta)
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     cli::check_output_paths({{"--out", out_path}, {"--png", png_path}});
+    check_out_extension(out_path);
     if (!cache_dir.empty()) {
       try {
         WalkCache check(cache_dir);  // created and writable, or a usage error now
@@ -328,6 +358,7 @@ int run_render(int argc, char** argv) {
   request.tone_map = tone_map;
   request.camera_name = camera_name;
   request.materials_map_path = materials_path;
+  request.stacks = stacks;
   request.env = env_value;
   request.subsurface = choice;
   request.cache_dir = cache_dir;

@@ -25,6 +25,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <png.h>
 // stb_image compiled here, static to this file: the formats Lamina reads and no others (TGA has no
@@ -410,6 +411,10 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
   write_atomically(path, [&](const std::string& tmp) {
     Imf::Header header(display, data, 1.0f, Imath::V2f(0.0f, 0.0f), 1.0f, Imf::INCREASING_Y, Imf::ZIP_COMPRESSION);
     for (const auto& [key, value] : metadata) header.insert(key, Imf::StringAttribute(value));
+    // The pixels are linear Rec. 709 (sRGB primaries) with a D65 white (docs/contracts.md,
+    // "Colour"): said in the standard attribute, which viewers and compositors read.
+    Imf::addChromaticities(header, Imf::Chromaticities(Imath::V2f(0.64f, 0.33f), Imath::V2f(0.30f, 0.60f),
+                                                       Imath::V2f(0.15f, 0.06f), Imath::V2f(0.3127f, 0.3290f)));
     Imf::FrameBuffer frame;
     const std::size_t row = sizeof(float) * 3 * static_cast<std::size_t>(image.width);
     for (int c = 0; c < 3; ++c) {

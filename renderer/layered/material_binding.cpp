@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "materials/stack/stack_file.h"
+#include "materials/stack/stack_parameters.h"
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/scene/scene_gltf.h"
@@ -55,8 +56,81 @@ std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, c
 
 }  // namespace
 
+void adopt_meshes_without_material(const std::vector<StackAssignment>& stacks, SceneDesc* scene) {
+  bool all = false;
+  for (const StackAssignment& a : stacks) all |= a.all();
+  if (!all) return;
+  int slot = -1;
+  for (Mesh& mesh : scene->meshes) {
+    if (mesh.material >= 0 && mesh.material < static_cast<int>(scene->materials.size())) continue;
+    if (slot < 0) {
+      Material none = scene->material(-1);
+      none.name = kNoMaterialName;
+      scene->materials.push_back(none);
+      slot = static_cast<int>(scene->materials.size()) - 1;
+    }
+    mesh.material = slot;
+  }
+}
+
+namespace {
+
+// --stack's assignments by material ("" for all), checked against the scene's names.
+std::map<std::string, std::string> stacks_by_material(const SceneDesc& scene, const std::vector<StackAssignment>& stacks) {
+  std::map<std::string, std::string> out;
+  for (const StackAssignment& a : stacks) {
+    if (!a.all()) {
+      bool found = false;
+      std::string names;
+      for (const Material& m : scene.materials) {
+        found |= m.name == a.material;
+        if (m.name != kNoMaterialName) names += (names.empty() ? "'" : ", '") + m.name + "'";
+      }
+      if (!found)
+        throw SceneError(std::string(kStackFlag) + " '" + stack_assignment_text(a) + "': no material '" + a.material + "' in " +
+                         scene.path + " (its materials: " + (names.empty() ? "none" : names) + ")");
+    }
+    out[a.material] = a.path;
+  }
+  return out;
+}
+
+}  // namespace
+
+namespace {
+
+// The stack of a material's glTF extensions; with KHR_materials_volume's thicknessTexture, its
+// layer's thickness is a texture-driven parameter: the texture's G channel t gives thickness
+// t x (the thickness from thicknessFactor), so the optical depth scales with it as the
+// extension's thickness does (stack_bindings.h; docs/gltf_materials.md).
+std::shared_ptr<const LayeredMaterial> gltf_layered_material(const SceneDesc& scene, const Material& m) {
+  const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
+  LayerStack stack = gltf_stack(m, scene.path);
+  const Material::Transmissive& t = m.transmissive;
+  if (t.thickness_texture < 0 || !(t.volume && t.thickness > 0.0))
+    return std::make_shared<const LayeredMaterial>(std::move(stack), source);
+  auto templ = std::make_shared<StackTemplate>();
+  templ->stack = stack;
+  for (const Layer& layer : stack.layers) {
+    LayerDesc desc;
+    desc.components.push_back(ComponentDesc{1.0, layer.sigma_a, layer.sigma_s(), layer.lobes.empty() ? Spectrum(0.0) : layer.lobes[0].g});
+    templ->layers.push_back(desc);
+  }
+  const nlohmann::json spec = {{"bind",
+                                {{{"parameter", "layers[0].thickness"},
+                                  {"texture", t.thickness_texture},
+                                  {"channel", "g"},
+                                  {"range", {0.0, stack.layers[0].thickness}}}}}};
+  auto bindings = std::make_shared<const StackBindings>(spec, templ, scene, scene.path, m.name, scene.path);
+  return std::make_shared<const LayeredMaterial>(std::move(stack), source, std::move(bindings));
+}
+
+}  // namespace
+
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& map_path,
-                                       const std::vector<InlineStack>& inline_stacks) {
+                                       const std::vector<InlineStack>& inline_stacks,
+                                       const std::vector<StackAssignment>& stacks) {
+  const std::map<std::string, std::string> assigned = stacks_by_material(scene, stacks);
   LayeredBindings out;
   out.by_material.resize(scene.materials.size());
   std::map<std::string, std::shared_ptr<const LayeredMaterial>> cache;  // one material per file
@@ -120,6 +194,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
         }
       }
       out.by_material[i] = slot;
+    } else if (auto st = assigned.count(m.name) ? assigned.find(m.name) : assigned.find(""); st != assigned.end()) {
+      out.by_material[i] = load_bound(kStackFlag, m.name, st->second, st->second, &cache);
     } else if (auto it = map.find(m.name); it != map.end()) {
       const auto spec = map_specs.find(m.name);
       out.by_material[i] = load_bound(map_path, m.name, it->second, resolve_relative_to(it->second, map_path), &cache,
@@ -137,8 +213,7 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
       out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
     } else if (has_gltf_stack(m)) {
       // glTF transmission, diffuse transmission, volume and IOR as a stack (gltf_stack.h).
-      const std::string source = scene.path + "#" + m.name + " (glTF extensions)";
-      out.by_material[i] = std::make_shared<const LayeredMaterial>(gltf_stack(m, scene.path), source);
+      out.by_material[i] = gltf_layered_material(scene, m);
     }
   }
   return out;

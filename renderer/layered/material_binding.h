@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "renderer/layered/layered_material.h"
+#include "renderer/layered/stack_assignment.h"
 
 namespace lamina {
 
@@ -31,7 +32,14 @@ struct InlineStack {
 // StackFileError message of a bad stack file.
 // `inline_stacks` win over the map and the extras; a name that is no material of the scene is an
 // error, as in the map.
+// `stacks` (--stack, stack_assignment.h) win over the map and the extras (named ones over the
+// one for all); a name that is no material of the scene is an error listing the scene's names.
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path,
-                                       const std::vector<InlineStack>& inline_stacks = {});
+                                       const std::vector<InlineStack>& inline_stacks = {},
+                                       const std::vector<StackAssignment>& stacks = {});
+
+// With a --stack for every material: the meshes without a material get one, kNoMaterialName (the
+// default material's Lambert 0.8 until the stack replaces it), so the stack reaches them too.
+void adopt_meshes_without_material(const std::vector<StackAssignment>& stacks, SceneDesc* scene);
 
 }  // namespace lamina

@@ -22,7 +22,7 @@ bool shading_geometry(const SceneDesc& desc, const SurfaceHit& hit, const Materi
                       ShadingGeometry* g) {
   glm::dvec3 ng = hit.ng, ns = hit.ns;
   if (mat.normal_texture >= 0 && hit.tangent != glm::dvec4(0.0))
-    ns = normal_mapped(hit, desc.textures[mat.normal_texture], mat.normal_scale, mat.normal_uv.apply(hit.uv));
+    ns = normal_mapped(hit, desc.textures[mat.normal_texture], mat.normal_scale, texture_uv(mat.normal_uv, hit));
   const bool back_side = glm::dot(ng, wo_world) < 0.0;
   if (back_side) {
     ng = -ng;
@@ -41,12 +41,12 @@ bool shading_geometry(const SceneDesc& desc, const SurfaceHit& hit, const Materi
 // the metallicRoughnessTexture's B (metalness) and G (roughness) multiplied in.
 const Surface& plain_surface(const SceneDesc& desc, const SurfaceHit& hit, const Material& mat, SurfaceStorage& storage) {
   Spectrum albedo = mat.base_color;
-  if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(mat.base_color_uv.apply(hit.uv));
+  if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(texture_uv(mat.base_color_uv, hit));
   albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
   if (!mat.metallic_roughness) return storage.emplace<LambertSurface>(albedo);
   double metallic = mat.metallic, roughness = mat.roughness;
   if (mat.metallic_roughness_texture >= 0) {
-    const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(mat.metallic_roughness_uv.apply(hit.uv));
+    const Spectrum t = desc.textures[mat.metallic_roughness_texture].lookup(texture_uv(mat.metallic_roughness_uv, hit));
     roughness *= t[1];
     metallic *= t[2];
   }

@@ -96,6 +96,14 @@ struct Tiled {
   std::size_t pixels() const { return static_cast<std::size_t>(width()) * (r.y1 - r.y0); }
 };
 
+}  // namespace
+
+int first_round_samples(const RenderSettings& s) {
+  return s.noise_threshold > 0.0 ? std::clamp(s.pilot_spp, 1, s.spp) : std::min(kRoundSamples, s.spp);
+}
+
+namespace {
+
 // Renders the samples of one render_image call into the image and its AOVs.
 class Film {
  public:
@@ -286,7 +294,7 @@ std::uint32_t Film::planned_samples(int x, int y, const Tiled& piloted, const st
 // The adaptive pilot pass (its samples stay in *sums) and each pixel's plan; returns the
 // samples per pixel the pilot rendered.
 int Film::plan_adaptive(std::vector<PixelSums>* sums, std::vector<std::uint32_t>* planned, double* converged) {
-  const int pilot = std::clamp(s_.pilot_spp, 1, s_.spp);
+  const int pilot = first_round_samples(s_);
   // The region and a one-pixel margin (the neighbours of its edge pixels).
   const Tiled piloted(PixelRegion{std::max(out_.r.x0 - 1, 0), std::max(out_.r.y0 - 1, 0), std::min(out_.r.x1 + 1, s_.width),
                                   std::min(out_.r.y1 + 1, s_.height)}, workers_);

@@ -108,6 +108,10 @@ Image render_image(const Scene& scene, const LightSet& lights, const Camera& cam
 Image render_image(const Scene& scene, const LightSet& lights, const Camera& camera, const RenderSettings& settings,
                    RenderStats* stats, const RenderProgress& progress, RenderAovs* aovs = nullptr);
 
+// The samples per pixel a render takes whatever its time limit: the first round (or the
+// adaptive pilot), which always completes.
+int first_round_samples(const RenderSettings& settings);
+
 // A film offset in [-1, 1]^2 distributed as the tent filter of radius 1 pixel, so each
 // sample has weight 1 (filter importance sampling, pbrt-v4 8.8.1).
 glm::dvec2 sample_tent_filter(glm::dvec2 u);

@@ -79,6 +79,7 @@ class TriangleLight final : public Light {
     for (int k = 0; k < 3; ++k) {
       p_[k] = glm::dvec3(m.positions[t[k]]);
       if (!m.texcoords.empty()) uv_[k] = glm::dvec2(m.texcoords[t[k]]);
+      if (!m.texcoords1.empty()) uv1_[k] = glm::dvec2(m.texcoords1[t[k]]);
     }
     const glm::dvec3 c = glm::cross(p_[1] - p_[0], p_[2] - p_[0]);
     area_ = 0.5 * glm::length(c);
@@ -95,6 +96,7 @@ class TriangleLight final : public Light {
     h.p = b0 * p_[0] + b1 * p_[1] + b2 * p_[2];
     h.ng = n_;
     h.uv = b0 * uv_[0] + b1 * uv_[1] + b2 * uv_[2];
+    h.uv1 = b0 * uv1_[0] + b1 * uv1_[1] + b2 * uv1_[2];
     h.mesh = mesh_;
     h.triangle = triangle_;
     const glm::dvec3 v = h.p - p;
@@ -125,7 +127,7 @@ class TriangleLight final : public Light {
   const Scene& scene_;
   int mesh_, triangle_;
   glm::dvec3 p_[3];
-  glm::dvec2 uv_[3]{};
+  glm::dvec2 uv_[3]{}, uv1_[3]{};
   glm::dvec3 n_;
   double area_ = 0.0;
   bool two_sided_ = false;
@@ -172,7 +174,7 @@ Spectrum emitted_radiance(const Scene& scene, const SurfaceHit& hit, const glm::
   if (mat.emission.is_black()) return Spectrum(0.0);
   if (!mat.double_sided && glm::dot(hit.ng, w) <= 0.0) return Spectrum(0.0);
   Spectrum le = mat.emission;
-  if (mat.emissive_texture >= 0) le *= d.textures[mat.emissive_texture].lookup(mat.emissive_uv.apply(hit.uv));
+  if (mat.emissive_texture >= 0) le *= d.textures[mat.emissive_texture].lookup(texture_uv(mat.emissive_uv, hit));
   return le;
 }
 

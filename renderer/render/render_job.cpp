@@ -87,8 +87,9 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   const RenderSettings& settings = request.settings;
   if (!request.env.empty()) out->env = EnvironmentMap::from_argument(request.env);
   SceneDesc desc = load_gltf(request.scene_path);
+  adopt_meshes_without_material(request.stacks, &desc);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
-  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks);
+  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()
@@ -131,8 +132,11 @@ Image render(const RenderRequest& request, const LoadedScene& loaded, const Laye
   RenderSettings settings = request.settings;
   settings.layered = &layered;
   const std::uint64_t pixels = pixel_count(rendered_region(settings));
-  Progress progress("render", pixels * static_cast<std::uint64_t>(settings.spp) +
-                                  (settings.noise_threshold > 0.0 ? pixels * settings.pilot_spp : 0));
+  // At most spp samples a pixel (the adaptive pilot's are among them); the adaptive plan then
+  // sets the total it chose, and a time limit caps the ETA (docs/rendering.md, "Progress").
+  Progress progress("render", pixels * static_cast<std::uint64_t>(settings.spp));
+  if (settings.time_limit > 0.0)
+    progress.set_deadline(settings.time_limit, pixels * static_cast<std::uint64_t>(first_round_samples(settings)));
   RenderProgress on_progress;
   on_progress.advance = [&](std::uint64_t n) { progress.advance(n); };
   on_progress.planned = [&](std::uint64_t total, double converged) {

@@ -31,6 +31,8 @@ struct RenderRequest {
   // Stacks given in memory (lamina batch's variants), as if the map named them; they win over
   // the map and the extras.
   std::vector<InlineStack> inline_stacks;
+  // --stack (renderer/layered/stack_assignment.h): stack files assigned from the command line.
+  std::vector<StackAssignment> stacks;
   std::string env;  // --env: a number, R,G,B or an image file ("" for black)
   // --subsurface (and --tolerance with auto): renderer/layered/subsurface_mode.h.
   SubsurfaceChoice subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::RandomWalk);

@@ -77,6 +77,7 @@ Metadata render_metadata(const HeaderInputs& in, const Metadata& similarity_bias
   add_keys(kRequestKeys, in, &meta);
   for (const WalkOptionSpec& spec : kWalkOptionTable) meta.emplace_back(spec.exr_key, walk_option_text(spec, in.request.walk));
   add_keys(kSamplingKeys, in, &meta);
+  if (!in.request.stacks.empty()) meta.emplace_back(kStackExrKey, stack_assignments_text(in.request.stacks));
   const PixelRegion& crop = settings(in).crop;
   if (!crop.empty()) meta.emplace_back("lamina:crop", string_printf("%d,%d,%d,%d", crop.x0, crop.y0, crop.x1, crop.y1));
   meta.insert(meta.end(), similarity_bias.begin(), similarity_bias.end());

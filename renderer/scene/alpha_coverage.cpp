@@ -15,9 +15,9 @@ double coverage_alpha(const AlphaCoverage& c, std::uint32_t triangle, double b1,
   double alpha = c.material->base_alpha;
   const std::uint32_t* tri = &m.indices[3 * static_cast<std::size_t>(triangle)];
   const double b0 = 1.0 - b1 - b2;
-  if (c.texture && !m.texcoords.empty()) {
-    const glm::dvec2 uv = b0 * glm::dvec2(m.texcoords[tri[0]]) + b1 * glm::dvec2(m.texcoords[tri[1]]) +
-                          b2 * glm::dvec2(m.texcoords[tri[2]]);
+  const std::vector<glm::vec2>& uvs = m.texcoord_set(c.material->base_color_uv.set);
+  if (c.texture && !uvs.empty()) {
+    const glm::dvec2 uv = b0 * glm::dvec2(uvs[tri[0]]) + b1 * glm::dvec2(uvs[tri[1]]) + b2 * glm::dvec2(uvs[tri[2]]);
     alpha *= c.texture->alpha_lookup(c.material->base_color_uv.apply(uv));
   }
   if (!m.colour_alphas.empty())

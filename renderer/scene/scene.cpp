@@ -152,6 +152,10 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* hit, RayCounters& counters, do
   if (!m.texcoords.empty())
     hit->uv = b0 * glm::dvec2(m.texcoords[tri[0]]) + b1 * glm::dvec2(m.texcoords[tri[1]]) +
               b2 * glm::dvec2(m.texcoords[tri[2]]);
+  hit->uv1 = glm::dvec2(0.0);
+  if (!m.texcoords1.empty())
+    hit->uv1 = b0 * glm::dvec2(m.texcoords1[tri[0]]) + b1 * glm::dvec2(m.texcoords1[tri[1]]) +
+               b2 * glm::dvec2(m.texcoords1[tri[2]]);
   hit->colour = glm::dvec3(1.0);
   if (!m.colours.empty())
     hit->colour = b0 * glm::dvec3(m.colours[tri[0]]) + b1 * glm::dvec3(m.colours[tri[1]]) + b2 * glm::dvec3(m.colours[tri[2]]);

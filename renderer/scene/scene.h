@@ -50,7 +50,8 @@ struct SurfaceHit {
   glm::dvec3 p;    // on the triangle (barycentric), not origin + t d: tighter error bound
   glm::dvec3 ng;   // geometric normal, unit, as wound (not flipped towards the ray)
   glm::dvec3 ns;   // shading normal, unit, on the same side as ng
-  glm::dvec2 uv{0.0};
+  glm::dvec2 uv{0.0};   // TEXCOORD_0
+  glm::dvec2 uv1{0.0};  // TEXCOORD_1 (0 where the mesh has none)
   // The interpolated tangent frame of a normal-mapped mesh (Mesh::tangents): xyz, and w the
   // bitangent's sign; (0, 0, 0, 0) where there is none.
   glm::dvec4 tangent{0.0};
@@ -65,6 +66,12 @@ struct SurfaceHit {
 // frame or the map's normal is unusable.
 // uv: where to read the map (hit.uv through the material's KHR_texture_transform).
 glm::dvec3 normal_mapped(const SurfaceHit& hit, const Texture& map, double scale, glm::dvec2 uv);
+
+// Where a texture slot reads its texture: the hit's coordinates of the slot's set, through the
+// slot's KHR_texture_transform.
+inline glm::dvec2 texture_uv(const UvTransform& slot, const SurfaceHit& hit) {
+  return slot.apply(slot.set == 1 ? hit.uv1 : hit.uv);
+}
 
 class Scene {
  public:

@@ -45,6 +45,13 @@ float srgb_to_linear(float c) {
   return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
 
+// True if a texture the material reads takes TEXCOORD_1.
+bool reads_texcoord1(const Material& m) {
+  return (m.base_color_texture >= 0 && m.base_color_uv.set == 1) ||
+         (m.metallic_roughness_texture >= 0 && m.metallic_roughness_uv.set == 1) ||
+         (m.normal_texture >= 0 && m.normal_uv.set == 1) || (m.emissive_texture >= 0 && m.emissive_uv.set == 1);
+}
+
 class Loader {
  public:
   Loader(const std::string& path, const tinygltf::Model& model, SceneDesc* out, std::uint64_t max_bytes)
@@ -60,9 +67,10 @@ class Loader {
                          std::size_t nv, std::vector<double>* p, std::vector<double>* n, std::vector<double>* tangent);
   std::vector<double> read_accessor(int index, int want_components, const char* what);
   // linear: data (normal and metallic-roughness maps), not sRGB colour.
-  void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh);
+  void make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, int set, Mesh* mesh);
   int texture(int gltf_texture, bool linear = false);
   void read_transmissive(const tinygltf::Material& gm, Material::Transmissive* out);
+  void read_thickness_texture(const tinygltf::Value& volume, const std::string& material, Material::Transmissive* out);
   void warn(const std::string& w) {
     if (warned_.insert(w).second) out_->warnings.push_back(w);
   }
@@ -346,9 +354,10 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
 
   std::vector<double> p = read_accessor(pos_it->second, 3, "POSITION");
   const std::size_t nv = p.size() / 3;
-  std::vector<double> n, uv, tangent;
+  std::vector<double> n, uv, uv1, tangent;
   if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) n = read_accessor(it->second, 3, "NORMAL");
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) uv = read_accessor(it->second, 2, "TEXCOORD_0");
+  if (auto it = prim.attributes.find("TEXCOORD_1"); it != prim.attributes.end()) uv1 = read_accessor(it->second, 2, "TEXCOORD_1");
   // COLOR_0 (glTF 2.0 section 3.7.2.1): RGB or RGBA, float or normalized unsigned bytes/shorts,
   // linear; it multiplies the base colour. Its alpha (VEC4) is kept for MASK and BLEND materials.
   std::vector<double> colour;
@@ -363,7 +372,7 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
                              out_->materials[prim.material].normal_texture >= 0;
   if (auto it = prim.attributes.find("TANGENT"); normal_mapped && it != prim.attributes.end())
     tangent = read_accessor(it->second, 4, "TANGENT");
-  if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv) ||
+  if ((!n.empty() && n.size() != p.size()) || (!uv.empty() && uv.size() / 2 != nv) || (!uv1.empty() && uv1.size() / 2 != nv) ||
       (!tangent.empty() && tangent.size() / 4 != nv))
     fail(path_, "mesh '" + gmesh.name + "' has attributes of different lengths");
   if (!prim.targets.empty()) add_morph_targets(gmesh, prim, weights, nv, &p, &n, &tangent);
@@ -455,6 +464,14 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     mesh.texcoords.resize(nv);
     for (std::size_t i = 0; i < nv; ++i) mesh.texcoords[i] = glm::vec2(uv[2 * i], uv[2 * i + 1]);
   }
+  if (!uv1.empty()) {
+    mesh.texcoords1.resize(nv);
+    for (std::size_t i = 0; i < nv; ++i) mesh.texcoords1[i] = glm::vec2(uv1[2 * i], uv1[2 * i + 1]);
+  }
+  if (prim.material >= 0 && prim.material < static_cast<int>(out_->materials.size()) && uv1.empty() &&
+      reads_texcoord1(out_->materials[prim.material]))
+    warn("mesh '" + gmesh.name + "': material '" + out_->materials[prim.material].name +
+         "' reads TEXCOORD_1, which the mesh does not have: its textures are read at (0, 0) there");
   for (std::size_t t = 0; t < idx.size(); t += 3) {
     std::uint32_t a = idx[t], b = idx[t + 1], c = idx[t + 2];
     if (mirrored) std::swap(b, c);
@@ -470,10 +487,10 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
     mesh.indices.insert(mesh.indices.end(), {a, b, c});
   }
   if (normal_mapped) {
-    if (mesh.normals.empty() || mesh.texcoords.empty())
+    if (mesh.normals.empty() || mesh.texcoord_set(out_->materials[prim.material].normal_uv.set).empty())
       warn("normal maps need vertex normals and texture coordinates: ignored where they are missing");
     else
-      make_tangents(tangent, m3, mirrored, &mesh);
+      make_tangents(tangent, m3, mirrored, out_->materials[prim.material].normal_uv.set, &mesh);
   }
   out_->triangles += mesh.indices.size() / 3;
   if (!mesh.indices.empty()) out_->meshes.push_back(std::move(mesh));
@@ -486,7 +503,8 @@ void Loader::add_primitive(const tinygltf::Mesh& gmesh, const tinygltf::Primitiv
 // orthogonal to the vertex normal (Gram-Schmidt) and w = sign(cross(N, T) . B). This is
 // MikkTSpace's result for the usual smooth meshes, not its exact splitting of vertices at UV
 // seams and sharp edges (noted in docs/contracts.md).
-void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, Mesh* mesh) {
+void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m3, bool mirrored, int set, Mesh* mesh) {
+  const std::vector<glm::vec2>& uvs = mesh->texcoord_set(set);
   const std::size_t nv = mesh->positions.size();
   mesh->tangents.assign(nv, glm::vec4(0.0f));
   std::vector<glm::dvec3> t_acc(nv, glm::dvec3(0.0)), b_acc(nv, glm::dvec3(0.0));
@@ -501,8 +519,8 @@ void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m
       const std::uint32_t a = mesh->indices[k], b = mesh->indices[k + 1], c = mesh->indices[k + 2];
       const glm::dvec3 e1 = glm::dvec3(mesh->positions[b]) - glm::dvec3(mesh->positions[a]);
       const glm::dvec3 e2 = glm::dvec3(mesh->positions[c]) - glm::dvec3(mesh->positions[a]);
-      const glm::dvec2 d1 = glm::dvec2(mesh->texcoords[b]) - glm::dvec2(mesh->texcoords[a]);
-      const glm::dvec2 d2 = glm::dvec2(mesh->texcoords[c]) - glm::dvec2(mesh->texcoords[a]);
+      const glm::dvec2 d1 = glm::dvec2(uvs[b]) - glm::dvec2(uvs[a]);
+      const glm::dvec2 d2 = glm::dvec2(uvs[c]) - glm::dvec2(uvs[a]);
       const double det = d1.x * d2.y - d2.x * d1.y;
       if (!(std::abs(det) > 1e-20) || !std::isfinite(det)) continue;  // no uv area: no frame from it
       const glm::dvec3 dp_du = (e1 * d2.y - e2 * d1.y) / det;
@@ -522,6 +540,24 @@ void Loader::make_tangents(const std::vector<double>& given, const glm::dmat3& m
     const double w = glm::dot(glm::cross(nrm, t), b_acc[i]) < 0.0 ? -1.0 : 1.0;
     mesh->tangents[i] = glm::vec4(glm::vec3(t), static_cast<float>(w));
   }
+}
+
+// KHR_materials_volume's thicknessTexture: a textureInfo whose G channel scales thicknessFactor.
+// It is read as a texture-driven parameter, which reads TEXCOORD_0 (docs/gltf_materials.md).
+void Loader::read_thickness_texture(const tinygltf::Value& volume, const std::string& material,
+                                    Material::Transmissive* out) {
+  if (!volume.Has("thicknessTexture")) return;
+  const tinygltf::Value& info = volume.Get("thicknessTexture");
+  const std::string where = "material '" + material + "': extensions.KHR_materials_volume.thicknessTexture";
+  if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsNumber())
+    fail(path_, where + ": expected a textureInfo with an index");
+  const int index = info.Get("index").GetNumberAsInt();
+  if (index < 0 || index >= static_cast<int>(m_.textures.size()))
+    fail(path_, where + ".index: " + std::to_string(index) + " is not a texture of the file");
+  if (info.Has("texCoord") && info.Get("texCoord").IsNumber() && info.Get("texCoord").GetNumberAsInt() != 0)
+    warn(where + " reads TEXCOORD_" + std::to_string(info.Get("texCoord").GetNumberAsInt()) +
+         ": texture-driven parameters read TEXCOORD_0, which is used");
+  out->thickness_texture = index;
 }
 
 // KHR_materials_transmission, _diffuse_transmission, _volume and _ior, as written (defaults from
@@ -576,7 +612,7 @@ void Loader::read_transmissive(const tinygltf::Material& gm, Material::Transmiss
     out->attenuation_color = colour(it->second, it->first, "attenuationColor");
     out->attenuation_distance = number(it->second, it->first, "attenuationDistance", inf, 0.0, inf);
     if (!(out->attenuation_distance > 0.0)) bad(it->first, "attenuationDistance", "must be > 0");
-    textures_ignored(it->second, {"thicknessTexture"});
+    read_thickness_texture(it->second, gm.name, out);
   }
   if (auto it = gm.extensions.find("KHR_materials_ior"); it != gm.extensions.end()) {
     // Any finite value >= 0 loads (the extension's schema has minimum 0); a transmitting
@@ -668,7 +704,7 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
     l.name = gl.name;
     Spectrum colour(1.0);
     if (gl.color.size() == 3) colour = Spectrum(gl.color[0], gl.color[1], gl.color[2]);
-    l.intensity = colour * gl.intensity;
+    l.intensity = colour * gl.intensity * out_->light_scale;
     l.position = glm::dvec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
     // A light shines down its local -Z (KHR_lights_punctual); point lights have no direction.
     const auto direction = unit(m3 * glm::dvec3(0.0, 0.0, -1.0));
@@ -697,6 +733,11 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
 }
 
 void Loader::run() {
+  out_->generator = m_.asset.generator;
+  if (is_blender_generator(m_.asset.generator) && !m_.lights.empty()) {
+    out_->light_scale = 1.0 / kBlenderLumensPerWatt;
+    warn("exported by Blender (" + m_.asset.generator + "): light intensities divided by 683 lm/W, back to Blender's watts");
+  }
   static const std::set<std::string> supported = {
       "KHR_lights_punctual",        "KHR_materials_emissive_strength",    "KHR_texture_transform",
       "KHR_materials_transmission", "KHR_materials_diffuse_transmission", "KHR_materials_volume",
@@ -704,8 +745,17 @@ void Loader::run() {
   std::string unsupported;
   for (const std::string& e : m_.extensionsRequired)
     if (!supported.count(e)) fail(path_, "requires unsupported extension " + e);
+  // One warning per material and extension it uses that is not read (naming both); the file's
+  // other unsupported extensions (on nodes, meshes, textures, or unused) in one line.
+  std::set<std::string> on_materials;
+  for (const tinygltf::Material& gm : m_.materials)
+    for (const auto& [e, value] : gm.extensions)
+      if (!supported.count(e)) {
+        warn("material '" + gm.name + "': extension " + e + " is not supported (ignored)");
+        on_materials.insert(e);
+      }
   for (const std::string& e : m_.extensionsUsed)
-    if (!supported.count(e)) unsupported += (unsupported.empty() ? "" : ", ") + e;
+    if (!supported.count(e) && !on_materials.count(e)) unsupported += (unsupported.empty() ? "" : ", ") + e;
   if (!unsupported.empty()) warn("unsupported extensions ignored: " + unsupported);
 
   // Every texture becomes float RGB, 12 bytes a texel. Image sizes are known only once decoded
@@ -729,11 +779,22 @@ void Loader::run() {
     fail(path_, s.str());
   }
 
-  // KHR_texture_transform on a textureInfo's extensions (only TEXCOORD_0 is read: a texCoord
-  // override is warned about).
-  auto uv_transform = [&](const tinygltf::ExtensionMap& ext, const std::string& material) {
+  // A textureInfo's texture coordinates: its texCoord set, and KHR_texture_transform on its
+  // extensions (whose texCoord, when given, overrides the textureInfo's: the extension's README).
+  // Sets 0 and 1 are read; a higher one is warned about and read as set 0.
+  auto uv_transform = [&](const tinygltf::ExtensionMap& ext, int tex_coord, const std::string& material,
+                          const char* slot) {
     auto it = ext.find("KHR_texture_transform");
-    if (it == ext.end()) return UvTransform{};
+    if (it != ext.end() && it->second.Has("texCoord") && it->second.Get("texCoord").IsNumber())
+      tex_coord = it->second.Get("texCoord").GetNumberAsInt();
+    auto with_set = [&](UvTransform t) {
+      t.set = tex_coord == 1 ? 1 : 0;
+      if (tex_coord < 0 || tex_coord > 1)
+        warn("material '" + material + "': " + slot + " reads TEXCOORD_" + std::to_string(tex_coord) +
+             ": only TEXCOORD_0 and TEXCOORD_1 are read, TEXCOORD_0 is used");
+      return t;
+    };
+    if (it == ext.end()) return with_set(UvTransform{});
     const tinygltf::Value& v = it->second;
     auto number = [&](const tinygltf::Value& x, const char* what) {
       if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble()))
@@ -753,16 +814,20 @@ void Loader::run() {
     pair("offset", 0.0, &ou, &ov);
     pair("scale", 1.0, &su, &sv);
     const double rotation = v.Has("rotation") ? number(v.Get("rotation"), "rotation") : 0.0;
-    if (v.Has("texCoord") && v.Get("texCoord").IsNumber() && v.Get("texCoord").GetNumberAsInt() != 0)
-      warn("KHR_texture_transform.texCoord other than 0 is ignored (only TEXCOORD_0 is read)");
-    return UvTransform::from(ou, ov, rotation, su, sv);
+    return with_set(UvTransform::from(ou, ov, rotation, su, sv));
   };
   for (const tinygltf::Material& gm : m_.materials) {
     Material mat;
-    mat.base_color_uv = uv_transform(gm.pbrMetallicRoughness.baseColorTexture.extensions, gm.name);
-    mat.metallic_roughness_uv = uv_transform(gm.pbrMetallicRoughness.metallicRoughnessTexture.extensions, gm.name);
-    mat.normal_uv = uv_transform(gm.normalTexture.extensions, gm.name);
-    mat.emissive_uv = uv_transform(gm.emissiveTexture.extensions, gm.name);
+    const tinygltf::PbrMetallicRoughness& pbr = gm.pbrMetallicRoughness;
+    if (pbr.baseColorTexture.index >= 0)
+      mat.base_color_uv = uv_transform(pbr.baseColorTexture.extensions, pbr.baseColorTexture.texCoord, gm.name, "baseColorTexture");
+    if (pbr.metallicRoughnessTexture.index >= 0)
+      mat.metallic_roughness_uv = uv_transform(pbr.metallicRoughnessTexture.extensions, pbr.metallicRoughnessTexture.texCoord,
+                                               gm.name, "metallicRoughnessTexture");
+    if (gm.normalTexture.index >= 0)
+      mat.normal_uv = uv_transform(gm.normalTexture.extensions, gm.normalTexture.texCoord, gm.name, "normalTexture");
+    if (gm.emissiveTexture.index >= 0)
+      mat.emissive_uv = uv_transform(gm.emissiveTexture.extensions, gm.emissiveTexture.texCoord, gm.name, "emissiveTexture");
     mat.name = gm.name;
     const std::vector<double>& bc = gm.pbrMetallicRoughness.baseColorFactor;
     if (bc.size() >= 3) mat.base_color = Spectrum(bc[0], bc[1], bc[2]);
@@ -983,6 +1048,10 @@ std::string light_strength_limit() {
   char text[64];
   std::snprintf(text, sizeof text, "%g (the image is float radiance, at most 3.4e38)", kMaxLightStrength);
   return text;
+}
+
+bool is_blender_generator(const std::string& generator) {
+  return generator.rfind("Khronos glTF Blender I/O", 0) == 0;
 }
 
 }  // namespace lamina

@@ -7,6 +7,13 @@
 // light) with no 683 lm/W factor: a point light of intensity I puts irradiance I cos/d^2 on a
 // surface. Emissive materials give radiance emissiveFactor x KHR_materials_emissive_strength x
 // emissiveTexture (W/(m^2 sr), the same arbitrary unit).
+// Blender's exporter writes a point or spot light of P watts as intensity P / (4 pi) x 683 "cd"
+// and a sun of S W/m^2 as 683 S "lux" (its default lighting mode, "Standard":
+// io_scene_gltf2/blender/exp/lights.py, PBR_WATTS_TO_LUMENS = 683 in blender/com/conversion.py).
+// Read as W/sr and W/m^2 that is 683 times Blender's own light, so for files whose
+// asset.generator names Blender's exporter the loader divides punctual intensities by 683: a
+// P-watt Blender point light becomes P / (4 pi) W/sr, its radiant intensity (docs/rendering.md,
+// "Lights and units").
 #pragma once
 
 #include <cstdint>
@@ -30,6 +37,10 @@ namespace lamina {
 // radiance (at most 3.4e38); a source finite as a double but beyond this would write Inf, and
 // the margin of 1e18 leaves room for the inverse square of a light near a surface.
 constexpr double kMaxLightStrength = 1e20;
+// Blender's lumens per watt (PBR_WATTS_TO_LUMENS), divided out of its exported lights.
+constexpr double kBlenderLumensPerWatt = 683.0;
+// True for an asset.generator of Blender's glTF exporter ("Khronos glTF Blender I/O vX.Y.Z").
+bool is_blender_generator(const std::string& generator);
 // The limit as every message gives it: "1e+20 (the image is float radiance, at most 3.4e38)".
 std::string light_strength_limit();
 
@@ -41,9 +52,12 @@ struct SceneError : std::runtime_error {
 // KHR_texture_transform of one textureInfo: uv' = T(offset) R(rotation) S(scale) uv, with the
 // ratified extension's matrices (KHR_texture_transform README, "Overview"):
 //   u' = offset.x + cos(r) scale.x u - sin(r) scale.y v,  v' = offset.y + sin(r) scale.x u + cos(r) scale.y v.
+// `set` is the TEXCOORD_n the slot reads (textureInfo.texCoord, or the extension's texCoord
+// override): 0 or 1 (Mesh::texcoord_set).
 struct UvTransform {
   double a = 1.0, b = 0.0, c = 0.0;  // u' = a u + b v + c
   double d = 0.0, e = 1.0, f = 0.0;  // v' = d u + e v + f
+  int set = 0;
   glm::dvec2 apply(glm::dvec2 uv) const { return {a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f}; }
   static UvTransform from(double offset_u, double offset_v, double rotation, double scale_u, double scale_v);
 };
@@ -102,6 +116,9 @@ struct Material {
     Spectrum diffuse_transmission_color{1.0};
     bool volume = false;  // KHR_materials_volume present
     double thickness = 0.0;  // thicknessFactor (0: thin-walled)
+    // thicknessTexture: its glTF texture index (-1: none); its G channel scales thicknessFactor
+    // (renderer/layered/material_binding.cpp binds it as a texture-driven layer thickness).
+    int thickness_texture = -1;
     Spectrum attenuation_color{1.0};
     double attenuation_distance = std::numeric_limits<double>::infinity();
     double ior = 1.5;  // KHR_materials_ior (glTF's default 1.5 without it)
@@ -125,7 +142,10 @@ struct Mesh {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;    // one per position, unit length; empty: flat shading
                                      // (glTF: "calculate flat normals" when NORMAL is absent)
-  std::vector<glm::vec2> texcoords;  // empty, or one per position
+  std::vector<glm::vec2> texcoords;  // TEXCOORD_0: empty, or one per position
+  std::vector<glm::vec2> texcoords1;  // TEXCOORD_1: empty, or one per position
+  // The texture coordinates of set 0 or 1 (UvTransform::set).
+  const std::vector<glm::vec2>& texcoord_set(int set) const { return set == 1 ? texcoords1 : texcoords; }
   std::vector<glm::vec3> colours;    // COLOR_0 (linear RGB; multiplies the base colour), or empty
   std::vector<float> colour_alphas;  // COLOR_0's alpha (a VEC4 COLOR_0 on a MASK or BLEND material), or empty
   // Tangents for the material's normal map (xyz unit, w = +-1 the bitangent's handedness:
@@ -177,6 +197,10 @@ struct SceneDesc {
   std::uint64_t triangles = 0;
   std::uint64_t degenerate_triangles = 0;  // skipped
   std::vector<std::string> warnings;       // each once
+  // asset.generator, and the factor applied to every punctual light's intensity (1, or
+  // 1 / kBlenderLumensPerWatt for Blender's exporter).
+  std::string generator;
+  double light_scale = 1.0;
 
   const Material& material(int index) const;
   void compute_bounds();

@@ -33,6 +33,15 @@ std::string format_duration(double seconds) {
 
 }  // namespace
 
+double eta_seconds(double elapsed, std::uint64_t done, std::uint64_t total, double deadline, std::uint64_t committed) {
+  if (done == 0) return -1.0;
+  const double per_unit = elapsed / static_cast<double>(done);
+  const double remaining = static_cast<double>(total > done ? total - done : 0) * per_unit;
+  if (!(deadline > 0.0)) return remaining;
+  const double committed_left = static_cast<double>(committed > done ? committed - done : 0) * per_unit;
+  return std::max(committed_left, std::min(remaining, std::max(deadline - elapsed, 0.0)));
+}
+
 Progress::Progress(std::string label, std::uint64_t total_units)
     : label_(std::move(label)),
       total_(total_units),
@@ -50,6 +59,12 @@ void Progress::advance(std::uint64_t units) {
 }
 
 void Progress::set_total(std::uint64_t total_units) { total_.store(total_units); }
+
+void Progress::set_deadline(double seconds, std::uint64_t committed_units) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  deadline_ = seconds;
+  committed_ = committed_units;
+}
 
 void Progress::set_note(std::string note) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -75,8 +90,10 @@ void Progress::draw(bool final_draw) {
   const std::uint64_t done = std::min(done_.load(std::memory_order_relaxed), total);
   const double fraction = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
   const std::string note = note_.empty() ? "" : "  " + note_;
-  // ETA assuming the remaining units take as long on average as the finished ones.
-  const std::string eta = fraction > 0.0 ? format_duration(elapsed * (1.0 - fraction) / fraction) : "?";
+  // ETA assuming the remaining units take as long on average as the finished ones (and the
+  // deadline, if any, stops them).
+  const double eta_s = eta_seconds(elapsed, done, total, deadline_, committed_);
+  const std::string eta = eta_s >= 0.0 ? format_duration(eta_s) : "?";
 
   if (final_draw) {
     std::fprintf(stderr, "%s%s: %.0f%% in %s%s\n", tty_ ? "\r\033[K" : "", label_.c_str(), 100.0 * fraction,

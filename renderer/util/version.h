@@ -6,5 +6,8 @@
 namespace lamina {
 
 const char* lamina_version();
+// The commit the build was configured from (`git describe`), "unknown" outside git: printed by
+// `lamina --version` only, never hashed (a rebuild from another commit must not re-render).
+const char* lamina_commit();
 
 }  // namespace lamina

@@ -13,7 +13,9 @@
 
 #include "materials/tables/albedo.h"
 #include "materials/base/sampling.h"
+#include "renderer/image/image_io.h"
 #include "renderer/layered/gltf_stack.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/material_binding.h"
 #include "renderer/render/film.h"
@@ -295,6 +297,48 @@ TEST(GltfStack, CommittedLeafSceneRendersFrontAndBackLit) {
     std::printf("%s: %d leaf pixels, mean green %.4f\n", side, leaf, leaf_green / leaf);
     EXPECT_GT(leaf_green / leaf, 10.0 * 0.03 * 0.42) << side;
   }
+}
+
+// KHR_materials_volume's thicknessTexture: its G channel t scales the layer's thickness,
+// t x thicknessFactor / 2 (in mm), as a texture-driven parameter read at TEXCOORD_0; without it
+// the stack has no bindings.
+TEST(GltfStack, ThicknessTextureDrivesTheLayerThickness) {
+  TempDir dir("gltf-thickness-texture");
+  Image im(2, 1);
+  im.pixel(1, 0)[1] = 1.0f;  // G: 0 on the left half, 1 on the right
+  write_png(dir / "t.png", im);
+  GltfBuilder b;
+  json& j = b.json();
+  j["images"] = {{{"uri", "t.png"}}};
+  j["samplers"] = {{{"wrapS", 33071}, {"wrapT", 33071}}};
+  j["textures"] = {{{"source", 0}, {"sampler", 0}}};
+  j["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_volume"};
+  json volume = {{"thicknessFactor", 0.004}, {"thicknessTexture", {{"index", 0}}}};
+  j["materials"].push_back({{"name", "gel"},
+                            {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}},
+                                            {"KHR_materials_volume", volume}}}});
+  b.add_node({{"mesh", b.add_mesh({0, 0, 0, 1, 0, 0, 0, 1, 0}, {}, {}, 0)}});
+  b.write_gltf(dir / "g.gltf");
+  const SceneDesc desc = load_gltf(dir / "g.gltf");
+  EXPECT_EQ(desc.materials[0].transmissive.thickness_texture, 0);
+  for (const std::string& w : desc.warnings) EXPECT_EQ(w.find("thicknessTexture"), std::string::npos) << w;
+  const LayeredBindings bound = bind_layered_materials(desc, "");
+  ASSERT_TRUE(bound.by_material[0]);
+  const StackBindings* bindings = bound.by_material[0]->bindings();
+  ASSERT_NE(bindings, nullptr);
+  ASSERT_EQ(bindings->parameters().size(), 1u);
+  const double full = 0.5 * 0.004 * kMillimetresPerSceneUnit;  // 2 mm: the factor's thickness
+  EXPECT_DOUBLE_EQ(bound.by_material[0]->base_stack().layers[0].thickness, full);
+  Spectrum v;
+  bindings->values({0.25, 0.5}, &v);
+  EXPECT_NEAR(v[0], 0.0, 1e-6);
+  bindings->values({0.75, 0.5}, &v);
+  EXPECT_NEAR(v[0], full, 1e-5);
+  // Without the texture: the plain stack.
+  j["materials"][0]["extensions"]["KHR_materials_volume"].erase("thicknessTexture");
+  b.write_gltf(dir / "plain.gltf");
+  const SceneDesc plain = load_gltf(dir / "plain.gltf");
+  EXPECT_EQ(bind_layered_materials(plain, "").by_material[0]->bindings(), nullptr);
 }
 
 }  // namespace

@@ -45,6 +45,21 @@ TEST(Progress, ZeroTotalDoesNotDivideByZero) {
   EXPECT_EQ(count(out, "empty: 100% in "), 1) << out;
 }
 
+TEST(Progress, EtaIsTheRateTimesTheUnitsLeft) {
+  EXPECT_LT(eta_seconds(1.0, 0, 100, 0.0, 0), 0.0);  // nothing done: unknown
+  EXPECT_DOUBLE_EQ(eta_seconds(2.0, 25, 100, 0.0, 0), 6.0);
+  EXPECT_DOUBLE_EQ(eta_seconds(2.0, 100, 100, 0.0, 0), 0.0);
+}
+
+// A time limit of 30 s on work whose rate alone would take 10 minutes: the ETA is what is left of
+// the 30 s; once the limit has passed, what the committed first round still needs.
+TEST(Progress, EtaFollowsTheDeadlineAndTheCommittedRound) {
+  EXPECT_DOUBLE_EQ(eta_seconds(10.0, 10, 610, 30.0, 5), 20.0);
+  EXPECT_DOUBLE_EQ(eta_seconds(10.0, 10, 12, 30.0, 5), 2.0);   // ends before the limit
+  EXPECT_DOUBLE_EQ(eta_seconds(40.0, 10, 610, 30.0, 5), 0.0);  // past it, the round done
+  EXPECT_DOUBLE_EQ(eta_seconds(40.0, 10, 610, 30.0, 20), 40.0);  // past it, 10 units of the round left
+}
+
 TEST(Progress, PeakMemoryCoversATouchedAllocation) {
   constexpr std::size_t kBytes = 64u << 20;
   std::vector<char> block(kBytes, 1);  // value-initialised: every page touched
