@@ -1,0 +1,148 @@
+"""Figures of lamina's results with matplotlib (imported here only: never in the render path).
+
+``python -m lamina.plot brdf TABLE.csv TOTALS.json OUT.png`` draws a ``lamina brdf`` result from
+its files; ``lamina brdf --plot`` and ``lamina compare --plot`` run this module.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import sys
+from typing import Any, Optional
+
+import numpy as np
+
+_CHANNELS = ("r", "g", "b")
+_COLOURS = ("tab:red", "tab:green", "tab:blue")
+
+
+def _pyplot():
+    import matplotlib
+
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _sorted(result: Any):
+    """theta_o ascending (lamina numbers the rings by cos theta_o) with the bins in that order."""
+    order = np.argsort(result.theta_o_deg)
+    return np.asarray(result.theta_o_deg)[order], np.asarray(result.phi_o_deg), np.asarray(result.value)[:, order]
+
+
+def _plane_of_incidence(result: Any, side: int, channel: int):
+    """The bins nearest the plane of incidence: theta_o signed (negative: the light's side,
+    phi_o near 180 degrees for reflection's back-scatter half) and the BRDF there."""
+    theta, phi, values = _sorted(result)
+    m_fwd = int(np.argmin(np.abs(((phi - 180.0) + 180.0) % 360.0 - 180.0)))  # phi_o = 180: forward (mirror) side
+    m_back = int(np.argmin(np.minimum(phi, 360.0 - phi)))                     # phi_o = 0: towards the light
+    values = values[side, :, :, channel]
+    angles = np.concatenate([-theta[::-1], theta])
+    f = np.concatenate([values[::-1, m_back], values[:, m_fwd]])
+    return angles, f
+
+
+def brdf(result: Any, path: Optional[os.PathLike] = None, *, title: Optional[str] = None):
+    """Four panels: the BRDF and BTDF in the plane of incidence as polar plots (per channel, the
+    Lambert lobe of the same diffuse albedo dashed, the totals in the legend), and the
+    hemispherical maps of the green channel (projected: radius sin theta_o). Returns the figure;
+    writes it to ``path`` if given."""
+    if result.value is None:
+        raise ValueError("plot_brdf: the result has no table (adding-doubling with table=False)")
+    plt = _pyplot()
+    fig = plt.figure(figsize=(11, 9))
+    sides = ((0, "BRDF (reflection)", "R_diffuse", "R_specular"), (1, "BTDF (transmission)", "T_diffuse", "T_ballistic"))
+    for row, (side, name, diffuse_key, delta_key) in enumerate(sides):
+        ax = fig.add_subplot(2, 2, 2 * row + 1, projection="polar")
+        ax.set_theta_zero_location("N")
+        ax.set_thetamin(-90)
+        ax.set_thetamax(90)
+        for c in range(3):
+            angles, f = _plane_of_incidence(result, side, c)
+            albedo = float(result.totals[diffuse_key]["value"][c])
+            err = float(result.totals[diffuse_key]["stderr"][c])
+            label = f"{_CHANNELS[c]}: {diffuse_key} {albedo:.4f}" + (f" \u00b1 {err:.1g}" if err > 0 else "")
+            ax.plot(np.radians(angles), f, color=_COLOURS[c], label=label)
+            ax.plot(np.radians(angles), np.full_like(angles, albedo / math.pi), color=_COLOURS[c], ls="--", lw=0.8)
+        delta = result.totals[delta_key]["value"]
+        ax.set_title(f"{name}, plane of incidence, theta_i {result.theta_i:g}\u00b0\n"
+                     f"dashed: Lambert of the same albedo; {delta_key} {np.round(delta, 4).tolist()}", fontsize=9)
+        ax.legend(loc="lower left", fontsize=7, bbox_to_anchor=(-0.1, -0.25))
+        # The hemisphere seen from above: radius sin(theta_o), angle phi_o.
+        ax2 = fig.add_subplot(2, 2, 2 * row + 2, projection="polar")
+        theta_edges = np.degrees(np.arccos(np.linspace(1.0, 0.0, result.value.shape[1] + 1)))
+        phi_edges = np.linspace(0.0, 2 * math.pi, result.value.shape[2] + 1)
+        mesh = ax2.pcolormesh(phi_edges, np.sin(np.radians(theta_edges)), _sorted(result)[2][side, :, :, 1], shading="flat")
+        ax2.set_yticklabels([])
+        ax2.set_title(f"{name}, hemisphere (green, 1/sr; radius sin theta_o)", fontsize=9)
+        fig.colorbar(mesh, ax=ax2, shrink=0.8)
+    fig.suptitle(title or f"lamina brdf, {result.method}")
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(os.fspath(path), dpi=100)
+    return fig
+
+
+def compare(reference: Any, test: Any, path: Optional[os.PathLike] = None, *, epsilon: Optional[float] = None,
+            range_: float = 0.5):
+    """A histogram of the per-pixel relative difference of luminance beside its false-colour
+    image (red: TEST brighter, blue: darker, full at +-range_). Returns the figure."""
+    import lamina
+
+    kwargs = {} if epsilon is None else {"epsilon": epsilon}
+    rel = lamina.relative_difference(reference, test, **kwargs)
+    metrics = lamina.compare(reference, test, **kwargs)
+    plt = _pyplot()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5))
+    im = a.imshow(rel, cmap="RdBu_r", vmin=-range_, vmax=range_)
+    a.set_title("relative difference of luminance")
+    a.axis("off")
+    fig.colorbar(im, ax=a, shrink=0.8)
+    b.hist(np.clip(rel.ravel(), -range_, range_), bins=101, color="grey")
+    b.set_yscale("log")
+    b.set_xlabel("(TEST - REF) / max(REF, guard)")
+    b.set_title(f"mean {metrics['mean_relative']:+.4f}, RMS {metrics['rms_relative']:.4f}, SSIM {metrics['ssim']:.4f}")
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(os.fspath(path), dpi=100)
+    return fig
+
+
+class _FileResult:
+    """A BrdfResult read back from ``lamina brdf --out TABLE.csv --summary TOTALS.json``."""
+
+    def __init__(self, table_csv: str, totals_json: str) -> None:
+        with open(totals_json, encoding="utf-8") as f:
+            j = json.load(f)
+        self.method, self.theta_i = j["method"], j["theta_i_deg"]
+        self.totals = {k: {"value": np.asarray(j[k]), "stderr": np.asarray(j.get(k + "_stderr", [0, 0, 0]))}
+                       for k in ("R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed")}
+        rows = list(csv.DictReader(open(table_csv, encoding="utf-8")))
+        theta = sorted({float(r["theta_o_deg"]) for r in rows})
+        phi = sorted({float(r["phi_o_deg"]) for r in rows})
+        self.theta_o_deg, self.phi_o_deg = np.asarray(theta), np.asarray(phi)
+        self.value = np.zeros((2, len(theta), len(phi), 3))
+        ti, pi = {t: i for i, t in enumerate(theta)}, {p: i for i, p in enumerate(phi)}
+        for r in rows:
+            self.value[0 if r["side"] == "reflect" else 1, ti[float(r["theta_o_deg"])], pi[float(r["phi_o_deg"])],
+                       _CHANNELS.index(r["channel"])] = float(r["value"])
+
+
+def main(argv: list) -> int:
+    if len(argv) == 4 and argv[0] == "brdf":
+        brdf(_FileResult(argv[1], argv[2]), argv[3])
+        return 0
+    if len(argv) == 4 and argv[0] == "compare":
+        compare(argv[1], argv[2], argv[3])
+        return 0
+    sys.stderr.write("usage: python -m lamina.plot brdf TABLE.csv TOTALS.json OUT.png | compare REF TEST OUT.png\n")
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
