@@ -150,7 +150,7 @@ class Stack:
     @classmethod
     def load(cls, path: PathLike) -> "Stack":
         """Reads a material file (as ``lamina brdf STACK.json``)."""
-        return cls(_lamina.Stack._load(_path(path, "path")))
+        return cls(_lamina.Stack.load(_path(path, "path")))
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], source: str = "<dict>") -> "Stack":
@@ -163,14 +163,14 @@ class Stack:
             raise StackFileError(f"{source}: {e}") from None
         except TypeError as e:
             raise TypeError(f"{source}: {e}") from None
-        return cls(_lamina.Stack._parse(text, source))
+        return cls(_lamina.Stack.parse(text, source))
 
     @classmethod
     def from_json(cls, text: str, source: str = "<json>") -> "Stack":
         """A stack from the material file's text."""
         if not isinstance(text, str):
             raise TypeError(f"from_json: expected a str, got {type(text).__name__}")
-        return cls(_lamina.Stack._parse(text, source))
+        return cls(_lamina.Stack.parse(text, source))
 
     def to_dict(self) -> Dict[str, Any]:
         """The material file's JSON."""
@@ -251,7 +251,7 @@ def brdf(stack: Union[Stack, Mapping[str, Any], PathLike], theta_i: float, *, ph
     cap = _integer(roulette_cap, "roulette_cap", 1000, 2000000000)
     q = _integer(quadrature_points, "quadrature_points", 4, 128)
     with_table = bool(table) if method == "adding-doubling" else True
-    d = _run(lambda state: _lamina._brdf(s._native, theta, phi, method, n, sd, kt, kp, cap, q, with_table, state),
+    d = _run(lambda state: _lamina.brdf(s._native, theta, phi, method, n, sd, kt, kp, cap, q, with_table, state),
              progress, "brdf")
     totals = {k: {kk: np.asarray(vv) for kk, vv in v.items()} for k, v in d["totals"].items()}
     r = BrdfResult(method=method, theta_i=theta, phi_i=phi, totals=totals, notes=list(d["notes"]))
@@ -326,7 +326,7 @@ def fit(stack: Union[Stack, Mapping[str, Any], PathLike], data: Any,
         specs.append((path, _number(bounds[0], f"params[{path!r}] lower"), _number(bounds[1], f"params[{path!r}] upper")))
     q = _integer(quadrature_points, "quadrature_points", 4, 64)
     cq = _integer(coarse_quadrature_points, "coarse_quadrature_points", 0, 64)
-    d = _run(lambda state: _lamina._fit(s._native, text, source, specs, q, cq), False, "fit")
+    d = _run(lambda state: _lamina.fit(s._native, text, source, specs, q, cq), False, "fit")
     ps = d["parameters"]
     return FitResult(values={p["name"]: p["value"] for p in ps}, sigmas={p["name"]: p["sigma"] for p in ps},
                      stack=Stack.from_json(d["fitted_json"], f"{s.source} (fitted)"), chi2=d["chi2"], dof=d["dof"],
@@ -377,7 +377,7 @@ class Image:
 
     def write(self, path: PathLike) -> None:
         """Writes a float EXR (atomically) with the channels and header, as ``lamina render``."""
-        _lamina._write_exr(_path(path, "path"), self.rgb, list(self.metadata.items()), list(self.channels.items()),
+        _lamina.write_exr(_path(path, "path"), self.rgb, list(self.metadata.items()), list(self.channels.items()),
                            self.window)
 
     @classmethod
@@ -385,7 +385,7 @@ class Image:
         """Reads an image: an EXR with every channel and its header, or HDR, PNG, JPEG (linear RGB)."""
         p = _path(path, "path")
         if p.lower().endswith(".exr"):
-            d = _lamina._read_exr(p)
+            d = _lamina.read_exr(p)
             names, values = d["names"], d["values"]
             planes = {n: values[:, :, i] for i, n in enumerate(names)}
             for c in "RGB":
@@ -393,7 +393,7 @@ class Image:
                     raise ImageIoError(f"{p}: no channel {c}")
             rgb = np.stack([planes.pop(c) for c in "RGB"], axis=-1)
             return cls(rgb, planes, dict(d["metadata"]))
-        rgb, _ = _lamina._read_image(p)
+        rgb, _ = _lamina.read_image(p)
         return cls(rgb)
 
     def __repr__(self) -> str:
@@ -455,7 +455,7 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     command = (f"lamina.render({s!r}, width={w}, height={h}, spp={n}, seed={sd}, subsurface={subsurface!r}"
                f"{', materials=...' if materials else ''})")
     cache_dir = "" if cache is None else _path(cache, "cache")
-    d = _run(lambda state: _lamina._render(s, out_path, png_path, w, h, n, sd, th, subsurface, tol, camera, map_path,
+    d = _run(lambda state: _lamina.render(s, out_path, png_path, w, h, n, sd, th, subsurface, tol, camera, map_path,
                                            env_text, depth, aov_list, cache_dir, table_method, nt, ps, cl,
                                            walk_options, inline, command, state),
              progress, "render")
@@ -483,14 +483,14 @@ def compare(reference: Union[Image, np.ndarray, PathLike], test: Union[Image, np
     for name, im in (("reference", a), ("test", b)):
         if not np.isfinite(im.rgb).all():
             raise ValueError(f"{name}: has non-finite pixels")
-    return dict(_lamina._compare(a.rgb, b.rgb, eps))
+    return dict(_lamina.compare(a.rgb, b.rgb, eps))
 
 
 def relative_difference(reference: Union[Image, np.ndarray, PathLike], test: Union[Image, np.ndarray, PathLike], *,
                         epsilon: float = _lamina.DEFAULT_GUARD_EPSILON) -> np.ndarray:
     """The relative difference of luminance per pixel, (height, width), as ``lamina compare --png`` shows it."""
     a, b = _image(reference, "reference"), _image(test, "test")
-    return _lamina._relative_luminance_difference(a.rgb, b.rgb, _number(epsilon, "epsilon", 0.0))
+    return _lamina.relative_luminance_difference(a.rgb, b.rgb, _number(epsilon, "epsilon", 0.0))
 
 
 def denoise(image: Union[Image, PathLike], *, use_aovs: bool = True, threads: int = 0) -> Image:
@@ -500,7 +500,7 @@ def denoise(image: Union[Image, PathLike], *, use_aovs: bool = True, threads: in
     a = im.aovs
     albedo = a.get("albedo") if use_aovs else None
     normal = a.get("normal") if albedo is not None else None
-    rgb, library, version = _lamina._denoise(im.rgb, albedo, normal, _integer(threads, "threads", 0, 4096))
+    rgb, library, version = _lamina.denoise(im.rgb, albedo, normal, _integer(threads, "threads", 0, 4096))
     return Image(rgb, {}, im.metadata, im.window, {"oidn_library": library, "oidn_version": version})
 
 

@@ -55,13 +55,19 @@ def brdf(result: Any, path: Optional[os.PathLike] = None, *, title: Optional[str
     if result.value is None:
         raise ValueError("plot_brdf: the result has no table (adding-doubling with table=False)")
     plt = _pyplot()
+    from matplotlib.ticker import MaxNLocator
+
     fig = plt.figure(figsize=(11, 9))
     sides = ((0, "BRDF (reflection)", "R_diffuse", "R_specular"), (1, "BTDF (transmission)", "T_diffuse", "T_ballistic"))
     for row, (side, name, diffuse_key, delta_key) in enumerate(sides):
         ax = fig.add_subplot(2, 2, 2 * row + 1, projection="polar")
         ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)  # the light's side on the left, the mirror / forward side on the right
         ax.set_thetamin(-90)
         ax.set_thetamax(90)
+        ax.yaxis.set_major_locator(MaxNLocator(4))
+        ax.tick_params(axis="y", labelsize=7)
+        ax.axvline(np.radians(-result.theta_i if side == 0 else result.theta_i + 180), color="orange", lw=1)
         for c in range(3):
             angles, f = _plane_of_incidence(result, side, c)
             albedo = float(result.totals[diffuse_key]["value"][c])
@@ -70,7 +76,7 @@ def brdf(result: Any, path: Optional[os.PathLike] = None, *, title: Optional[str
             ax.plot(np.radians(angles), f, color=_COLOURS[c], label=label)
             ax.plot(np.radians(angles), np.full_like(angles, albedo / math.pi), color=_COLOURS[c], ls="--", lw=0.8)
         delta = result.totals[delta_key]["value"]
-        ax.set_title(f"{name}, plane of incidence, theta_i {result.theta_i:g}\u00b0\n"
+        ax.set_title(f"{name} in the plane of incidence, theta_i {result.theta_i:g}\u00b0 (orange)\n"
                      f"dashed: Lambert of the same albedo; {delta_key} {np.round(delta, 4).tolist()}", fontsize=9)
         ax.legend(loc="lower left", fontsize=7, bbox_to_anchor=(-0.1, -0.25))
         # The hemisphere seen from above: radius sin(theta_o), angle phi_o.

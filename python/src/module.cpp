@@ -498,8 +498,8 @@ NB_MODULE(_lamina, m) {
       .def_prop_ro("semi_infinite", &Layer::semi_infinite);
 
   nb::class_<PyStack>(m, "Stack", "A layered material (docs/contracts.md, \"Material file\").")
-      .def_static("_load", &stack_load, "path"_a)
-      .def_static("_parse", &stack_parse, "text"_a, "source"_a)
+      .def_static("load", &stack_load, "path"_a, "Reads a material file (its errors: StackFileError).")
+      .def_static("parse", &stack_parse, "text"_a, "source"_a, "Parses a material file's text; errors name `source`.")
       .def_prop_ro("name", [](const PyStack& s) { return s.stack.name; })
       .def_prop_ro("above_ior", [](const PyStack& s) { return s.stack.above_ior; })
       .def_prop_ro("top_roughness", [](const PyStack& s) { return s.stack.top_roughness; })
@@ -508,19 +508,19 @@ NB_MODULE(_lamina, m) {
       .def_ro("json", &PyStack::text, "the material file's text")
       .def_ro("source", &PyStack::source, "the file (or name) it came from; errors name it");
 
-  m.def("_brdf", &brdf, "stack"_a, "theta_i"_a, "phi_i"_a, "method"_a, "samples"_a, "seed"_a, "bins_theta"_a,
+  m.def("brdf", &brdf, "lamina brdf: totals and bins (renderer/batch/brdf_job.h).", "stack"_a, "theta_i"_a, "phi_i"_a, "method"_a, "samples"_a, "seed"_a, "bins_theta"_a,
         "bins_phi"_a, "roulette_cap"_a, "quadrature_points"_a, "table"_a, "state"_a.none());
-  m.def("_fit", &fit, "stack"_a, "data_text"_a, "data_source"_a, "params"_a, "quadrature_points"_a,
+  m.def("fit", &fit, "lamina fit with measurements (materials/fit/stack_fit.h).", "stack"_a, "data_text"_a, "data_source"_a, "params"_a, "quadrature_points"_a,
         "coarse_quadrature_points"_a);
-  m.def("_render", &render, "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
+  m.def("render", &render, "lamina render without its argument parsing (renderer/render/render_job.h).", "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
         "subsurface"_a, "tolerance"_a, "camera"_a, "materials"_a, "env"_a, "max_depth"_a, "aovs"_a, "cache"_a,
         "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
         "state"_a.none());
-  m.def("_write_exr", &write_exr_file, "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
-  m.def("_read_exr", &read_exr_file, "path"_a);
-  m.def("_read_image", &read_image_file, "path"_a);
-  m.def("_compare", &compare, "reference"_a, "test"_a, "epsilon"_a);
-  m.def("_relative_luminance_difference", &relative_luminance, "reference"_a, "test"_a, "epsilon"_a);
-  m.def("_denoise", &denoise_image, "colour"_a, "albedo"_a.none(), "normal"_a.none(), "threads"_a);
+  m.def("write_exr", &write_exr_file, "A float EXR with extra channels and header, atomically.", "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
+  m.def("read_exr", &read_exr_file, "Every channel of an EXR and its header.", "path"_a);
+  m.def("read_image", &read_image_file, "An image file as linear RGB, and its number of colour channels.", "path"_a);
+  m.def("compare", &compare, "lamina compare's metrics (renderer/image/image_compare.h).", "reference"_a, "test"_a, "epsilon"_a);
+  m.def("relative_luminance_difference", &relative_luminance, "The relative difference of luminance per pixel.", "reference"_a, "test"_a, "epsilon"_a);
+  m.def("denoise", &denoise_image, "Open Image Denoise (renderer/image/denoise.h): image, library, version.", "colour"_a, "albedo"_a.none(), "normal"_a.none(), "threads"_a);
   m.attr("DEFAULT_GUARD_EPSILON") = kDefaultGuardEpsilon;
 }

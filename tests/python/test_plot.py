@@ -1,0 +1,40 @@
+"""The figures: plot_brdf, plot_compare and `python -m lamina.plot` on lamina brdf's files."""
+
+import subprocess
+import sys
+
+import numpy as np
+
+import lamina
+
+
+def png_size(path):
+    import matplotlib.image
+    return matplotlib.image.imread(path).shape[:2]
+
+
+def test_plot_brdf_writes_a_figure(source, tmp_path):
+    r = lamina.brdf(source / "docs/examples/slab_truth.json", 30, method="adding-doubling", bins_theta=9,
+                    bins_phi=12, quadrature_points=8)
+    fig = lamina.plot_brdf(r, tmp_path / "brdf.png")
+    assert png_size(tmp_path / "brdf.png") == (900, 1100)
+    legend = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()]
+    assert any(f"R_diffuse {r.total('R_diffuse')[0]:.4f}" in t for t in legend), legend
+
+
+def test_plot_from_the_command_lines_files(cli, source, tmp_path):
+    cli("brdf", source / "docs/examples/slab_truth.json", "--theta-i", "30", "--method", "first-order",
+        "--out", tmp_path / "t.csv", "--summary", tmp_path / "s.json")
+    subprocess.run([sys.executable, "-m", "lamina.plot", "brdf", tmp_path / "t.csv", tmp_path / "s.json",
+                    tmp_path / "p.png"], check=True)
+    assert png_size(tmp_path / "p.png") == (900, 1100)
+
+
+def test_plot_compare(tmp_path):
+    a = np.ones((20, 30, 3), np.float32)
+    b = a.copy()
+    b[5:10] *= 1.2
+    fig = lamina.plot_compare(a, b, tmp_path / "c.png")
+    assert png_size(tmp_path / "c.png") == (450, 1100)
+    rel = lamina.relative_difference(a, b)
+    assert rel.shape == (20, 30) and np.isclose(rel.max(), 0.2, atol=1e-6) and rel.min() == 0
