@@ -139,15 +139,43 @@ class _FileResult:
                        _CHANNELS.index(r["channel"])] = float(r["value"])
 
 
+def _save_atomically(fig, path: str) -> None:
+    """Written beside the path, then renamed: a failed plot leaves no partial file."""
+    tmp = os.path.join(os.path.dirname(os.path.abspath(path)), f".{os.path.basename(path)}.{os.getpid()}.tmp.png")
+    try:
+        fig.savefig(tmp, dpi=100)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
 def main(argv: list) -> int:
-    if len(argv) == 4 and argv[0] == "brdf":
-        brdf(_FileResult(argv[1], argv[2]), argv[3])
-        return 0
-    if len(argv) == 4 and argv[0] == "compare":
-        compare(argv[1], argv[2], argv[3])
-        return 0
-    sys.stderr.write("usage: python -m lamina.plot brdf TABLE.csv TOTALS.json OUT.png | compare REF TEST OUT.png\n")
-    return 2
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python3 -m lamina.plot", description="lamina's figures from its files")
+    sub = ap.add_subparsers(dest="what", required=True)
+    b = sub.add_parser("brdf", help="lamina brdf --out TABLE.csv --summary TOTALS.json, drawn")
+    b.add_argument("table")
+    b.add_argument("totals")
+    b.add_argument("out")
+    c = sub.add_parser("compare", help="two images: relative difference and its histogram")
+    c.add_argument("reference")
+    c.add_argument("test")
+    c.add_argument("out")
+    c.add_argument("--epsilon", type=float, default=None)
+    c.add_argument("--range", type=float, default=0.5)
+    args = ap.parse_args(argv)
+    try:
+        if args.what == "brdf":
+            fig = brdf(_FileResult(args.table, args.totals))
+        else:
+            fig = compare(args.reference, args.test, epsilon=args.epsilon, range_=args.range)
+        _save_atomically(fig, args.out)
+    except (OSError, ValueError) as e:
+        sys.stderr.write(f"lamina.plot: {e}\n")
+        return 1
+    return 0
 
 
 if __name__ == "__main__":

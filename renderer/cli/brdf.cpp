@@ -18,7 +18,10 @@
 //                        mirror / ballistic bins).
 // Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
 // renamed into place once both are written. Every number is checked by renderer/cli/options.h.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -39,6 +42,7 @@
 #include "renderer/util/progress.h"
 #include "renderer/cli/outputs.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/python_plot.h"
 
 namespace {
 
@@ -147,6 +151,23 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
   return j.dump(2) + "\n";
 }
 
+// --plot: the table and totals as the files would hold them, drawn by the Python package
+// (renderer/util/python_plot.h) before any output is written.
+void plot_brdf(const std::string& csv, const std::string& json, const std::string& plot_path) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("lamina_brdf_plot_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  try {
+    lamina::write_file_atomically((dir / "table.csv").string(), csv);
+    lamina::write_file_atomically((dir / "totals.json").string(), json);
+    lamina::run_python_plot({"brdf", (dir / "table.csv").string(), (dir / "totals.json").string(), plot_path});
+  } catch (...) {
+    fs::remove_all(dir);
+    throw;
+  }
+  fs::remove_all(dir);
+}
+
 }  // namespace
 
 int run_brdf(int argc, char** argv) {
@@ -187,6 +208,10 @@ int run_brdf(int argc, char** argv) {
       ->check(cli::integer(1000, 2000000000));
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
+  std::string plot_path;
+  app.add_option("--plot", plot_path,
+                 "draw the BRDF and BTDF (plane of incidence, hemisphere, Lambert for comparison) as a PNG here "
+                 "(with the Python package's matplotlib, docs/python.md)");
 
   try {
     app.parse(argc, argv);
@@ -213,7 +238,7 @@ int run_brdf(int argc, char** argv) {
     lamina::parse_brdf_method(method, &request.method);  // one of the three names (checked above)
     lamina::check_brdf_method(stack, stack_path, request.method);
     // Fail before a long computation if an output cannot be written.
-    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
+    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}, {"--plot", plot_path}});
     BrdfOptions& options = request.options;
     options.theta_i_deg = theta_i;
     options.phi_i_deg = phi_i;
@@ -223,7 +248,7 @@ int run_brdf(int argc, char** argv) {
     options.seed = seed;
     options.walk.forced_exponential_after = roulette_cap;
     request.quadrature_points = quadrature_points;
-    request.table = !out_path.empty();
+    request.table = !out_path.empty() || !plot_path.empty();
     std::optional<lamina::Progress> progress;
     if (request.method == lamina::BrdfMethod::MonteCarlo) {
       progress.emplace("brdf", samples);
@@ -236,6 +261,7 @@ int run_brdf(int argc, char** argv) {
     if (request.method == lamina::BrdfMethod::AddingDoubling) {
       const std::string csv = out_path.empty() ? "" : table_csv(table);
       const std::string json = adding_doubling_json(result.adding_doubling, options, quadrature_points, !out_path.empty());
+      if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
       cli::StagedOutputs outputs;  // both files or neither
       if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
       if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
@@ -244,6 +270,7 @@ int run_brdf(int argc, char** argv) {
       return 0;
     }
     const std::string json = totals_json(table, method);
+    if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
     cli::StagedOutputs outputs;  // both files or neither
     if (!out_path.empty()) {
       const std::string csv = table_csv(table);

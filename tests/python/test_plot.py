@@ -38,3 +38,31 @@ def test_plot_compare(tmp_path):
     assert png_size(tmp_path / "c.png") == (450, 1100)
     rel = lamina.relative_difference(a, b)
     assert rel.shape == (20, 30) and np.isclose(rel.max(), 0.2, atol=1e-6) and rel.min() == 0
+
+
+def test_cli_brdf_plot(cli, source, tmp_path):
+    cli("brdf", source / "docs/examples/slab_truth.json", "--theta-i", "30", "--method", "adding-doubling",
+        "--quadrature-points", "8", "--plot", tmp_path / "b.png", "--summary", tmp_path / "s.json")
+    assert png_size(tmp_path / "b.png") == (900, 1100)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.png", "s.json"]
+
+
+def test_cli_compare_plot(cli, tmp_path):
+    a = lamina.Image(np.ones((20, 30, 3), np.float32))
+    b = lamina.Image(np.full((20, 30, 3), 1.1, np.float32))
+    a.write(tmp_path / "a.exr")
+    b.write(tmp_path / "b.exr")
+    cli("compare", tmp_path / "a.exr", tmp_path / "b.exr", "--plot", tmp_path / "c.png")
+    assert png_size(tmp_path / "c.png") == (450, 1100)
+    p = cli("compare", tmp_path / "a.exr", tmp_path / "b.exr", "--plot", tmp_path / "d.png", "--smooth", "2",
+            check=False)
+    assert p.returncode == 2 and "--plot: not with --crop or --smooth" in p.stderr
+    assert not (tmp_path / "d.png").exists()
+
+
+def test_cli_plot_without_the_package_fails_cleanly(cli, source, tmp_path, monkeypatch):
+    monkeypatch.setenv("LAMINA_PYTHON", str(tmp_path / "no_python"))
+    p = cli("brdf", source / "docs/examples/slab_truth.json", "--theta-i", "30", "--method", "first-order",
+            "--plot", tmp_path / "b.png", check=False)
+    assert p.returncode == 1 and "--plot: cannot run" in p.stderr
+    assert not (tmp_path / "b.png").exists()
