@@ -26,9 +26,14 @@ from ._lamina import DenoiseError, FitError, ImageIoError, StackFileError
 
 __version__: str = _lamina.__version__
 
+StackFileError.__doc__ = "A material file (or dict) is invalid: the command line's one-line message, naming the file and JSON path."
+FitError.__doc__ = "A fit's input is invalid (a parameter path, bounds, the measurements): the command line's message."
+ImageIoError.__doc__ = "An image file cannot be read or written: one line naming the file."
+DenoiseError.__doc__ = "Open Image Denoise cannot be loaded or reports an error."
+
 __all__ = [
     "__version__", "Stack", "Layer", "BrdfResult", "FitResult", "Image", "brdf", "fit", "render", "compare",
-    "denoise", "plot_brdf", "plot_compare", "StackFileError", "FitError", "ImageIoError", "DenoiseError",
+    "denoise", "relative_difference", "plot_brdf", "plot_compare", "StackFileError", "FitError", "ImageIoError", "DenoiseError",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
