@@ -1,7 +1,8 @@
 """Figures of lamina's results with matplotlib (imported here only: never in the render path).
 
 ``python -m lamina.plot brdf TABLE.csv TOTALS.json OUT.png`` draws a ``lamina brdf`` result from
-its files; ``lamina brdf --plot`` and ``lamina compare --plot`` run this module.
+its files; ``lamina brdf --plot`` and ``lamina compare --plot`` run this module, and
+scripts/tradeoff.py draws the speed-accuracy report with ``tradeoff``.
 """
 
 from __future__ import annotations
@@ -116,6 +117,45 @@ def compare(reference: Any, test: Any, path: Optional[os.PathLike] = None, *, ep
     fig.tight_layout()
     if path is not None:
         fig.savefig(os.fspath(path), dpi=100)
+    return fig
+
+
+MODE_COLOURS = {"random-walk": "tab:blue", "first-order": "tab:orange", "table": "tab:green", "lambert": "tab:red"}
+
+
+def tradeoff(rows: list, panels: list, modes: list):
+    """The speed-accuracy report's figure (scripts/tradeoff.py): per panel (scene, title, the
+    reference's own noise) RMSE against seconds, log-log, one curve per --subsurface mode, each
+    point labelled with its spp. rows: dicts with scene, mode, spp, seconds, rmse and
+    precompute_seconds. Returns the figure."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6), squeeze=False)
+    for ax, (scene, title, ref_noise) in zip(axes[0], panels):
+        for mode in modes:
+            mr = sorted([r for r in rows if r["scene"] == scene and r["mode"] == mode],
+                        key=lambda r: r["spp"])
+            label = mode
+            if mode in ("table", "lambert"):
+                # Every run does its own precompute; on a shared machine its time varies.
+                lo = min(r["precompute_seconds"] for r in mr)
+                hi = max(r["precompute_seconds"] for r in mr)
+                fmt = (lambda x: f"{x:.0f}") if lo >= 1 else (lambda x: f"{x:.2f}")
+                span = fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)}-{fmt(hi)}"
+                label += f" (incl. {span} s precompute per run)"
+            xs = [max(r["seconds"], 1e-3) for r in mr]
+            ax.loglog(xs, [r["rmse"] for r in mr], "o-", color=MODE_COLOURS[mode], label=label, ms=4)
+            for r, x in zip(mr, xs):
+                ax.annotate(str(r["spp"]), (x, r["rmse"]), fontsize=6, xytext=(2, 2),
+                            textcoords="offset points")
+        ax.axhline(ref_noise, color="grey", ls="--", lw=0.8,
+                   label=f"reference's own noise ~{ref_noise:.3f}")
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("seconds (render + precompute; 0 s drawn at 1 ms)", fontsize=8)
+        ax.set_ylabel("RMSE vs reference", fontsize=8)
+        ax.grid(True, which="both", lw=0.3)
+        ax.legend(fontsize=6.5)
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
     return fig
 
 

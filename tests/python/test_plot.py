@@ -66,3 +66,13 @@ def test_cli_plot_without_the_package_fails_cleanly(cli, source, tmp_path, monke
             "--plot", tmp_path / "b.png", check=False)
     assert p.returncode == 1 and "--plot: cannot run" in p.stderr
     assert not (tmp_path / "b.png").exists()
+
+
+def test_tradeoff_figure():
+    from lamina import plot
+    rows = [{"scene": s, "mode": m, "spp": n, "seconds": 0.1 * n, "rmse": 0.5 / n ** 0.5, "precompute_seconds": 0.5}
+            for s in ("a", "b") for m in ("random-walk", "lambert") for n in (1, 4, 16)]
+    fig = plot.tradeoff(rows, [("a", "scene a", 0.01), ("b", "scene b", 0.02)], ["random-walk", "lambert"])
+    assert [ax.get_title() for ax in fig.axes] == ["scene a", "scene b"]
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels == ["random-walk", "lambert (incl. 0.50 s precompute per run)", "reference's own noise ~0.010"]
