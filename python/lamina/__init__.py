@@ -423,8 +423,9 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
            materials: Union[None, PathLike, Mapping[str, Union[Stack, PathLike]]] = None, env: Union[str, float] = "",
            max_depth: int = 64, aovs: Union[str, Sequence[str]] = "none", cache: Optional[PathLike] = None,
            table_method: str = "adding-doubling", noise_threshold: float = 0.0, pilot_spp: int = 16,
-           clamp: float = 0.0, walk: Optional[Mapping[str, Any]] = None, out: Optional[PathLike] = None,
-           png: Optional[PathLike] = None, progress: Progress = None) -> Image:
+           clamp: float = 0.0, time_limit: float = 0.0, crop: Optional[Sequence[int]] = None,
+           walk: Optional[Mapping[str, Any]] = None, out: Optional[PathLike] = None, png: Optional[PathLike] = None,
+           exposure: float = 0.0, tone_curve: str = "filmic", progress: Progress = None) -> Image:
     """Renders a glTF scene, as ``lamina render SCENE --width W --height H --spp N --seed S ...``:
     the same image bit for bit. materials: a material map file, or {glTF material name: Stack or
     path}. aovs: "albedo,normal" or a list. walk: the walk's options by flag without dashes,
@@ -443,6 +444,9 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     nt = _number(noise_threshold, "noise_threshold", 0.0, 1.0, hi_open=True)
     ps = _integer(pilot_spp, "pilot_spp", 1, 1 << 20)
     cl = _number(clamp, "clamp", 0.0, 1e30)
+    tl = _number(time_limit, "time_limit", 0.0, 1e9)
+    ex = _number(exposure, "exposure", -20.0, 20.0)
+    region = [] if crop is None else [_integer(v, "crop", 0, 16384) for v in crop]
     aov_list = aovs if isinstance(aovs, str) else ",".join(aovs)
     env_text = env if isinstance(env, str) else repr(_number(env, "env", 0.0))
     map_path, inline = "", []
@@ -462,7 +466,7 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     cache_dir = "" if cache is None else _path(cache, "cache")
     d = _run(lambda state: _lamina.render(s, out_path, png_path, w, h, n, sd, th, subsurface, tol, camera, map_path,
                                            env_text, depth, aov_list, cache_dir, table_method, nt, ps, cl,
-                                           walk_options, inline, command, state),
+                                           tl, region, ex, tone_curve, walk_options, inline, command, state),
              progress, "render")
     for line in d["warnings"]:
         import warnings

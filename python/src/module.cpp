@@ -272,7 +272,8 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
                 std::uint64_t seed, int threads, const std::string& subsurface, double tolerance, const std::string& camera,
                 const std::string& materials, const std::string& env, int max_depth, const std::string& aovs,
                 const std::string& cache, const std::string& table_method, double noise_threshold, int pilot_spp,
-                double clamp, const std::vector<std::pair<std::string, std::string>>& walk_options,
+                double clamp, double time_limit, const std::vector<int>& crop, double exposure,
+                const std::string& tone_curve, const std::vector<std::pair<std::string, std::string>>& walk_options,
                 const std::vector<std::tuple<std::string, std::string, std::string>>& inline_stacks,
                 const std::string& command_line, JobState* state) {
   RenderRequest request;
@@ -286,6 +287,16 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
   s.noise_threshold = noise_threshold;
   s.pilot_spp = pilot_spp;
   s.clamp = clamp;
+  s.time_limit = time_limit;
+  if (!crop.empty()) {
+    if (crop.size() != 4 || !(crop[0] >= 0 && crop[1] >= 0 && crop[0] < crop[2] && crop[1] < crop[3] && crop[2] <= width &&
+                              crop[3] <= height))
+      throw std::invalid_argument("crop: expected (X0, Y0, X1, Y1) with 0 <= X0 < X1 <= width and 0 <= Y0 < Y1 <= height");
+    s.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
+  }
+  request.tone_map.exposure = exposure;
+  if (!parse_tone_curve(tone_curve, &request.tone_map.curve))
+    throw std::invalid_argument("tone_curve '" + tone_curve + "': expected filmic or clamp");
   std::string bad;
   if (!parse_aov_names(aovs, &s.aovs, &bad))
     throw std::invalid_argument("aovs '" + aovs + "': unknown AOV '" + bad + "' (expected albedo, normal, depth, variance, all or none)");
@@ -514,7 +525,7 @@ NB_MODULE(_lamina, m) {
         "coarse_quadrature_points"_a);
   m.def("render", &render, "lamina render without its argument parsing (renderer/render/render_job.h).", "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
         "subsurface"_a, "tolerance"_a, "camera"_a, "materials"_a, "env"_a, "max_depth"_a, "aovs"_a, "cache"_a,
-        "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
+        "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "time_limit"_a, "crop"_a, "exposure"_a, "tone_curve"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
         "state"_a.none());
   m.def("write_exr", &write_exr_file, "A float EXR with extra channels and header, atomically.", "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
   m.def("read_exr", &read_exr_file, "Every channel of an EXR and its header.", "path"_a);

@@ -137,3 +137,15 @@ def test_denoise_equals_the_command_line(cli, source, tmp_path):
     assert np.array_equal(got.rgb, lamina.Image.read(tmp_path / "dn.exr").rgb)
     assert not np.array_equal(got.rgb, raw.rgb)
     assert got.metadata["lamina:command"] == raw.metadata["lamina:command"]
+
+
+def test_crop_and_png_options_equal_the_command_line(cli, source, tmp_path):
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--crop", "10,5,30,25", "--png", tmp_path / "cli.png",
+                     "--exposure", "1.5", "--tone-curve", "clamp")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, crop=(10, 5, 30, 25), out=tmp_path / "py.exr",
+                       png=tmp_path / "py.png", exposure=1.5, tone_curve="clamp", progress=False)
+    assert im.rgb.shape == (20, 20, 3) and im.window == (10, 5, 40, 30)
+    assert np.array_equal(im.rgb, ref.rgb)
+    assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
+    with pytest.raises(ValueError, match="crop"):
+        lamina.render(source / SCENE, width=40, height=30, spp=1, crop=(10, 5, 50, 25), progress=False)
