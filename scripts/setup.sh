@@ -73,3 +73,13 @@ if ! python3 -c "import importlib.metadata as m, sys; sys.exit(m.version('pyoidn
   python3 -m pip install --quiet --no-deps "pyoidn==${PYOIDN_VERSION}" ||
     python3 -m pip install --quiet --no-deps --break-system-packages "pyoidn==${PYOIDN_VERSION}"
 fi
+
+# nanobind, with which CMake builds the Python package (python/, docs/python.md; the option
+# LAMINA_BUILD_PYTHON, on by default): pinned as in pyproject.toml. A pure-Python wheel; the
+# package's tests need more (scripts/test.sh).
+NANOBIND_VERSION=3.1.0
+if ! python3 -c "import importlib.metadata as m, sys; sys.exit(m.version('nanobind') != '${NANOBIND_VERSION}')" >/dev/null 2>&1; then
+  echo "setup: installing nanobind==${NANOBIND_VERSION} (builds the Python package)"
+  python3 -m pip install --quiet "nanobind==${NANOBIND_VERSION}" ||
+    python3 -m pip install --quiet --break-system-packages "nanobind==${NANOBIND_VERSION}"
+fi

@@ -25,6 +25,13 @@ if [ "${LAMINA_SKIP_RAY:-0}" != 1 ] && ! python3 -c "import ray" >/dev/null 2>&1
   python3 -m pip install --quiet "ray==${RAY_VERSION}" ||
     python3 -m pip install --quiet --break-system-packages "ray==${RAY_VERSION}"
 fi
+# The Python package's tests (tests/python, examples/: ctest python_*) need numpy, matplotlib
+# and pytest: the pinned python/requirements.txt, installed when one is missing.
+if ! python3 -c "import nanobind, numpy, matplotlib, pytest" >/dev/null 2>&1; then
+  echo "test: installing the Python package's pinned requirements (python/requirements.txt)"
+  python3 -m pip install --quiet -r python/requirements.txt ||
+    python3 -m pip install --quiet --break-system-packages -r python/requirements.txt
+fi
 # The Slurm batch driver's test (tests/renderer/cli/test_batch_slurm.cpp) starts a private local cluster
 # (scripts/lib/local_slurm.sh): it needs slurm-wlm and munge (setup.sh installs them) and root.
 # It fails (never skips silently) without them; LAMINA_SKIP_SLURM=1 skips it.

@@ -30,8 +30,6 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MODES = ["random-walk", "first-order", "table", "lambert"]
-COLOURS = {"random-walk": "tab:blue", "first-order": "tab:orange", "table": "tab:green",
-           "lambert": "tab:red"}
 
 # name -> (glTF, extra render arguments, width, height)
 SCENES = {
@@ -43,6 +41,16 @@ SCENES = {
              ["--materials", "scenes/leaf/leaf_map.json", "--camera", "back", "--env", "0.02"],
              32, 32),
 }
+
+
+def package_plot():
+    """The Python package's figures (python/lamina/plot.py), loaded from the source tree: they
+    need numpy and matplotlib, not the package's compiled module."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("lamina_plot", os.path.join(ROOT, "python/lamina/plot.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def fail(message):
@@ -254,37 +262,9 @@ def main():
             say(f"  {mode:12s} lowest RMSE {min(r['rmse'] for r in mr):.4f}; "
                 f"precompute {mr[0]['precompute_seconds']:.2f} s; " + "; ".join(parts))
 
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, len(scenes), figsize=(4.2 * len(scenes), 3.6), squeeze=False)
-    for ax, scene in zip(axes[0], scenes):
-        _, _, w, h = SCENES[scene]
-        for mode in MODES:
-            mr = sorted([r for r in rows if r["scene"] == scene and r["mode"] == mode],
-                        key=lambda r: r["spp"])
-            label = mode
-            if mode in ("table", "lambert"):
-                # Every run does its own precompute; on a shared machine its time varies.
-                lo = min(r["precompute_seconds"] for r in mr)
-                hi = max(r["precompute_seconds"] for r in mr)
-                fmt = (lambda x: f"{x:.0f}") if lo >= 1 else (lambda x: f"{x:.2f}")
-                span = fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)}-{fmt(hi)}"
-                label += f" (incl. {span} s precompute per run)"
-            xs = [max(r["seconds"], 1e-3) for r in mr]
-            ax.loglog(xs, [r["rmse"] for r in mr], "o-", color=COLOURS[mode], label=label, ms=4)
-            for r, x in zip(mr, xs):
-                ax.annotate(str(r["spp"]), (x, r["rmse"]), fontsize=6, xytext=(2, 2),
-                            textcoords="offset points")
-        ax.axhline(ref_noise[scene], color="grey", ls="--", lw=0.8,
-                   label=f"reference's own noise ~{ref_noise[scene]:.3f}")
-        ax.set_title(f"{scene} ({w}x{h}, ref. random-walk {args.ref_spp} spp)", fontsize=9)
-        ax.set_xlabel("seconds (render + precompute; 0 s drawn at 1 ms)", fontsize=8)
-        ax.set_ylabel("RMSE vs reference", fontsize=8)
-        ax.grid(True, which="both", lw=0.3)
-        ax.legend(fontsize=6.5)
-        ax.tick_params(labelsize=7)
-    fig.tight_layout()
+    panels = [(scene, f"{scene} ({SCENES[scene][2]}x{SCENES[scene][3]}, ref. random-walk {args.ref_spp} spp)",
+               ref_noise[scene]) for scene in scenes]
+    fig = package_plot().tradeoff(rows, panels, MODES)
     png = os.path.join(args.out, "tradeoff.png")
     fig.savefig(png, dpi=90)
     say(f"tradeoff.py: wrote {os.path.join(args.out, 'tradeoff.csv')}, {png} "

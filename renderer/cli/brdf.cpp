@@ -18,7 +18,10 @@
 //                        mirror / ballistic bins).
 // Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
 // renamed into place once both are written. Every number is checked by renderer/cli/options.h.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -33,11 +36,13 @@
 #include "materials/adding_doubling/adding_doubling.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/stack/stack_file.h"
+#include "renderer/batch/brdf_job.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/util/progress.h"
 #include "renderer/cli/outputs.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/python_plot.h"
 
 namespace {
 
@@ -146,6 +151,23 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
   return j.dump(2) + "\n";
 }
 
+// --plot: the table and totals as the files would hold them, drawn by the Python package
+// (renderer/util/python_plot.h) before any output is written.
+void plot_brdf(const std::string& csv, const std::string& json, const std::string& plot_path) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("lamina_brdf_plot_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  try {
+    lamina::write_file_atomically((dir / "table.csv").string(), csv);
+    lamina::write_file_atomically((dir / "totals.json").string(), json);
+    lamina::run_python_plot({"brdf", (dir / "table.csv").string(), (dir / "totals.json").string(), plot_path});
+  } catch (...) {
+    fs::remove_all(dir);
+    throw;
+  }
+  fs::remove_all(dir);
+}
+
 }  // namespace
 
 int run_brdf(int argc, char** argv) {
@@ -186,6 +208,10 @@ int run_brdf(int argc, char** argv) {
       ->check(cli::integer(1000, 2000000000));
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
+  std::string plot_path;
+  app.add_option("--plot", plot_path,
+                 "draw the BRDF and BTDF (plane of incidence, hemisphere, Lambert for comparison) as a PNG here "
+                 "(with the Python package's matplotlib, docs/python.md)");
 
   try {
     app.parse(argc, argv);
@@ -208,14 +234,12 @@ int run_brdf(int argc, char** argv) {
       std::fprintf(stderr, "lamina brdf: note: --quadrature-points is only used by --method adding-doubling\n");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
-    if (method != "monte-carlo" && stack.rough_top()) {
-      std::fprintf(stderr, "lamina brdf: %s: roughness: the %s solution is for a smooth top interface; use --method monte-carlo\n",
-                   stack_path.c_str(), method == "first-order" ? "first-order" : "adding-doubling");
-      return 1;
-    }
+    lamina::BrdfRequest request;
+    lamina::parse_brdf_method(method, &request.method);  // one of the three names (checked above)
+    lamina::check_brdf_method(stack, stack_path, request.method);
     // Fail before a long computation if an output cannot be written.
-    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
-    BrdfOptions options;
+    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}, {"--plot", plot_path}});
+    BrdfOptions& options = request.options;
     options.theta_i_deg = theta_i;
     options.phi_i_deg = phi_i;
     options.samples = samples;
@@ -223,30 +247,21 @@ int run_brdf(int argc, char** argv) {
     options.bins_phi = bins_phi;
     options.seed = seed;
     options.walk.forced_exponential_after = roulette_cap;
-    // 'absorbed' is reported from conservation, photon by photon; the walk's direct tally of it
-    // (EnergyTotals::absorbed_direct, a second estimator for the tests) is not printed.
-    options.walk.tally_absorbed = false;
-    if (method == "adding-doubling") {
-      lamina::AddingDoublingSettings settings;
-      settings.quadrature_points = quadrature_points;
-      const double cos_theta_i = lamina::incident_direction(theta_i, phi_i).z;  // as the other methods
-      lamina::AddingDoublingEstimate estimate = lamina::adding_doubling_with_error(stack, cos_theta_i, settings);
-      std::string csv;
-      if (!out_path.empty()) {  // the table: every Fourier mode (materials/adding_doubling/adding_doubling.h)
-        // Say when delta-M's truncation is too coarse for the bins (the totals are unaffected).
-        const lamina::DeltaMTruncation tr = lamina::delta_m_truncation(stack, settings);
-        if (tr.forward > 0.03)
-          std::fprintf(stderr, "lamina brdf: note: at %d quadrature points delta-M puts %.0f%% of a scattering in the forward peak, "
-                               "which the table puts in the mirror/ballistic bin; raise --quadrature-points for the bins near it\n",
-                       quadrature_points, 100.0 * tr.forward);
-        if (tr.backward > 1e-3)
-          std::fprintf(stderr, "lamina brdf: note: a backward lobe (g < 0) is not resolved at %d quadrature points (%.1e of it "
-                               "beyond the series): its bins can be wrong, even negative; use --method monte-carlo for the table\n",
-                       quadrature_points, tr.backward);
-        const BrdfTable table = lamina::brdf_table_adding_doubling(stack, options, settings, &estimate.totals);
-        csv = table_csv(table);
-      }
-      const std::string json = adding_doubling_json(estimate, options, quadrature_points, !out_path.empty());
+    request.quadrature_points = quadrature_points;
+    request.table = !out_path.empty() || !plot_path.empty();
+    std::optional<lamina::Progress> progress;
+    if (request.method == lamina::BrdfMethod::MonteCarlo) {
+      progress.emplace("brdf", samples);
+      options.on_progress = [&](std::uint64_t n) { progress->advance(n); };
+    }
+    const lamina::BrdfResult result = lamina::compute_brdf(stack, stack_path, request);
+    if (progress) progress->finish();
+    for (const std::string& note : result.notes) std::fprintf(stderr, "lamina brdf: note: %s\n", note.c_str());
+    const BrdfTable& table = result.table;
+    if (request.method == lamina::BrdfMethod::AddingDoubling) {
+      const std::string csv = out_path.empty() ? "" : table_csv(table);
+      const std::string json = adding_doubling_json(result.adding_doubling, options, quadrature_points, !out_path.empty());
+      if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
       cli::StagedOutputs outputs;  // both files or neither
       if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
       if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
@@ -254,15 +269,8 @@ int run_brdf(int argc, char** argv) {
       if (summary_path.empty()) std::fputs(json.c_str(), stdout);
       return 0;
     }
-    std::optional<lamina::Progress> progress;
-    if (method == "monte-carlo") {
-      progress.emplace("brdf", samples);
-      options.on_progress = [&](std::uint64_t n) { progress->advance(n); };
-    }
-    const BrdfTable table = method == "first-order" ? lamina::brdf_table_first_order(stack, options)
-                                                    : lamina::brdf_table_monte_carlo(stack, options);
-    if (progress) progress->finish();
     const std::string json = totals_json(table, method);
+    if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
     cli::StagedOutputs outputs;  // both files or neither
     if (!out_path.empty()) {
       const std::string csv = table_csv(table);

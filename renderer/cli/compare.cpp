@@ -23,13 +23,14 @@
 #include "renderer/image/false_colour.h"
 #include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
+#include "renderer/util/python_plot.h"
 #include "renderer/util/string_format.h"
 
 namespace lamina {
 namespace {
 
 struct CompareArgs {
-  std::string reference, test, out_exr, out_png, out_json;
+  std::string reference, test, out_exr, out_png, out_json, out_plot;
   double range = 0.5;
   double epsilon = kDefaultGuardEpsilon;
   std::vector<int> crop;
@@ -49,7 +50,9 @@ Image read_checked(const std::string& path, int* channels) {
 }
 
 int compare(const CompareArgs& args) {
-  cli::check_output_paths({{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}});
+  cli::check_output_paths({{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}, {"--plot", args.out_plot}});
+  if (!args.out_plot.empty() && (!args.crop.empty() || args.smooth > 0.0))
+    throw std::runtime_error("--plot: not with --crop or --smooth (the plot shows the whole images as they are)");
   int ref_channels = 0, test_channels = 0;
   Image ref = read_checked(args.reference, &ref_channels);
   Image test = read_checked(args.test, &test_channels);
@@ -122,6 +125,9 @@ int compare(const CompareArgs& args) {
     j["ssim"] = m.ssim;
     outputs.write(args.out_json, [&](const std::string& tmp) { write_file_atomically(tmp, j.dump(2) + "\n"); });
   }
+  if (!args.out_plot.empty())
+    run_python_plot({"compare", args.reference, args.test, args.out_plot, "--epsilon", string_printf("%.17g", args.epsilon),
+                     "--range", string_printf("%.17g", args.range)});
   outputs.commit();
   if (args.fail_above >= 0.0 && m.rms_relative > args.fail_above) {
     std::fprintf(stderr, "lamina compare: RMS relative difference %.6g exceeds --fail-above %.6g\n", m.rms_relative,
@@ -145,6 +151,9 @@ int run_compare(int argc, char** argv) {
   app.add_option("-o,--output", args.out_exr, "Write the per-channel relative difference as a float EXR");
   app.add_option("--png", args.out_png, "Write the false-colour picture (luminance) with a legend");
   app.add_option("--json", args.out_json, "Write the metrics as JSON");
+  app.add_option("--plot", args.out_plot,
+                 "Write a histogram of the relative differences beside the false-colour image as a PNG (with the Python "
+                 "package's matplotlib, docs/python.md; not with --crop or --smooth)");
   app.add_option("--range", args.range, "Relative difference drawn as full red/blue (default 0.5 = 50%)")
       ->check(lamina::cli::positive());
   app.add_option("--epsilon", args.epsilon, "Guard: divide by max(REF, epsilon * mean(REF)) (default 0.01)")

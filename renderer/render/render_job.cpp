@@ -1,5 +1,6 @@
 #include "renderer/render/render_job.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -134,25 +135,41 @@ Image render(const RenderRequest& request, const LoadedScene& loaded, const Laye
   const std::uint64_t pixels = pixel_count(rendered_region(settings));
   // At most spp samples a pixel (the adaptive pilot's are among them); the adaptive plan then
   // sets the total it chose, and a time limit caps the ETA (docs/rendering.md, "Progress").
-  Progress progress("render", pixels * static_cast<std::uint64_t>(settings.spp));
-  if (settings.time_limit > 0.0)
-    progress.set_deadline(settings.time_limit, pixels * static_cast<std::uint64_t>(first_round_samples(settings)));
+  const std::uint64_t planned = pixels * static_cast<std::uint64_t>(settings.spp);
+  // The terminal's bar, unless the caller follows the progress itself.
+  std::optional<Progress> progress;
+  if (!request.on_progress) {
+    progress.emplace("render", planned);
+    if (settings.time_limit > 0.0)
+      progress->set_deadline(settings.time_limit, pixels * static_cast<std::uint64_t>(first_round_samples(settings)));
+  }
+  std::atomic<std::uint64_t> done{0}, total{planned};
+  const auto start = std::chrono::steady_clock::now();
   RenderProgress on_progress;
-  on_progress.advance = [&](std::uint64_t n) { progress.advance(n); };
-  on_progress.planned = [&](std::uint64_t total, double converged) {
-    progress.set_total(total);
-    progress.set_note(string_printf("adaptive: %.0f%% of pixels converge below %d spp", 100.0 * converged, settings.spp));
+  on_progress.advance = [&](std::uint64_t n) {
+    if (progress) progress->advance(n);
+    else request.on_progress(done += n, total.load());
+  };
+  on_progress.planned = [&](std::uint64_t new_total, double converged) {
+    total = new_total;
+    if (!progress) return;
+    progress->set_total(new_total);
+    progress->set_note(string_printf("adaptive: %.0f%% of pixels converge below %d spp", 100.0 * converged, settings.spp));
   };
   on_progress.preview = [&](const Image& so_far, std::uint64_t samples) {
+    if (!request.write_files) return;
     Metadata preview_meta = identity_metadata({request, *result});
     preview_meta.emplace_back("lamina:preview", string_printf("%.6g", static_cast<double>(samples) / static_cast<double>(pixels)));
     write_exr(request.out_path, so_far, preview_meta, {}, data_window(settings));
     if (!request.png_path.empty()) write_png(request.png_path, tone_mapped(so_far, request.tone_map));
   };
-  const Image image =
-      render_image(*loaded.scene, *loaded.lights, *loaded.camera, settings, &result->stats, on_progress, aovs);
-  progress.finish();
-  result->seconds = progress.elapsed_seconds();
+  Image image = render_image(*loaded.scene, *loaded.lights, *loaded.camera, settings, &result->stats, on_progress, aovs);
+  if (progress) {
+    progress->finish();
+    result->seconds = progress->elapsed_seconds();
+  } else {
+    result->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
   return image;
 }
 
@@ -257,15 +274,19 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   result.camera = loaded.camera_desc.name;
   result.layered_materials = loaded.bindings.count();
   RenderAovs aovs;
-  const Image image = render(request, loaded, shading.layered, &result, &aovs);
+  Image image = render(request, loaded, shading.layered, &result, &aovs);
   if (cache)
     for (const auto& m : loaded.bindings.by_material)
       if (m) store_lambert_albedo(*cache, *m);
 
   if (request.subsurface.automatic) result.auto_choices = mode_choices(loaded, shading.choices);
   Metadata meta = render_metadata({request, result}, shading.similarity_bias, shading.ignored);
-  write_outputs(request, image, meta, extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings))));
+  std::vector<ExtraChannel> channels = extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings)));
+  if (request.write_files) write_outputs(request, image, meta, channels);
   result.metadata = std::move(meta);
+  result.image = std::move(image);
+  result.channels = std::move(channels);
+  result.window = data_window(request.settings);
   return result;
 }
 

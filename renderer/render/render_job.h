@@ -47,6 +47,11 @@ struct RenderRequest {
   RenderSettings settings;  // width, height, spp, seed, max depth, threads (`layered` is set here)
   std::string command_line;  // lamina:command: the command that reproduces the image
   Metadata extra_metadata;   // appended to the header (lamina batch's job id and hash)
+  // For callers other than the command line (the Python package, docs/python.md): the samples
+  // done and planned, from the rendering threads, instead of the terminal's progress bar. It may
+  // throw to stop the render; the exception leaves render_job and nothing is written.
+  std::function<void(std::uint64_t done, std::uint64_t total)> on_progress;
+  bool write_files = true;  // false: out_path and png_path are not written (the result holds the image)
 };
 
 // What auto chose for one layered material: a mode name, or "lambert-hidden" (not seen by camera
@@ -64,6 +69,11 @@ struct RenderResult {
   int layered_materials = 0;
   std::vector<MaterialModeChoice> auto_choices;  // empty unless --subsurface auto
   Metadata metadata;  // as written to the EXR
+  // The image as written to the EXR: RGB, the extra channels (sample counts, AOVs) and where
+  // the pixels sit in the full image (a crop).
+  Image image;
+  std::vector<ExtraChannel> channels;
+  DataWindow window;
 };
 
 // Lines for the user: `info` for stdout, `warning` for stderr (without a "lamina render: "

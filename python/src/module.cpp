@@ -1,0 +1,537 @@
+// lamina._lamina: the C++ half of the Python package (docs/python.md). Each function calls the
+// library function the command line calls (renderer/cli/*.cpp parse and print around the same
+// calls), so that the package's numbers equal the CLI's bit for bit; python/lamina/__init__.py
+// adds the progress display, Ctrl-C and numpy conveniences. Every long call releases the GIL;
+// it reports progress into a JobState that Python polls and that can ask the work to stop.
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/function.h>
+#include <nanobind/stl/pair.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+#include <nlohmann/json.hpp>
+
+#include "materials/fit/stack_fit.h"
+#include "materials/stack/stack_file.h"
+#include "renderer/batch/brdf_job.h"
+#include "renderer/image/denoise.h"
+#include "renderer/image/image_compare.h"
+#include "renderer/image/image_io.h"
+#include "renderer/layered/subsurface_mode.h"
+#include "renderer/render/render_job.h"
+#include "renderer/render/walk_option_table.h"
+#include "renderer/util/version.h"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace lamina {
+namespace {
+
+// Thrown from a progress callback when Python asked the work to stop (Ctrl-C).
+struct Cancelled : std::runtime_error {
+  Cancelled() : std::runtime_error("cancelled") {}
+};
+
+// Shared between the C++ work (any thread) and Python's polling loop.
+struct JobState {
+  std::atomic<std::uint64_t> done{0}, total{0};
+  std::atomic<bool> cancel{false};
+  void advance(std::uint64_t n) {
+    done += n;
+    if (cancel) throw Cancelled();
+  }
+};
+
+using FloatArray = nb::ndarray<nb::numpy, float>;
+using DoubleArray = nb::ndarray<nb::numpy, double>;
+
+// A numpy array owning a copy moved out of `values`, of the given shape.
+template <class T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values, std::initializer_list<std::size_t> shape) {
+  auto* owned = new std::vector<T>(std::move(values));
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+  return nb::ndarray<nb::numpy, T>(owned->data(), shape.size(), shape.begin(), owner);
+}
+
+// An (height, width, 3) float32 array (C order) as an Image.
+Image image_from(const nb::ndarray<float, nb::shape<-1, -1, 3>, nb::c_contig, nb::device::cpu>& a) {
+  Image image(static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0)));
+  std::copy(a.data(), a.data() + a.size(), image.rgb.begin());
+  return image;
+}
+FloatArray image_to_numpy(Image&& image) {
+  const std::size_t h = image.height, w = image.width;
+  return to_numpy(std::move(image.rgb), {h, w, 3});
+}
+
+nb::tuple rgb(const Spectrum& s) { return nb::make_tuple(s[0], s[1], s[2]); }
+
+// ---------------------------------------------------------------------------------------------
+// Stacks: the parsed stack and the text it was parsed from (fit needs the template).
+
+struct PyStack {
+  LayerStack stack;
+  std::string text, source;
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw StackFileError(path + ": cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+PyStack stack_load(const std::string& path) {
+  PyStack s;
+  s.stack = load_stack_file(path);  // the CLI's loader and messages
+  s.text = read_text(path);
+  s.source = path;
+  return s;
+}
+
+PyStack stack_parse(const std::string& text, const std::string& source) {
+  return PyStack{parse_stack_json(text, source), text, source};
+}
+
+// ---------------------------------------------------------------------------------------------
+// lamina brdf
+
+nb::dict estimate_dict(const Estimate& e) {
+  nb::dict d;
+  d["value"] = rgb(e.value);
+  d["stderr"] = rgb(e.stderr_);
+  return d;
+}
+
+// Bins as arrays of shape (2 sides, bins_theta, bins_phi, 3 channels).
+DoubleArray bins(const BrdfTable& t, const std::vector<Spectrum>& v) {
+  std::vector<double> out;
+  out.reserve(v.size() * 3);
+  for (const Spectrum& s : v)
+    for (int c = 0; c < 3; ++c) out.push_back(s[c]);
+  return to_numpy(std::move(out), {2, static_cast<std::size_t>(t.options.bins_theta), static_cast<std::size_t>(t.options.bins_phi), 3});
+}
+
+nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::string& method, std::uint64_t samples,
+              std::uint64_t seed, int bins_theta, int bins_phi, int roulette_cap, int quadrature_points, bool table,
+              JobState* state) {
+  BrdfRequest request;
+  if (!parse_brdf_method(method, &request.method))
+    throw std::invalid_argument("method: expected first-order, monte-carlo or adding-doubling (got '" + method + "')");
+  BrdfOptions& o = request.options;
+  o.theta_i_deg = theta_i;
+  o.phi_i_deg = phi_i;
+  o.samples = samples;
+  o.seed = seed;
+  o.bins_theta = bins_theta;
+  o.bins_phi = bins_phi;
+  o.walk.forced_exponential_after = roulette_cap;
+  request.quadrature_points = quadrature_points;
+  request.table = table;
+  if (state) {
+    state->total = request.method == BrdfMethod::MonteCarlo ? samples : 0;
+    o.on_progress = [state](std::uint64_t n) { state->advance(n); };
+  }
+  BrdfResult r;
+  {
+    nb::gil_scoped_release release;
+    r = compute_brdf(stack.stack, stack.source, request);
+  }
+  nb::dict d;
+  d["method"] = brdf_method_name(request.method);
+  d["notes"] = r.notes;
+  nb::dict totals;
+  if (request.method == BrdfMethod::AddingDoubling) {
+    const AddingDoublingTotals& t = r.adding_doubling.totals;
+    const AddingDoublingTotals& e = r.adding_doubling.error;
+    auto put = [&](const char* key, const Spectrum& v, const Spectrum& err) {
+      nb::dict x;
+      x["value"] = rgb(v);
+      x["stderr"] = rgb(Spectrum(0.0));
+      x["discretisation_error"] = rgb(err);
+      totals[key] = x;
+    };
+    put("R_specular", t.R_specular, e.R_specular);
+    put("R_diffuse", t.R_diffuse, e.R_diffuse);
+    put("T_ballistic", t.T_ballistic, e.T_ballistic);
+    put("T_diffuse", t.T_diffuse, e.T_diffuse);
+    put("absorbed", t.absorbed, e.absorbed);
+    put("R_hemispherical", t.R_hemispherical, e.R_hemispherical);
+    put("T_hemispherical", t.T_hemispherical, e.T_hemispherical);
+    put("absorbed_hemispherical", t.absorbed_hemispherical, e.absorbed_hemispherical);
+    if (r.has_table) {
+      d["R_forward_peak"] = rgb(t.R_forward_peak);
+      d["T_forward_peak"] = rgb(t.T_forward_peak);
+    }
+  } else {
+    const EnergyTotals& t = r.table.totals;
+    totals["R_specular"] = estimate_dict(t.R_specular);
+    totals["R_diffuse"] = estimate_dict(t.R_diffuse);
+    totals["T_ballistic"] = estimate_dict(t.T_ballistic);
+    totals["T_diffuse"] = estimate_dict(t.T_diffuse);
+    totals["absorbed"] = estimate_dict(t.absorbed);
+    if (request.method == BrdfMethod::MonteCarlo) {
+      totals["unresolved"] = estimate_dict(t.unresolved);
+      d["unresolved_walks"] = t.unresolved_walks;
+      static const char* kEnds[] = {"exit_top", "exit_bottom", "absorbed", "roulette", "lost"};
+      nb::dict ends;
+      for (std::size_t e = 0; e < r.table.ends.size() && e < 5; ++e) ends[kEnds[e]] = r.table.ends[e];
+      d["walk_ends"] = ends;
+    }
+  }
+  d["totals"] = totals;
+  if (r.has_table) {
+    const BrdfTable& t = r.table;
+    d["value"] = bins(t, t.value);
+    d["stderr"] = bins(t, t.stderr_);
+    d["single"] = bins(t, t.single);
+    d["multiple"] = bins(t, t.multiple);
+    std::vector<double> theta, phi, psa;
+    for (int k = 0; k < bins_theta; ++k) {
+      theta.push_back(t.theta_centre_deg(k));
+      psa.push_back(t.projected_solid_angle(k));
+    }
+    for (int m = 0; m < bins_phi; ++m) phi.push_back(t.phi_centre_deg(m));
+    d["theta_o_deg"] = to_numpy(std::move(theta), {static_cast<std::size_t>(bins_theta)});
+    d["phi_o_deg"] = to_numpy(std::move(phi), {static_cast<std::size_t>(bins_phi)});
+    d["projected_solid_angle"] = to_numpy(std::move(psa), {static_cast<std::size_t>(bins_theta)});
+  }
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// lamina fit (measurements mode)
+
+nb::dict fit(const PyStack& stack, const std::string& data_text, const std::string& data_source,
+             const std::vector<std::tuple<std::string, double, double>>& params, int quadrature_points,
+             int coarse_quadrature_points) {
+  std::vector<FitParameterSpec> specs;
+  for (const auto& [path, lo, hi] : params) specs.push_back(FitParameterSpec{path, lo, hi});
+  FitResult r;
+  std::string fitted;
+  std::vector<FitMeasurement> data;
+  {
+    nb::gil_scoped_release release;
+    const StackTemplate t = parse_stack_template_json(stack.text, stack.source);
+    data = parse_fit_measurements(data_text, data_source);
+    FitSettings settings;
+    settings.forward.quadrature_points = quadrature_points;
+    settings.coarse_quadrature_points = coarse_quadrature_points;
+    try {
+      r = fit_stack(t, specs, data, settings);
+    } catch (const FitError& e) {  // a parameter's problem: name the file it is in, as the CLI
+      throw FitError(stack.source + ": " + e.what());
+    }
+    nlohmann::json j = nlohmann::json::parse(stack.text);
+    write_fitted_values(j, t, specs, r);
+    fitted = j.dump(2) + "\n";
+  }
+  nb::dict d;
+  nb::list ps;
+  for (std::size_t k = 0; k < r.unknowns.size(); ++k) {
+    nb::dict p;
+    p["name"] = r.unknowns[k].name;
+    p["value"] = r.value[k];
+    p["sigma"] = r.sigma[k];
+    p["lower"] = r.unknowns[k].lower;
+    p["upper"] = r.unknowns[k].upper;
+    p["start"] = r.unknowns[k].start;
+    p["at_bound"] = static_cast<bool>(r.at_bound[k]);
+    ps.append(p);
+  }
+  d["parameters"] = ps;
+  d["chi2"] = r.chi2;
+  d["dof"] = r.dof;
+  d["evaluations"] = r.evaluations;
+  d["coarse_evaluations"] = r.coarse_evaluations;
+  d["model"] = r.model;
+  d["residual"] = r.residual;
+  d["warnings"] = r.warnings;
+  d["fitted_json"] = fitted;
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// lamina render
+
+nb::dict render(const std::string& scene, const std::string& out, const std::string& png, int width, int height, int spp,
+                std::uint64_t seed, int threads, const std::string& subsurface, double tolerance, const std::string& camera,
+                const std::string& materials, const std::string& env, int max_depth, const std::string& aovs,
+                const std::string& cache, const std::string& table_method, double noise_threshold, int pilot_spp,
+                double clamp, double time_limit, const std::vector<int>& crop, double exposure,
+                const std::string& tone_curve, const std::vector<std::pair<std::string, std::string>>& walk_options,
+                const std::vector<std::tuple<std::string, std::string, std::string>>& inline_stacks,
+                const std::string& command_line, JobState* state) {
+  RenderRequest request;
+  RenderSettings& s = request.settings;
+  s.width = width;
+  s.height = height;
+  s.spp = spp;
+  s.seed = seed;
+  s.threads = threads;
+  s.max_depth = max_depth;
+  s.noise_threshold = noise_threshold;
+  s.pilot_spp = pilot_spp;
+  s.clamp = clamp;
+  s.time_limit = time_limit;
+  if (!crop.empty()) {
+    if (crop.size() != 4 || !(crop[0] >= 0 && crop[1] >= 0 && crop[0] < crop[2] && crop[1] < crop[3] && crop[2] <= width &&
+                              crop[3] <= height))
+      throw std::invalid_argument("crop: expected (X0, Y0, X1, Y1) with 0 <= X0 < X1 <= width and 0 <= Y0 < Y1 <= height");
+    s.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
+  }
+  request.tone_map.exposure = exposure;
+  if (!parse_tone_curve(tone_curve, &request.tone_map.curve))
+    throw std::invalid_argument("tone_curve '" + tone_curve + "': expected filmic or clamp");
+  std::string bad;
+  if (!parse_aov_names(aovs, &s.aovs, &bad))
+    throw std::invalid_argument("aovs '" + aovs + "': unknown AOV '" + bad + "' (expected albedo, normal, depth, variance, all or none)");
+  SubsurfaceChoice choice;
+  if (!parse_subsurface_choice(subsurface, &choice))
+    throw std::invalid_argument("subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
+  choice.tolerance = choice.automatic ? tolerance : 0.0;
+  if (choice.automatic && !(tolerance > 0.0)) throw std::invalid_argument("subsurface auto needs tolerance E (e.g. 0.05)");
+  request.subsurface = choice;
+  if (table_method != "adding-doubling" && table_method != "walk")
+    throw std::invalid_argument("table_method '" + table_method + "': expected adding-doubling or walk");
+  request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
+  RandomWalkOptions walk;
+  for (const auto& [flag, value] : walk_options) {
+    bool found = false;
+    for (const WalkOptionSpec& spec : kWalkOptionTable) {
+      if (flag != spec.flag) continue;
+      found = true;
+      if (spec.kind == WalkOptionSpec::Kind::Switch) {
+        if (value != spec.on_word && value != spec.off_word)
+          throw std::invalid_argument(flag + ": expected " + spec.on_word + " or " + spec.off_word);
+        set_walk_switch(spec, value, &walk);
+      } else {
+        std::size_t used = 0;
+        double v = std::nan("");
+        try {
+          v = std::stod(value, &used);
+        } catch (const std::exception&) {
+        }
+        const bool integer = spec.kind == WalkOptionSpec::Kind::Integer;
+        const bool inside = (spec.lo_open ? v > spec.lo : v >= spec.lo) && (spec.hi_open ? v < spec.hi : v <= spec.hi);
+        if (used != value.size() || !inside || (integer && v != std::floor(v)))
+          throw std::invalid_argument(flag + ": must be " + (integer ? "an integer" : "a finite number") + " in " +
+                                      (spec.lo_open ? "(" : "[") + std::to_string(spec.lo) + ", " + std::to_string(spec.hi) +
+                                      (spec.hi_open ? ")" : "]") + " (got '" + value + "')");
+        if (integer) walk.*spec.integer_member = static_cast<int>(v);
+        else walk.*spec.real_member = v;
+      }
+    }
+    if (!found) throw std::invalid_argument("unknown walk option '" + flag + "'");
+  }
+  request.walk = walk;
+  request.scene_path = scene;
+  request.out_path = out;
+  request.png_path = png;
+  request.write_files = !out.empty();
+  request.camera_name = camera;
+  request.materials_map_path = materials;
+  for (const auto& [material, json, source] : inline_stacks) request.inline_stacks.push_back({material, json, source});
+  request.env = env;
+  request.cache_dir = cache;
+  request.command_line = command_line;
+  std::vector<std::string> info, warnings;
+  std::mutex lines;
+  RenderLog log;
+  log.info = [&](const std::string& line) { std::lock_guard<std::mutex> lock(lines); info.push_back(line); };
+  log.warning = [&](const std::string& line) { std::lock_guard<std::mutex> lock(lines); warnings.push_back(line); };
+  request.on_progress = [state](std::uint64_t done, std::uint64_t total) {
+    if (!state) return;
+    state->total = total;
+    state->done = done;
+    if (state->cancel) throw Cancelled();
+  };
+  RenderResult r;
+  {
+    nb::gil_scoped_release release;
+    r = render_job(request, log);
+  }
+  nb::dict d;
+  const std::size_t h = r.image.height, w = r.image.width;
+  d["rgb"] = image_to_numpy(std::move(r.image));
+  nb::list channels;
+  for (ExtraChannel& c : r.channels) {
+    const std::string name = c.name;
+    channels.append(nb::make_tuple(name, to_numpy(std::move(c.values), {h, w})));
+  }
+  d["channels"] = channels;
+  d["metadata"] = r.metadata;
+  d["window"] = nb::make_tuple(r.window.x, r.window.y, r.window.full_width, r.window.full_height);
+  d["seconds"] = r.seconds;
+  d["camera"] = r.camera;
+  d["info"] = info;
+  d["warnings"] = warnings;
+  d["invalid_samples"] = r.stats.invalid_samples;
+  d["clamped_samples"] = r.stats.clamped_samples;
+  d["layered_materials"] = r.layered_materials;
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Images: files, comparison, denoising.
+
+using InputImage = nb::ndarray<float, nb::shape<-1, -1, 3>, nb::c_contig, nb::device::cpu>;
+using InputPlane = nb::ndarray<float, nb::shape<-1, -1>, nb::c_contig, nb::device::cpu>;
+
+void write_exr_file(const std::string& path, const InputImage& rgb, const std::vector<std::pair<std::string, std::string>>& metadata,
+                    const std::vector<std::pair<std::string, InputPlane>>& channels, std::tuple<int, int, int, int> window) {
+  const Image image = image_from(rgb);
+  std::vector<ExtraChannel> extra;
+  for (const auto& [name, plane] : channels) {
+    if (plane.shape(0) != rgb.shape(0) || plane.shape(1) != rgb.shape(1))
+      throw std::invalid_argument("channel '" + name + "': its shape differs from the image's");
+    extra.push_back({name, std::vector<float>(plane.data(), plane.data() + plane.size())});
+  }
+  const DataWindow w{std::get<0>(window), std::get<1>(window), std::get<2>(window), std::get<3>(window)};
+  nb::gil_scoped_release release;
+  write_exr(path, image, metadata, extra, w);
+}
+
+nb::dict read_exr_file(const std::string& path) {
+  ChannelImage c;
+  Metadata meta;
+  {
+    nb::gil_scoped_release release;
+    c = read_channels(path);
+    meta = read_metadata(path);
+  }
+  nb::dict d;
+  d["names"] = c.names;
+  d["values"] = to_numpy(std::move(c.values), {static_cast<std::size_t>(c.height), static_cast<std::size_t>(c.width), c.names.size()});
+  d["metadata"] = meta;
+  return d;
+}
+
+nb::tuple read_image_file(const std::string& path) {
+  int channels = 0;
+  Image image;
+  {
+    nb::gil_scoped_release release;
+    image = read_image(path, &channels);
+  }
+  return nb::make_tuple(image_to_numpy(std::move(image)), channels);
+}
+
+nb::dict compare(const InputImage& reference, const InputImage& test, double epsilon) {
+  const Image a = image_from(reference), b = image_from(test);
+  CompareMetrics m;
+  {
+    nb::gil_scoped_release release;
+    m = compare_images(a, b, epsilon);
+  }
+  nb::dict d;
+  d["guard_floor"] = m.guard_floor;
+  d["mean_relative"] = m.mean_relative;
+  d["rms_relative"] = m.rms_relative;
+  d["max_abs_relative"] = m.max_abs_relative;
+  d["mae"] = m.mae;
+  d["mse"] = m.mse;
+  d["rmse"] = m.rmse;
+  d["ssim"] = m.ssim;
+  return d;
+}
+
+FloatArray relative_luminance(const InputImage& reference, const InputImage& test, double epsilon) {
+  const Image a = image_from(reference), b = image_from(test);
+  std::vector<float> rel = relative_luminance_difference(a, b, epsilon);
+  return to_numpy(std::move(rel), {static_cast<std::size_t>(a.height), static_cast<std::size_t>(a.width)});
+}
+
+nb::tuple denoise_image(const InputImage& colour, nb::object albedo, nb::object normal, int threads) {
+  const Image c = image_from(colour);
+  Image a, n;
+  DenoiseInput input;
+  input.colour = &c;
+  input.threads = threads;
+  if (!albedo.is_none()) {
+    a = image_from(nb::cast<InputImage>(albedo));
+    input.albedo = &a;
+    if (!normal.is_none()) {
+      n = image_from(nb::cast<InputImage>(normal));
+      input.normal = &n;
+    }
+  }
+  DenoiseResult r;
+  {
+    nb::gil_scoped_release release;
+    r = denoise(input);
+  }
+  return nb::make_tuple(image_to_numpy(std::move(r.image)), r.library, r.version);
+}
+
+}  // namespace
+}  // namespace lamina
+
+NB_MODULE(_lamina, m) {
+  using namespace lamina;
+  m.doc() = "The C++ half of the lamina package; use the functions of `lamina` (docs/python.md).";
+  m.attr("__version__") = lamina_version();
+
+  // Bad input raises with the command line's one-line messages.
+  nb::exception<StackFileError>(m, "StackFileError", PyExc_ValueError);
+  nb::exception<FitError>(m, "FitError", PyExc_ValueError);
+  nb::exception<ImageIoError>(m, "ImageIoError", PyExc_OSError);
+  nb::exception<DenoiseError>(m, "DenoiseError", PyExc_RuntimeError);
+  nb::exception<Cancelled>(m, "Cancelled", PyExc_KeyboardInterrupt);
+
+  nb::class_<JobState>(m, "JobState", "Progress of a running call, and the request to stop it.")
+      .def(nb::init<>())
+      .def_prop_ro("done", [](const JobState& s) { return s.done.load(); })
+      .def_prop_ro("total", [](const JobState& s) { return s.total.load(); })
+      .def("cancel", [](JobState& s) { s.cancel = true; }, "Ask the work to stop at its next progress report.");
+
+  nb::class_<Layer>(m, "Layer", "One layer of a stack (read-only; values per RGB channel).")
+      .def_ro("name", &Layer::name)
+      .def_ro("ior", &Layer::ior)
+      .def_ro("thickness", &Layer::thickness, "mm; inf for a semi-infinite layer")
+      .def_prop_ro("sigma_a", [](const Layer& l) { return rgb(l.sigma_a); }, "absorption, 1/mm")
+      .def_prop_ro("sigma_s", [](const Layer& l) { return rgb(l.sigma_s()); }, "scattering, 1/mm (all lobes)")
+      .def_prop_ro("albedo", [](const Layer& l) { return rgb(l.albedo()); }, "single-scattering albedo")
+      .def_prop_ro("semi_infinite", &Layer::semi_infinite);
+
+  nb::class_<PyStack>(m, "Stack", "A layered material (docs/contracts.md, \"Material file\").")
+      .def_static("load", &stack_load, "path"_a, "Reads a material file (its errors: StackFileError).")
+      .def_static("parse", &stack_parse, "text"_a, "source"_a, "Parses a material file's text; errors name `source`.")
+      .def_prop_ro("name", [](const PyStack& s) { return s.stack.name; })
+      .def_prop_ro("above_ior", [](const PyStack& s) { return s.stack.above_ior; })
+      .def_prop_ro("top_roughness", [](const PyStack& s) { return s.stack.top_roughness; })
+      .def_prop_ro("layers", [](const PyStack& s) { return s.stack.layers; })
+      .def_prop_ro("transmits", [](const PyStack& s) { return s.stack.transmits(); })
+      .def_ro("json", &PyStack::text, "the material file's text")
+      .def_ro("source", &PyStack::source, "the file (or name) it came from; errors name it");
+
+  m.def("brdf", &brdf, "lamina brdf: totals and bins (renderer/batch/brdf_job.h).", "stack"_a, "theta_i"_a, "phi_i"_a, "method"_a, "samples"_a, "seed"_a, "bins_theta"_a,
+        "bins_phi"_a, "roulette_cap"_a, "quadrature_points"_a, "table"_a, "state"_a.none());
+  m.def("fit", &fit, "lamina fit with measurements (materials/fit/stack_fit.h).", "stack"_a, "data_text"_a, "data_source"_a, "params"_a, "quadrature_points"_a,
+        "coarse_quadrature_points"_a);
+  m.def("render", &render, "lamina render without its argument parsing (renderer/render/render_job.h).", "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
+        "subsurface"_a, "tolerance"_a, "camera"_a, "materials"_a, "env"_a, "max_depth"_a, "aovs"_a, "cache"_a,
+        "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "time_limit"_a, "crop"_a, "exposure"_a, "tone_curve"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
+        "state"_a.none());
+  m.def("write_exr", &write_exr_file, "A float EXR with extra channels and header, atomically.", "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
+  m.def("read_exr", &read_exr_file, "Every channel of an EXR and its header.", "path"_a);
+  m.def("read_image", &read_image_file, "An image file as linear RGB, and its number of colour channels.", "path"_a);
+  m.def("compare", &compare, "lamina compare's metrics (renderer/image/image_compare.h).", "reference"_a, "test"_a, "epsilon"_a);
+  m.def("relative_luminance_difference", &relative_luminance, "The relative difference of luminance per pixel.", "reference"_a, "test"_a, "epsilon"_a);
+  m.def("denoise", &denoise_image, "Open Image Denoise (renderer/image/denoise.h): image, library, version.", "colour"_a, "albedo"_a.none(), "normal"_a.none(), "threads"_a);
+  m.attr("DEFAULT_GUARD_EPSILON") = kDefaultGuardEpsilon;
+}

@@ -1,0 +1,151 @@
+"""lamina.render, Image, compare and denoise against the command line, and Ctrl-C."""
+
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lamina
+
+SCENE = "scenes/spheres/spheres_0.gltf"
+SIZE = ["--width", "40", "--height", "30", "--spp", "4", "--seed", "5"]
+
+
+def exr_of_cli(cli, source, tmp_path, name, *extra):
+    out = tmp_path / name
+    cli("render", source / SCENE, *SIZE, "-o", out, *extra)
+    return lamina.Image.read(out)
+
+
+def test_render_equals_the_command_line(cli, source, tmp_path):
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--aovs", "albedo,normal,depth")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, aovs=["albedo", "normal", "depth"],
+                       progress=False)
+    assert im.rgb.dtype == np.float32 and im.rgb.shape == (30, 40, 3)
+    assert np.array_equal(im.rgb, ref.rgb)
+    assert set(im.channels) == set(ref.channels) == {"albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z", "Z"}
+    for name in im.channels:
+        assert np.array_equal(im.channels[name], ref.channels[name]), name
+    assert im.aovs["albedo"].shape == (30, 40, 3) and im.aovs["depth"].shape == (30, 40)
+    # The header: the same keys and values but the command and the timings.
+    differ = {k for k in set(im.metadata) | set(ref.metadata) if im.metadata.get(k) != ref.metadata.get(k)}
+    assert differ <= {"lamina:command", "lamina:seconds"}, differ
+    # Image.write writes what the CLI wrote.
+    im.write(tmp_path / "py.exr")
+    back = lamina.Image.read(tmp_path / "py.exr")
+    assert np.array_equal(back.rgb, ref.rgb) and back.metadata == im.metadata
+
+
+def test_out_writes_the_files_as_the_cli(cli, source, tmp_path):
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr")
+    lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, out=tmp_path / "py.exr",
+                  png=tmp_path / "py.png", progress=False)
+    assert np.array_equal(lamina.Image.read(tmp_path / "py.exr").rgb, ref.rgb)
+    assert (tmp_path / "py.png").stat().st_size > 0
+
+
+def test_inline_stacks_equal_the_map(cli, source, tmp_path):
+    skin = lamina.Stack.load(source / "scenes/materials/skin_dark.json")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, materials={"skin": skin}, progress=False)
+    mapping = tmp_path / "map.json"
+    mapping.write_text('{"skin": "%s"}' % (source / "scenes/materials/skin_dark.json"))
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--materials", mapping)
+    assert np.array_equal(im.rgb, ref.rgb)
+
+
+def test_compare_equals_the_command_line(cli, source, tmp_path):
+    a = exr_of_cli(cli, source, tmp_path, "a.exr")
+    b = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=6, progress=False)
+    b.write(tmp_path / "b.exr")
+    cli("compare", tmp_path / "a.exr", tmp_path / "b.exr", "--json", tmp_path / "m.json")
+    import json
+    expected = json.loads((tmp_path / "m.json").read_text())
+    got = lamina.compare(a, b)
+    for key in ("guard_floor", "mean_relative", "rms_relative", "max_abs_relative", "mae", "mse", "rmse", "ssim"):
+        assert got[key] == expected[key], key
+    assert lamina.compare(tmp_path / "a.exr", tmp_path / "b.exr") == got
+
+
+def test_progress_and_gil(source):
+    calls, ticks, stop = [], [0], threading.Event()
+
+    def count():  # runs only while the render has released the GIL
+        while not stop.is_set():
+            ticks[0] += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    lamina.render(source / SCENE, width=64, height=48, spp=64, progress=lambda d, n: calls.append((d, n)))
+    stop.set()
+    t.join()
+    assert calls and all(0 < d <= n for d, n in calls)
+    assert ticks[0] > 10
+
+
+def test_ctrl_c_stops_and_writes_nothing(source, tmp_path):
+    out = tmp_path / "never.exr"
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        lamina.render(source / SCENE, width=320, height=240, spp=4096, out=out, png=tmp_path / "never.png",
+                      progress=False)
+    timer.cancel()
+    assert time.monotonic() - start < 30  # stopped, not finished (about 10 min on 2 cores)
+    assert os.listdir(tmp_path) == []  # no image, no temporary
+
+
+@pytest.mark.parametrize("kwargs,error", [
+    ({"width": 0}, ValueError), ({"width": "40"}, TypeError), ({"spp": 2.5}, TypeError),
+    ({"clamp": float("nan")}, ValueError), ({"subsurface": "magic"}, ValueError), ({"aovs": "colour"}, ValueError),
+    ({"walk": {"no-such-option": 1}}, ValueError),
+])
+def test_bad_arguments_raise(source, kwargs, error):
+    args = {"width": 8, "height": 8, "spp": 1, "progress": False, **kwargs}
+    with pytest.raises(error):
+        lamina.render(source / SCENE, **args)
+
+
+def test_missing_scene_raises_the_clis_message(cli, tmp_path):
+    p = cli("render", tmp_path / "none.gltf", "-o", tmp_path / "x.exr", check=False)
+    with pytest.raises(RuntimeError) as e:
+        lamina.render(tmp_path / "none.gltf", width=8, height=8, progress=False)
+    assert "lamina render: " + str(e.value) == p.stderr.strip().splitlines()[-1]
+
+
+def test_image_errors(tmp_path):
+    with pytest.raises(lamina.ImageIoError):
+        lamina.Image.read(tmp_path / "none.exr")
+    with pytest.raises(ValueError):
+        lamina.Image(np.zeros((4, 4)))
+    with pytest.raises(ValueError):
+        lamina.compare(np.zeros((4, 4, 3), np.float32), np.zeros((4, 5, 3), np.float32))
+    bad = np.ones((4, 4, 3), np.float32)
+    bad[1, 1, 1] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        lamina.compare(np.ones((4, 4, 3), np.float32), bad)
+
+
+def test_denoise_equals_the_command_line(cli, source, tmp_path):
+    raw = exr_of_cli(cli, source, tmp_path, "raw.exr", "--aovs", "albedo,normal")
+    cli("denoise", tmp_path / "raw.exr", "-o", tmp_path / "dn.exr", "--threads", "1")
+    got = lamina.denoise(raw, threads=1)
+    assert np.array_equal(got.rgb, lamina.Image.read(tmp_path / "dn.exr").rgb)
+    assert not np.array_equal(got.rgb, raw.rgb)
+    assert got.metadata["lamina:command"] == raw.metadata["lamina:command"]
+
+
+def test_crop_and_png_options_equal_the_command_line(cli, source, tmp_path):
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--crop", "10,5,30,25", "--png", tmp_path / "cli.png",
+                     "--exposure", "1.5", "--tone-curve", "clamp")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, crop=(10, 5, 30, 25), out=tmp_path / "py.exr",
+                       png=tmp_path / "py.png", exposure=1.5, tone_curve="clamp", progress=False)
+    assert im.rgb.shape == (20, 20, 3) and im.window == (10, 5, 40, 30)
+    assert np.array_equal(im.rgb, ref.rgb)
+    assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
+    with pytest.raises(ValueError, match="crop"):
+        lamina.render(source / SCENE, width=40, height=30, spp=1, crop=(10, 5, 50, 25), progress=False)
