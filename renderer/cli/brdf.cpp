@@ -213,6 +213,11 @@ int run_brdf(int argc, char** argv) {
                    stack_path.c_str(), method == "first-order" ? "first-order" : "adding-doubling");
       return 1;
     }
+    if (method != "monte-carlo" && stack.energy_conserving_rough()) {
+      std::fprintf(stderr, "lamina brdf: %s: bottom_roughness: the %s solution is for smooth interfaces; use --method monte-carlo\n",
+                   stack_path.c_str(), method == "first-order" ? "first-order" : "adding-doubling");
+      return 1;
+    }
     // Fail before a long computation if an output cannot be written.
     cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
     BrdfOptions options;
