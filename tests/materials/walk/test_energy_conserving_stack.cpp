@@ -198,6 +198,42 @@ TEST(EnergyConservingStack, TransmittingStackTransmitsAlikeFromBothSides) {
       << "the two sides must differ where reciprocity does not tie them";
 }
 
+TEST(EnergyConservingStack, ConnectionsMatchTheStraightExitsThroughEveryRoughInterface) {
+  // The connections cross the rough interfaces by sampled microsurface walks (prepare_exit with an
+  // rng); the walk's own exits straight from their last event are the same light: the reflectance
+  // and the transmittance of those paths, two independent ways (connections towards a
+  // cosine-sampled direction w weighted |w.z| / p(w), against the exits' weights).
+  LayerStack s;
+  s.interface_model = InterfaceModel::EnergyConserving;
+  s.top_roughness = 0.4;
+  s.layers.push_back(make_layer("cuticle", 1.55, 0.05, Spectrum(0.2), Spectrum(20.0), Spectrum(0.8)));
+  s.layers[0].bottom_roughness = 0.6;
+  s.layers.push_back(make_layer("mesophyll", 1.35, 0.2, Spectrum(1.0), Spectrum(10.0), Spectrum(0.3)));
+  s.layers[1].bottom_roughness = 0.25;
+  s.below.ior = 1.0;
+  ASSERT_EQ(validate_stack(s), "");
+  const glm::dvec3 wi = from_angle(35.0);
+  for (double side : {1.0, -1.0}) {
+    RunningStats exits, connections;
+    ExitDirection exit;
+    for (int k = 0; k < 100000; ++k) {
+      Rng rng(51 + (side > 0.0 ? 0 : 1), k);
+      glm::dvec3 w = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+      const double p = w.z * kInvPi;
+      w.z *= side;
+      prepare_exit(s, w, &exit, 0.0, {0.5, 0.5}, &rng);
+      double sum = 0.0;
+      const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { sum += (e.throughput * connect_direct(s, e, exit).weight)[0]; });
+      connections.add(sum * std::abs(w.z) / p);
+      const bool straight_out = r.straight_from_last_event && r.direction.z * side > 0.0 && r.side != WalkResult::Side::None;
+      exits.add(straight_out ? r.weight[0] : 0.0);
+    }
+    const double se = std::hypot(exits.standard_error(), connections.standard_error());
+    EXPECT_NEAR(exits.mean(), connections.mean(), 4.0 * se) << "side " << side;
+    EXPECT_GT(exits.mean(), 30.0 * se) << "side " << side;
+  }
+}
+
 TEST(EnergyConservingStack, MaterialFileKeys) {
   const std::string layers =
       R"("layers": [{"ior": 1.5, "thickness": 0.1, "bottom_roughness": 0.4, "sigma_a": 0.1, "sigma_s": 1, "g": 0},

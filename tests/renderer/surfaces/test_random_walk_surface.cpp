@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 
 #include "materials/interfaces/microfacet.h"
+#include "materials/interfaces/microsurface.h"
 #include "materials/walk/random_walk.h"
 #include "renderer/surfaces/random_walk_surface.h"
 #include "tests/support/sphere_quadrature.h"
@@ -113,6 +114,61 @@ TEST(RandomWalkSurfaceRough, DeltaLightConnectionIsGlossyPlusWalkBrdf) {
   for (int c = 0; c < 3; ++c)
     EXPECT_TRUE(WithinKSigma(est[c].mean(), glossy + walk[c].mean(), std::hypot(est[c].standard_error(), walk[c].standard_error())))
         << "channel " << c;
+}
+
+// The energy-conserving rough interfaces (materials/interfaces/microsurface.h): light samples
+// alone carry the glossy lobe and the exits through rough interfaces (their continuation counts 0
+// on an emitter). Under the cosine-sampled sky, E[connection / p + continuation x MIS] must be the
+// albedo that materials' walks give by their exits alone (glossy reflection included): two
+// independent estimators. A white stack (no absorption, white base, a rough inner interface too)
+// must give 1.
+struct EnergyConservingCase {
+  double alpha, theta;
+  bool white;
+};
+class EnergyConservingSkyFurnace : public testing::TestWithParam<EnergyConservingCase> {};
+INSTANTIATE_TEST_SUITE_P(RandomWalkSurfaceRough, EnergyConservingSkyFurnace,
+                         testing::Values(EnergyConservingCase{0.3, 50.0, false}, EnergyConservingCase{0.08, 75.0, false},
+                                         EnergyConservingCase{0.6, 30.0, true}));
+
+TEST_P(EnergyConservingSkyFurnace, IsTheWalksAlbedo) {
+  const EnergyConservingCase c = GetParam();
+  LayerStack stack = rough_skin(c.alpha);
+  stack.interface_model = InterfaceModel::EnergyConserving;
+  if (c.white) {
+    stack.layers[0] = make_layer("top", 1.5, 0.2, Spectrum(0.0), Spectrum(6.0), Spectrum(0.7));
+    stack.layers[0].bottom_roughness = c.alpha;
+    stack.layers.push_back(make_layer("bottom", 1.3, 0.3, Spectrum(0.0), Spectrum(4.0), Spectrum(0.0)));
+    stack.below.albedo = Spectrum(1.0);
+  }
+  ASSERT_EQ(validate_stack(stack), "");
+  const glm::dvec3 wo = from_angle(c.theta);
+  const RandomWalkSurface surface(stack, kRandomHero, RandomWalkOptions{});
+  RunningStats est[3], walk[3];
+  for (int k = 0; k < 100000; ++k) {
+    Rng rng(35, k);
+    LightDirection light;
+    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    light.pdf = light.wi.z * kInvPi;
+    SurfaceScatter next;
+    Spectrum x(0.0);
+    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
+      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
+    x += light.f_cos / light.pdf;
+    for (int ch = 0; ch < 3; ++ch) est[ch].add(x[ch]);
+  }
+  for (int k = 0; k < 100000; ++k) {
+    Rng rng(36, k);
+    const WalkResult r = random_walk(stack, wo, rng);
+    for (int ch = 0; ch < 3; ++ch) walk[ch].add(r.side == WalkResult::Side::Top ? r.weight[ch] : 0.0);
+  }
+  for (int ch = 0; ch < 3; ++ch) {
+    const double se = std::hypot(est[ch].standard_error(), walk[ch].standard_error());
+    EXPECT_TRUE(WithinKSigma(est[ch].mean(), walk[ch].mean(), se)) << "channel " << ch;
+    if (c.white) {
+      EXPECT_TRUE(WithinKSigma(est[ch].mean(), 1.0, est[ch].standard_error())) << "channel " << ch;
+    }
+  }
 }
 
 }  // namespace
