@@ -172,19 +172,25 @@ RunningStats bihemispherical(const LayerStack& stack, bool transmitted, int walk
   return out;
 }
 
-TEST(EnergyConservingStack, TransmittingStackTransmitsAlikeFromBothSides) {
-  // A leaf-like stack: a thin forward-scattering cuticle with a rough top, a rough inner
-  // interface and an absorbing mesophyll with a rougher bottom. By reciprocity (air on both
-  // sides) the transmittance is the same seen from either side; the reflectance differs.
+// A leaf-like stack: a thin forward-scattering cuticle with a rough top, a rough interface to an
+// absorbing mesophyll, and a rough bottom; air on both sides.
+LayerStack rough_leaf(double top, double inner, double bottom, double cuticle_sigma_a) {
   LayerStack s;
   s.interface_model = InterfaceModel::EnergyConserving;
-  s.top_roughness = 0.3;
-  s.layers.push_back(make_layer("cuticle", 1.55, 0.02, Spectrum(0.0), Spectrum(20.0), Spectrum(0.9)));
-  s.layers[0].bottom_roughness = 0.5;
+  s.top_roughness = top;
+  s.layers.push_back(make_layer("cuticle", 1.55, 0.03, Spectrum(cuticle_sigma_a), Spectrum(20.0), Spectrum(0.85)));
+  s.layers[0].bottom_roughness = inner;
   s.layers.push_back(make_layer("mesophyll", 1.4, 0.25, Spectrum(1.5), Spectrum(12.0), Spectrum(0.3)));
-  s.layers[1].bottom_roughness = 0.8;
+  s.layers[1].bottom_roughness = bottom;
   s.below.ior = 1.0;
-  ASSERT_EQ(validate_stack(s), "");
+  EXPECT_EQ(validate_stack(s), "");
+  return s;
+}
+
+TEST(EnergyConservingStack, TransmittingStackTransmitsAlikeFromBothSides) {
+  // By reciprocity (air on both sides) the transmittance is the same seen from either side; the
+  // reflectance differs.
+  const LayerStack s = rough_leaf(0.3, 0.5, 0.8, 0.0);
   const LayerStack back = flipped(s);
   ASSERT_EQ(back.top_roughness, 0.8);
   ASSERT_EQ(back.layers[0].bottom_roughness, 0.5);
@@ -203,15 +209,7 @@ TEST(EnergyConservingStack, ConnectionsMatchTheStraightExitsThroughEveryRoughInt
   // rng); the walk's own exits straight from their last event are the same light: the reflectance
   // and the transmittance of those paths, two independent ways (connections towards a
   // cosine-sampled direction w weighted |w.z| / p(w), against the exits' weights).
-  LayerStack s;
-  s.interface_model = InterfaceModel::EnergyConserving;
-  s.top_roughness = 0.4;
-  s.layers.push_back(make_layer("cuticle", 1.55, 0.05, Spectrum(0.2), Spectrum(20.0), Spectrum(0.8)));
-  s.layers[0].bottom_roughness = 0.6;
-  s.layers.push_back(make_layer("mesophyll", 1.35, 0.2, Spectrum(1.0), Spectrum(10.0), Spectrum(0.3)));
-  s.layers[1].bottom_roughness = 0.25;
-  s.below.ior = 1.0;
-  ASSERT_EQ(validate_stack(s), "");
+  const LayerStack s = rough_leaf(0.4, 0.6, 0.25, 0.2);
   const glm::dvec3 wi = from_angle(35.0);
   for (double side : {1.0, -1.0}) {
     RunningStats exits, connections;

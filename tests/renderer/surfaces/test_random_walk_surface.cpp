@@ -49,6 +49,34 @@ double glossy_albedo(const RoughDielectric& top, const glm::dvec3& wo) {
 
 double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
 
+// The surface under a uniform sky of radiance 1 sampled by the cosine: one light sample per call,
+// MIS against the surface's continuation (weight 1 for a delta continuation). Its mean is the
+// surface's albedo at wo.
+void sky_furnace(const RandomWalkSurface& surface, const glm::dvec3& wo, std::uint64_t seed, int calls, RunningStats* est) {
+  for (int k = 0; k < calls; ++k) {
+    Rng rng(seed, k);
+    LightDirection light;
+    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    light.pdf = light.wi.z * kInvPi;
+    SurfaceScatter next;
+    Spectrum x(0.0);
+    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
+      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
+    x += light.f_cos / light.pdf;
+    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
+  }
+}
+
+// materials' walks: the mean weight of their top exits (with the walk's own glossy reflection
+// where it takes it).
+void walk_albedo(const LayerStack& stack, const glm::dvec3& wo, std::uint64_t seed, int walks, RunningStats* walk) {
+  for (int k = 0; k < walks; ++k) {
+    Rng rng(seed, k);
+    const WalkResult r = random_walk(stack, wo, rng);
+    for (int c = 0; c < 3; ++c) walk[c].add(r.side == WalkResult::Side::Top ? r.weight[c] : 0.0);
+  }
+}
+
 class SkyFurnace : public testing::TestWithParam<std::pair<double, double>> {};
 
 // A broad lobe where the light samples carry most of it, and a narrow one at grazing view
@@ -63,23 +91,8 @@ TEST_P(SkyFurnace, IsGlossyPlusWalkAlbedo) {
   RandomWalkOptions options;
   const RandomWalkSurface surface(stack, kRandomHero, options);
   RunningStats est[3], walk[3];
-  for (int k = 0; k < 200000; ++k) {
-    Rng rng(31, k);
-    LightDirection light;
-    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-    light.pdf = light.wi.z * kInvPi;
-    SurfaceScatter next;
-    Spectrum x(0.0);
-    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
-      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
-    x += light.f_cos / light.pdf;
-    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
-  }
-  for (int k = 0; k < 200000; ++k) {
-    Rng rng(32, k);
-    const WalkResult r = random_walk(stack, wo, rng);
-    for (int c = 0; c < 3; ++c) walk[c].add(r.side == WalkResult::Side::Top ? r.weight[c] : 0.0);
-  }
+  sky_furnace(surface, wo, 31, 200000, est);
+  walk_albedo(stack, wo, 32, 200000, walk);
   const double glossy = glossy_albedo(RoughDielectric{{alpha}, 1.0, 1.4}, wo);
   EXPECT_GT(glossy, 0.02);
   for (int c = 0; c < 3; ++c)
@@ -145,23 +158,8 @@ TEST_P(EnergyConservingSkyFurnace, IsTheWalksAlbedo) {
   const glm::dvec3 wo = from_angle(c.theta);
   const RandomWalkSurface surface(stack, kRandomHero, RandomWalkOptions{});
   RunningStats est[3], walk[3];
-  for (int k = 0; k < 100000; ++k) {
-    Rng rng(35, k);
-    LightDirection light;
-    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-    light.pdf = light.wi.z * kInvPi;
-    SurfaceScatter next;
-    Spectrum x(0.0);
-    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
-      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
-    x += light.f_cos / light.pdf;
-    for (int ch = 0; ch < 3; ++ch) est[ch].add(x[ch]);
-  }
-  for (int k = 0; k < 100000; ++k) {
-    Rng rng(36, k);
-    const WalkResult r = random_walk(stack, wo, rng);
-    for (int ch = 0; ch < 3; ++ch) walk[ch].add(r.side == WalkResult::Side::Top ? r.weight[ch] : 0.0);
-  }
+  sky_furnace(surface, wo, 35, 100000, est);
+  walk_albedo(stack, wo, 36, 100000, walk);
   for (int ch = 0; ch < 3; ++ch) {
     const double se = std::hypot(est[ch].standard_error(), walk[ch].standard_error());
     EXPECT_TRUE(WithinKSigma(est[ch].mean(), walk[ch].mean(), se)) << "channel " << ch;
