@@ -41,12 +41,20 @@ int top_reflection(const LayerStack& stack, const glm::dvec3& wo, double r_top, 
                    int light_count, SurfaceScatter* next) {
   if (const double alpha = stack.energy_conserving_alpha(0); alpha > 0.0) {
     // An energy-conserving rough top (materials/interfaces/microsurface.h): its glossy lobe towards
-    // every light by an unbiased estimate of the BSDF (light samples alone: the walk's own glossy
-    // reflection, WalkResult::entry_reflection, counts 0 on an emitter); the walk samples it.
+    // every light by an unbiased estimate of the BSDF; the walk samples it (its reflection at
+    // entry, WalkResult::entry_reflection, weight 1). The walk's density of that reflection has
+    // no closed form, so the MIS weights use its first order, density_single, in place of it, on
+    // both sides (here and in WalkScatter::run): weights that sum to 1 for every direction
+    // keep the estimate unbiased whatever density they use (Veach 1997, section 9.2.2), and the
+    // first order is the whole lobe at small alpha, where sampling must take the highlight.
     const MicrosurfaceDielectric top{{alpha}, stack.above_ior, stack.layers[0].ior};
     for (int k = 0; k < light_count; ++k) {
       const glm::dvec3& wl = lights[k].wi;
-      if (wl.z > 0.0) lights[k].f_cos += Spectrum(top.eval(wo, wl, rng) * wl.z);
+      if (!(wl.z > 0.0)) continue;
+      const double f = top.eval(wo, wl, rng);
+      if (!(f > 0.0)) continue;
+      const double mis = lights[k].delta ? 1.0 : power_heuristic(lights[k].pdf, top.density_single(wo, wl));
+      lights[k].f_cos += Spectrum(f * wl.z * mis);
     }
     return -1;
   }
@@ -307,7 +315,11 @@ bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count
   if (walk.side == WalkResult::Side::Bottom) next->weight *= t_factor_;
   next->delta = true;
   next->pdf = 0.0;
-  if (walk.entry_reflection || (walk.straight_from_last_event && walk.crossed_rough)) {
+  if (walk.entry_reflection) {
+    // The glossy reflection of an energy-conserving rough top: MIS density as in top_reflection.
+    next->delta = false;
+    next->pdf = MicrosurfaceDielectric{{stack_.top_roughness}, stack_.above_ior, stack_.layers[0].ior}.density_single(wo, walk.direction);
+  } else if (walk.straight_from_last_event && walk.crossed_rough) {
     // Through energy-conserving rough interfaces the light connections estimate the direct light
     // alone (WalkResult::crossed_rough): pdf 0 gives this exit weight 0 on an emitter.
     next->delta = false;
