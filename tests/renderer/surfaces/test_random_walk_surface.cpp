@@ -51,29 +51,32 @@ double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a +
 
 // The surface under a uniform sky of radiance 1 sampled by the cosine: one light sample per call,
 // MIS against the surface's continuation (weight 1 for a delta continuation). Its mean is the
-// surface's albedo at wo.
-void sky_furnace(const RandomWalkSurface& surface, const glm::dvec3& wo, std::uint64_t seed, int calls, RunningStats* est) {
+// surface's albedo at wo (side -1: the sky below, the surface's transmittance).
+void sky_furnace(const RandomWalkSurface& surface, const glm::dvec3& wo, std::uint64_t seed, int calls, RunningStats* est,
+                 double side = 1.0) {
   for (int k = 0; k < calls; ++k) {
     Rng rng(seed, k);
     LightDirection light;
     light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
     light.pdf = light.wi.z * kInvPi;
+    light.wi.z *= side;
     SurfaceScatter next;
     Spectrum x(0.0);
-    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
-      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
+    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z * side > 0.0)
+      x = next.weight * (next.delta ? 1.0 : power(next.pdf, std::abs(next.wi.z) * kInvPi));
     x += light.f_cos / light.pdf;
     for (int c = 0; c < 3; ++c) est[c].add(x[c]);
   }
 }
 
 // materials' walks: the mean weight of their top exits (with the walk's own glossy reflection
-// where it takes it).
-void walk_albedo(const LayerStack& stack, const glm::dvec3& wo, std::uint64_t seed, int walks, RunningStats* walk) {
+// where it takes it), or of their bottom exits.
+void walk_albedo(const LayerStack& stack, const glm::dvec3& wo, std::uint64_t seed, int walks, RunningStats* walk,
+                 WalkResult::Side side = WalkResult::Side::Top) {
   for (int k = 0; k < walks; ++k) {
     Rng rng(seed, k);
     const WalkResult r = random_walk(stack, wo, rng);
-    for (int c = 0; c < 3; ++c) walk[c].add(r.side == WalkResult::Side::Top ? r.weight[c] : 0.0);
+    for (int c = 0; c < 3; ++c) walk[c].add(r.side == side ? r.weight[c] : 0.0);
   }
 }
 
@@ -166,6 +169,31 @@ TEST_P(EnergyConservingSkyFurnace, IsTheWalksAlbedo) {
     if (c.white) {
       EXPECT_TRUE(WithinKSigma(est[ch].mean(), 1.0, est[ch].standard_error())) << "channel " << ch;
     }
+  }
+}
+
+TEST(RandomWalkSurfaceRough, EnergyConservingLeafTransmitsItsWalksTransmittance) {
+  // A rough leaf (air on both sides: no n^2 factor) under a sky below: the light samples through
+  // its rough bottom and inner interfaces (sampled microsurface crossings) plus the continuations
+  // that leave below must add up to the transmittance of materials' walks.
+  LayerStack s;
+  s.interface_model = InterfaceModel::EnergyConserving;
+  s.top_roughness = 0.3;
+  s.layers.push_back(make_layer("cuticle", 1.5, 0.03, Spectrum(0.1), Spectrum(20.0), Spectrum(0.8)));
+  s.layers[0].bottom_roughness = 0.5;
+  s.layers.push_back(make_layer("mesophyll", 1.4, 0.2, Spectrum(1.0, 0.3, 2.0), Spectrum(10.0), Spectrum(0.3)));
+  s.layers[1].bottom_roughness = 0.2;
+  s.below.ior = 1.0;
+  ASSERT_EQ(validate_stack(s), "");
+  const glm::dvec3 wo = from_angle(30.0);
+  const RandomWalkSurface surface(s, kRandomHero, RandomWalkOptions{});
+  RunningStats est[3], walk[3];
+  sky_furnace(surface, wo, 37, 100000, est, -1.0);
+  walk_albedo(s, wo, 38, 100000, walk, WalkResult::Side::Bottom);
+  for (int c = 0; c < 3; ++c) {
+    const double se = std::hypot(est[c].standard_error(), walk[c].standard_error());
+    EXPECT_TRUE(WithinKSigma(est[c].mean(), walk[c].mean(), se)) << "channel " << c;
+    EXPECT_GT(walk[c].mean(), 20.0 * se) << "channel " << c;
   }
 }
 
