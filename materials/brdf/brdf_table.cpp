@@ -136,8 +136,14 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   // Fresnel reflection at the top (exact, zero variance) and the analytic delta parts.
   const double r_top = fresnel_dielectric(wi.z, stack.above_ior, stack.layers[0].ior);
   const ZerothOrder zeroth = zeroth_order(stack, wi.z);
-  const bool rough = stack.rough_top();
+  const bool rough = stack.single_scattering_top();
   const RoughDielectric top = top_interface(stack);
+  // Energy-conserving rough interfaces: the walk reflects the glossy lobe itself (an unscattered
+  // exit at the top, WalkResult::entry_reflection), and the unscattered light that crosses rough
+  // interfaces has no closed form: R_specular and T_ballistic are then the walks' unscattered exits.
+  const bool microsurfaces = stack.energy_conserving_rough();
+  const bool walk_specular = rough || microsurfaces;
+  const double top_specular_smooth = stack.energy_conserving_alpha(0) > 0.0 ? 0.0 : r_top;
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
   // single2].
@@ -175,20 +181,21 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       double x[kTotalSlots];
       // Rough: R_specular is this photon's estimate too, so it takes the unscattered exits (light
       // reflected by an inner interface) that the smooth case has in zeroth_order's closed form.
-      x[kRs] = rough ? glossy + (delta && at_top ? w : 0.0) : zeroth.R_specular[c];
+      const double top_specular = rough ? glossy : top_specular_smooth;  // what the walk does not reflect
+      x[kRs] = walk_specular ? top_specular + (delta && at_top ? w : 0.0) : zeroth.R_specular[c];
       x[kRd] = at_top && !delta ? w : 0.0;
-      x[kTb] = zeroth.T_ballistic[c];
+      x[kTb] = microsurfaces ? (delta && at_bottom ? w : 0.0) : zeroth.T_ballistic[c];
       x[kTd] = at_bottom && !delta ? w : 0.0;
       // Conservation by construction: this photon's absorbed part is what did not leave.
       x[kAbs] = 1.0 - x[kRs] - x[kRd] - x[kTb] - x[kTd];
       x[kAbsDirect] = walk.absorbed[c];
-      x[kRsWalk] = (rough ? glossy : r_top) + (delta && at_top ? w : 0.0);
+      x[kRsWalk] = top_specular + (delta && at_top ? w : 0.0);
       x[kTbWalk] = delta && at_bottom ? w : 0.0;
       x[kUnresolved] = walk.cut_weight[c];
       for (int s = 0; s < kTotalSlots; ++s) {
         // The ballistic transmission, and the specular reflection of a smooth top, are reported
         // from their closed forms below, not from these sums.
-        if (s == kTb || (s == kRs && !rough)) continue;
+        if ((s == kTb && !microsurfaces) || (s == kRs && !walk_specular)) continue;
         a[totals_at + (s * kChannels + c) * 2] += x[s];
         a[totals_at + (s * kChannels + c) * 2 + 1] += x[s] * x[s];
       }
@@ -233,8 +240,8 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
       mean_and_error(acc[totals_at + (s * kChannels + c) * 2], acc[totals_at + (s * kChannels + c) * 2 + 1],
                      n, &totals[s]->value[c], &totals[s]->stderr_[c]);
   // The analytic parts are the same for every photon: report them exactly (no summation error).
-  if (!rough) table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
-  table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
+  if (!walk_specular) table.totals.R_specular = {zeroth.R_specular, Spectrum(0.0)};
+  if (!microsurfaces) table.totals.T_ballistic = {zeroth.T_ballistic, Spectrum(0.0)};
   for (int e = 0; e < kEndKinds; ++e) table.ends[e] = static_cast<std::uint64_t>(acc[ends_at + e]);
   table.totals.unresolved_walks = static_cast<std::uint64_t>(acc[ends_at + kEndKinds]);
   for (std::size_t b = 0; b < nb; ++b)

@@ -112,11 +112,33 @@ void flip_into(const LayerStack& stack, LayerStack* out) {
   std::reverse(out->layers.begin(), out->layers.end());
   out->above_ior = stack.below.ior;
   out->below.ior = stack.above_ior;
+  // Interface k of the flipped stack is interface N - k of the stack: the old bottom is the new
+  // top, and new layer j's bottom is the old interface above old layer N - 1 - j.
+  const std::size_t n = stack.layers.size();
+  out->top_roughness = n > 0 ? stack.layers[n - 1].bottom_roughness : 0.0;
+  for (std::size_t j = 0; j < n; ++j)
+    out->layers[j].bottom_roughness = j + 1 < n ? stack.layers[n - 2 - j].bottom_roughness : stack.top_roughness;
 }
 
 LayerStack with_smooth_top(LayerStack stack) {
   stack.top_roughness = 0.0;
+  for (Layer& layer : stack.layers) layer.bottom_roughness = 0.0;
   return stack;
+}
+
+double LayerStack::energy_conserving_alpha(int k) const {
+  const int n = static_cast<int>(layers.size());
+  if (interface_model != InterfaceModel::EnergyConserving || k < 0 || k > n || n == 0) return 0.0;
+  const double alpha = k == 0 ? top_roughness : layers[k - 1].bottom_roughness;
+  if (!(alpha > 0.0)) return 0.0;
+  if (k == n && below.kind != Below::Kind::Dielectric) return 0.0;
+  return ior_above_interface(k) != ior_below_interface(k) ? alpha : 0.0;
+}
+
+bool LayerStack::energy_conserving_rough() const {
+  for (int k = 0; k <= static_cast<int>(layers.size()); ++k)
+    if (energy_conserving_alpha(k) > 0.0) return true;
+  return false;
 }
 
 std::string stack_fingerprint(const LayerStack& stack) {
@@ -127,8 +149,10 @@ std::string stack_fingerprint(const LayerStack& stack) {
   };
   out << "above " << stack.above_ior << '\n';
   if (stack.rough_top()) out << "top_roughness " << stack.top_roughness << '\n';
+  if (stack.interface_model == InterfaceModel::EnergyConserving) out << "energy_conserving\n";
   for (const Layer& l : stack.layers) {
     out << "layer " << l.ior << ' ' << l.thickness << " sigma_a";
+    if (l.bottom_roughness > 0.0) out << " bottom_roughness " << l.bottom_roughness;
     spectrum(l.sigma_a);
     for (const PhaseLobe& lobe : l.lobes) {
       out << " lobe";
@@ -186,6 +210,18 @@ std::string validate_stack(const LayerStack& stack) {
     const Layer& layer = stack.layers[i];
     const std::string p = "layers[" + std::to_string(i) + "]";
     if (auto e = check_ior(p + ".ior", layer.ior); !e.empty()) return e;
+    if (!std::isfinite(layer.bottom_roughness) || layer.bottom_roughness < 0.0 || layer.bottom_roughness > 1.0) {
+      std::ostringstream os;
+      os << p << ".bottom_roughness: must be a number in [0, 1] (GGX alpha; got " << layer.bottom_roughness << ")";
+      return os.str();
+    }
+    if (layer.bottom_roughness > 0.0 && stack.interface_model != InterfaceModel::EnergyConserving)
+      return p + ".bottom_roughness: rough inner and bottom interfaces need \"interface_model\": "
+                 "\"energy_conserving\"";
+    if (layer.bottom_roughness > 0.0 && i + 1 == stack.layers.size() &&
+        (stack.below.kind != Below::Kind::Dielectric || layer.semi_infinite()))
+      return p + ".bottom_roughness: the last layer has no bottom interface (a lambert substrate or a "
+                 "semi-infinite layer)";
     if (std::isnan(layer.thickness) || layer.thickness < 0.0)
       return p + ".thickness: must be >= 0 or \"inf\"";
     if (layer.semi_infinite() && i + 1 != stack.layers.size())
@@ -224,11 +260,13 @@ std::string validate_stack(const LayerStack& stack) {
   } else {
     if (auto e = check_spectrum("below.lambert", stack.below.albedo, true); !e.empty()) return e;
   }
-  // A rough top on a transmitting stack would be a rough BOTTOM when the stack is seen from
-  // behind (flipped), which the walk does not model yet.
-  if (stack.top_roughness > 0.0 && stack.transmits())
-    return "roughness: a rough top interface is only supported on stacks that do not transmit "
-           "(a semi-infinite last layer or a lambert substrate)";
+  // A single-scattering rough top on a transmitting stack would be a rough BOTTOM when the stack
+  // is seen from behind (flipped), which that model does not have; the energy-conserving one
+  // handles every interface from both sides.
+  if (stack.top_roughness > 0.0 && stack.transmits() && stack.interface_model == InterfaceModel::SingleScattering)
+    return "roughness: a rough top interface is only supported on stacks that do not transmit (a semi-infinite "
+           "last layer or a lambert substrate) by the single-scattering model; \"interface_model\": "
+           "\"energy_conserving\" supports any stack";
   return {};
 }
 

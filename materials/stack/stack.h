@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "materials/base/spectrum.h"
+#include "materials/interfaces/microsurface.h"  // InterfaceModel
 
 namespace lamina {
 
@@ -30,6 +31,9 @@ struct Layer {
   double thickness = 0.0;  // mm; kInfiniteThickness for a semi-infinite (last) layer
   Spectrum sigma_a;        // absorption, 1/mm (sum of w_i sigma_a_i for a composite)
   std::vector<PhaseLobe> lobes;
+  // GGX alpha of the interface BELOW this layer (the next layer's top, or the stack's bottom on a
+  // dielectric): 0 smooth. Only with LayerStack::interface_model EnergyConserving (validate_stack).
+  double bottom_roughness = 0.0;
 
   Spectrum sigma_s() const;  // sum of the lobes' scattering
   Spectrum sigma_t() const { return sigma_a + sigma_s(); }
@@ -66,6 +70,12 @@ struct LayerStack {
   // reflection is a glossy lobe and whose transmission spreads directions. Only for stacks that
   // do not transmit (validate_stack).
   double top_roughness = 0.0;
+  // The rough interfaces' model (materials/interfaces/microsurface.h): SingleScattering, the
+  // default (what every material file without the key has always meant), is the top-only
+  // single-scattering interface; EnergyConserving is Heitz et al.'s multiple-scattering
+  // microsurface at every rough interface (top_roughness and each layer's bottom_roughness),
+  // from both sides, on any stack.
+  InterfaceModel interface_model = InterfaceModel::SingleScattering;
   std::vector<Layer> layers;
   Below below;
 
@@ -79,6 +89,14 @@ struct LayerStack {
   // The top interface is rough: roughness > 0 and an index step there (an index-matched top is
   // no interface at all, rough or not).
   bool rough_top() const { return top_roughness > 0.0 && !layers.empty() && above_ior != layers[0].ior; }
+  // The single-scattering rough top (the model of microfacet.h's RoughDielectric, which the walk,
+  // its connections and the renderer's glossy lobe special-case).
+  bool single_scattering_top() const { return rough_top() && interface_model == InterfaceModel::SingleScattering; }
+  // GGX alpha of interface k (numbered as below: 0 the top, N the bottom) if it is an energy-
+  // conserving rough interface (roughness > 0 and an index step), else 0.
+  double energy_conserving_alpha(int k) const;
+  // Some interface is an energy-conserving rough one.
+  bool energy_conserving_rough() const;
   // Index of refraction on the far side of interface k: interface 0 is the top surface
   // (above_ior | layers[0]); interface k (1 <= k < N) lies between layers[k-1] and layers[k];
   // interface N is the bottom (layers[N-1] | below).
@@ -105,8 +123,9 @@ void flip_into(const LayerStack& stack, LayerStack* out);
 // Into *out, reusing its storage; `out` must not be `&stack`.
 void similarity_transform_into(const LayerStack& stack, LayerStack* out);
 
-// The same stack with a smooth top interface (top_roughness 0): what the modes that do not model
-// a rough interface (first order, tables) use; the renderer warns when it does so.
+// The same stack with smooth interfaces (top_roughness and every bottom_roughness 0): what the
+// modes that do not model a rough interface (first order, tables) use; the renderer warns when
+// it does so.
 LayerStack with_smooth_top(LayerStack stack);
 
 // Every number of the stack that affects light transport, exactly (hexadecimal floating point),

@@ -121,10 +121,11 @@ class Reader {
 
   Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc) const {
     require_object(j, path);
-    check_keys(j, path, {"name", "ior", "thickness", "sigma_a", "sigma_s", "g", "components"});
+    check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "sigma_a", "sigma_s", "g", "components"});
     Layer layer;
     if (j.contains("name")) layer.name = string(j["name"], join(path, "name"));
     layer.ior = ior(member(j, path, "ior"), join(path, "ior"));
+    if (j.contains("bottom_roughness")) layer.bottom_roughness = number(j["bottom_roughness"], join(path, "bottom_roughness"));
 
     const json& t = member(j, path, "thickness");
     const std::string tp = join(path, "thickness");
@@ -182,6 +183,13 @@ class Reader {
     return layer;
   }
 
+  InterfaceModel interface_model(const json& j) const {
+    const std::string name = string(j, "interface_model");
+    if (name == "single_scattering") return InterfaceModel::SingleScattering;
+    if (name == "energy_conserving") return InterfaceModel::EnergyConserving;
+    fail("interface_model", "expected \"energy_conserving\" or \"single_scattering\" (got \"" + name + "\")");
+  }
+
   Below below(const json& j, const std::string& path) const {
     require_object(j, path);
     check_keys(j, path, {"ior", "lambert"});
@@ -204,7 +212,7 @@ class Reader {
 
   StackTemplate stack(const json& root) const {
     require_object(root, "");
-    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "layers", "below"});
+    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "interface_model", "layers", "below"});
     const json& version = member(root, "", "lamina_material");
     if (!version.is_number() || version.get<double>() != 1.0)
       fail("lamina_material", "unsupported version " + version.dump() + " (this build reads version 1)");
@@ -214,6 +222,7 @@ class Reader {
     if (root.contains("name")) s.name = string(root["name"], "name");
     if (root.contains("above_ior")) s.above_ior = ior(root["above_ior"], "above_ior");
     if (root.contains("roughness")) s.top_roughness = number(root["roughness"], "roughness");
+    if (root.contains("interface_model")) s.interface_model = interface_model(root["interface_model"]);
     const json& layers = member(root, "", "layers");
     if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));
     if (layers.empty()) fail("layers", "a stack needs at least one layer");

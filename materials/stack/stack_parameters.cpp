@@ -108,8 +108,9 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
     return p;
   }
   if (path == "roughness") {
-    // The top interface's GGX alpha; a rough top needs a stack that does not transmit.
-    if (t.stack.transmits())
+    // The top interface's GGX alpha; a single-scattering rough top needs a stack that does not
+    // transmit (validate_stack).
+    if (t.stack.transmits() && t.stack.interface_model == InterfaceModel::SingleScattering)
       fail(path, "a rough top interface is only supported on stacks that do not transmit (a semi-infinite last layer or a lambert substrate)");
     p.kind = Kind::kRoughness;
     return p;

@@ -165,7 +165,7 @@ RoughCrossing cross_rough_top(const RoughDielectric& top, const glm::dvec3& w, c
 }
 
 void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding,
-                       const RoughCrossing* rough) {
+                       const RoughCrossing* rough, Rng* rng = nullptr) {
   out->w = w;
   out->layers.clear();
   out->guided.clear();
@@ -182,10 +182,11 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
   // transmission and density ratio start the products).
   const bool through_rough = up && rough != nullptr;
   if (through_rough && !rough->exists) return;
-  const double n_ref = through_rough ? stack.layers[0].ior : n_out;
-  const double tx = through_rough ? rough->inside.x : w.x, ty = through_rough ? rough->inside.y : w.y;
-  const double mu_ref = through_rough ? rough->inside.z : mu_out;
-  const double sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+  double n_ref = through_rough ? stack.layers[0].ior : n_out;
+  double tx = through_rough ? rough->inside.x : w.x, ty = through_rough ? rough->inside.y : w.y;
+  double mu_ref = through_rough ? rough->inside.z : mu_out;
+  double sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+  bool crossed_microsurface = false;  // an energy-conserving rough interface lies between here and w
   const double top_scale = through_rough ? rough->radiance_scale : 1.0;
   const double top_jacobian = through_rough ? rough->jacobian : 1.0;
   out->layers.resize(n_layers);
@@ -197,12 +198,32 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
     const int l = up ? step : n_layers - 1 - step;
     const Layer& layer = stack.layers[l];
     ExitDirection::LayerExit& e = out->layers[l];
+    // The interface on this layer's way out: energy-conserving rough ones are crossed by a walk
+    // on their microsurface, from the direction beyond (w, or the outer layer's inside).
+    bool sampled_here = through_rough && l == 0;
+    const int k_out = up ? l : l + 1;
+    const double alpha = reachable ? stack.energy_conserving_alpha(k_out) : 0.0;
+    if (alpha > 0.0) {
+      const glm::dvec3 beyond = step == 0 ? w : out->layers[up ? l - 1 : l + 1].inside;
+      const MicrosurfaceDielectric surface{{alpha}, stack.ior_above_interface(k_out), stack.ior_below_interface(k_out)};
+      glm::dvec3 t;
+      if (rng == nullptr || !surface.sample(beyond, *rng, &t) || !(t.z * beyond.z < 0.0)) {
+        reachable = false;
+        continue;
+      }
+      n_ref = layer.ior;
+      tx = -t.x;
+      ty = -t.y;
+      mu_ref = std::abs(t.z);
+      sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+      sampled_here = crossed_microsurface = true;
+    }
     const double r = n_ref / layer.ior;
     const double sin2 = r * r * sin2_ref;
-    const double mu = through_rough && l == 0 ? mu_ref : sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
+    const double mu = sampled_here ? mu_ref : sin2 < 1.0 ? std::sqrt(1.0 - sin2) : -1.0;
     reachable = reachable && mu > 0.0;
     if (!reachable) continue;  // e.exists stays false, and for every layer further in
-    if (!(through_rough && l == 0)) {
+    if (!sampled_here) {
       const double n_next = up ? stack.ior_above_interface(l) : stack.ior_below_interface(l + 1);
       fresnel_t *= 1.0 - fresnel_dielectric(mu, layer.ior, n_next);
     }
@@ -210,8 +231,15 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
     e.inside = {tx * r, ty * r, up ? mu : -mu};
     e.mu_inside = mu;
     e.fresnel_t = fresnel_t;
-    e.radiance_scale = fresnel_t * r * r * top_scale;
-    e.jacobian = top_jacobian * r * r * mu_ref / mu;
+    if (crossed_microsurface) {
+      // The n^2 law from this layer to w, the microsurfaces' transmissions being sampled (random_walk.h).
+      const double q = n_out / layer.ior;
+      e.radiance_scale = fresnel_t * q * q;
+      e.jacobian = 0.0;
+    } else {
+      e.radiance_scale = fresnel_t * r * r * top_scale;
+      e.jacobian = top_jacobian * r * r * mu_ref / mu;
+    }
     e.grey_phase = phase_is_grey(layer);
     e.single_lobe = e.grey_phase && single_henyey_greenstein(layer, &e.single_g);
     e.sigma_s = layer.sigma_s();
@@ -241,9 +269,9 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
 }  // namespace
 
 void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding,
-                  glm::dvec2 u_interface) {
-  if (!stack.rough_top() || !(w.z > 0.0)) {
-    prepare_exit_impl(stack, w, out, guiding, nullptr);
+                  glm::dvec2 u_interface, Rng* rng) {
+  if (!stack.single_scattering_top() || !(w.z > 0.0)) {
+    prepare_exit_impl(stack, w, out, guiding, nullptr, rng);
     return;
   }
   // Sample the inside direction: visible normals from w, refraction into layer 0.
@@ -257,7 +285,7 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
 
 void prepare_exit_through(const LayerStack& stack, const glm::dvec3& w, const glm::dvec3& inside_up,
                           ExitDirection* out, double guiding) {
-  if (!stack.rough_top() || !(w.z > 0.0)) {
+  if (!stack.single_scattering_top() || !(w.z > 0.0)) {
     prepare_exit_impl(stack, w, out, guiding, nullptr);
     return;
   }
@@ -466,8 +494,13 @@ void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan
   const int n_layers = static_cast<int>(stack.layers.size());
   plan->may_switch = settings.similarity_after >= 0 && settings.similar != nullptr &&
                      settings.similar->layers.size() == stack.layers.size();
-  plan->rough = stack.rough_top();
+  plan->rough = stack.single_scattering_top();
   plan->top = plan->rough ? top_interface(stack) : RoughDielectric{};
+  plan->microsurfaces_used = stack.energy_conserving_rough();
+  plan->microsurfaces.clear();
+  if (plan->microsurfaces_used)
+    for (int k = 0; k <= n_layers; ++k)
+      plan->microsurfaces.push_back({{stack.energy_conserving_alpha(k)}, stack.ior_above_interface(k), stack.ior_below_interface(k)});
   // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
   plan->layers.resize(plan->may_switch ? 2 * n_layers : n_layers);
   for (int k = 0; k < static_cast<int>(plan->layers.size()); ++k) {

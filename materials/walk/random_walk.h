@@ -26,6 +26,7 @@
 #include <glm/vec3.hpp>
 
 #include "materials/interfaces/microfacet.h"
+#include "materials/interfaces/microsurface.h"
 #include "materials/base/sampling.h"
 #include "materials/base/spectrum.h"
 #include "materials/stack/stack.h"
@@ -99,6 +100,16 @@ struct WalkResult {
   // expectation closes the energy balance: R + T + absorbed + interface_loss = 1 - R_glossy.
   glm::dvec3 top_inside{0.0};
   Spectrum interface_loss;
+  // Energy-conserving rough interfaces (LayerStack::interface_model; materials/interfaces/
+  // microsurface.h), which the walk samples exactly (weight 1, nothing lost):
+  // entry_reflection: the rough top reflected the light at its entry (the glossy lobe: an exit at
+  //   the top with scatter_count 0 and weight 1; with a smooth or single-scattering top the walk
+  //   never reflects at entry, the caller adds that part);
+  // crossed_rough: the walk's straight exit (straight_from_last_event) crossed such an interface.
+  //   The light connections through one are sampled (prepare_exit with an Rng) and have no MIS
+  //   density: they alone estimate such exits, whose exit_pdf stays 0.
+  bool entry_reflection = false;
+  bool crossed_rough = false;
 };
 
 using EventCallback = std::function<void(const ScatterEvent&)>;
@@ -153,8 +164,13 @@ struct WalkPlan {
   std::vector<LayerCache> layers;  // [0, n): the stack's layers; [n, 2n): the similar stack's, if may_switch
   bool may_switch = false;         // settings.similarity_after applies (a similar stack of as many layers)
   bool spectral = true;            // false: a grey stack (and no guiding), whose channels never differ
-  bool rough = false;              // stack->rough_top(), and then its top interface
+  bool rough = false;              // stack->single_scattering_top(), and then its top interface
   RoughDielectric top;
+  // Energy-conserving rough interfaces: interface k's microsurface (k = 0 the top ... N the
+  // bottom; alpha 0 where the interface is smooth), and whether there is any.
+  bool microsurfaces_used = false;
+  std::vector<MicrosurfaceDielectric> microsurfaces;
+  bool rough_at(int k) const { return microsurfaces_used && microsurfaces[k].distribution.alpha > 0.0; }
 };
 void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan);
 WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event = {},
@@ -211,8 +227,19 @@ struct ExitDirection {
 // (light: p_light(w) p(t | w); walk: phase and flight to t, then the facets to w). Only with
 // uniform random u_interface is the connection unbiased (the default is for smooth stacks, which
 // ignore it). Deeper layers follow from t by Snell's law through the smooth inner interfaces.
+//
+// Energy-conserving rough interfaces (any of them, LayerStack::energy_conserving_alpha) are
+// crossed the same way, with `rng`: from the outside inwards, at each such interface one walk on
+// its microsurface (MicrosurfaceDielectric::sample) from the direction beyond it; if it
+// transmits, the direction it reaches is the next layer's (and Snell's law goes on from there),
+// if it reflects the layers behind cannot be reached this time. Its estimate of the interface's
+// transmission for radiance, f_t(w, t) |t.z| / P(t | w) = (n_beyond / n_layer)^2 by
+// reciprocity (microsurface.h), is what the n^2 law gives anyway: radiance_scale keeps its form.
+// No closed-form density of the walk's own exits exists there: such layers get jacobian 0 (so
+// pdf_for_mis 0: the connections estimate those exits alone, WalkResult::crossed_rough). Without
+// an rng, the layers behind such an interface are unreachable.
 void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0,
-                  glm::dvec2 u_interface = {0.5, 0.5});
+                  glm::dvec2 u_interface = {0.5, 0.5}, Rng* rng = nullptr);
 // The stack's top interface as a rough dielectric (+z outside, -z layer 0); meaningful when
 // stack.rough_top().
 RoughDielectric top_interface(const LayerStack& stack);

@@ -108,7 +108,25 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
   const double n_top = stack.layers[0].ior;
   PathWeight pw;
   glm::dvec3 d = -wi;
-  if (rough) {
+  if (plan.rough_at(0)) {
+    // An energy-conserving rough top: one walk on its microsurface decides, with weight 1,
+    // between the glossy reflection (the walk's exit, WalkResult::entry_reflection) and the
+    // direction the light enters along.
+    glm::dvec3 t;
+    if (!plan.microsurfaces[0].sample(wi, rng, &t)) {
+      result.end = WalkResult::End::Absorbed;
+      return result;
+    }
+    if (t.z > 0.0) {
+      result.side = WalkResult::Side::Top;
+      result.end = WalkResult::End::ExitTop;
+      result.direction = t;
+      result.weight = Spectrum(1.0);
+      result.entry_reflection = true;
+      return result;
+    }
+    d = t;
+  } else if (rough) {
     // Through a rough top the packet meets a facet m ~ D_wi (the visible normals) and carries
     // the power refracted there, (1 - F(wi.m)) G2/G1(wi) (Walter eq. 21 sampled as in
     // RoughDielectric::sample, power mode; the reflected part F is the caller's glossy lobe). A
@@ -150,6 +168,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
   double z = 0.0;     // depth below the top of layer l, mm
   ScatterEvent last_event;
   bool reflected_since_event = false;
+  bool crossed_rough_since_event = false;  // an energy-conserving rough interface was crossed
   int interactions_at_event = -1;  // result.interactions when the last volume event was emitted
   bool last_flight_guided = false;  // the current flight's direction came from a guided mixture
   Spectrum weight = pw.value();
@@ -202,7 +221,8 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
     result.weight = pw.value();
     if (result.scatter_count > 0 && !reflected_since_event) {
       result.straight_from_last_event = true;
-      if (!settings.compute_exit_pdf) return;
+      result.crossed_rough = crossed_rough_since_event;
+      if (!settings.compute_exit_pdf || crossed_rough_since_event) return;
       const LayerStack& last_stack = stack_of_event(stack, settings, last_event);
       if (rough && side == WalkResult::Side::Top) {
         ExitDirection exit;
@@ -217,6 +237,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
   const bool keep_events = has_callback(on_event) || settings.compute_exit_pdf;
   auto emit = [&](ScatterEvent::Kind kind, const Spectrum& throughput) {
     reflected_since_event = false;
+    crossed_rough_since_event = false;
     if (!keep_events) return;
     // Volume events count one interaction each (the collision); any more since the previous
     // volume event were interfaces. A guided flight has another direction density.
@@ -350,7 +371,33 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
         return false;
       };
 
-      if (!down && l == 0 && rough) {  // rough top interface, met from inside
+      // An energy-conserving rough interface (materials/interfaces/microsurface.h): one walk on
+      // its microsurface from -d (weight 1) reflects or transmits the packet.
+      const int k_interface = down ? l + 1 : l;
+      const bool microsurface = plan.rough_at(k_interface) &&
+                                !(down && l == n_layers - 1 && stack.below.kind == Below::Kind::Lambert);
+      glm::dvec3 crossed{0.0};
+      if (microsurface && !plan.microsurfaces[k_interface].sample(-d, rng, &crossed)) {
+        result.end = WalkResult::End::Absorbed;  // past MicrosurfaceDielectric::kMaxOrder
+        return result;
+      }
+      const bool transmitted = microsurface && crossed.z * d.z > 0.0;
+      if (microsurface && !transmitted) {
+        d = crossed;
+        reflected_since_event = true;
+      } else if (microsurface && (k_interface == 0 || k_interface == n_layers)) {  // out of the stack
+        if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
+        else flight_escaped(&pw, tau, hero);
+        if (k_interface == 0) result.top_inside = d;
+        crossed_rough_since_event = true;
+        finish_exit(k_interface == 0 ? WalkResult::Side::Top : WalkResult::Side::Bottom, crossed);
+        return result;
+      } else if (microsurface) {  // into the next layer
+        d = crossed;
+        l = down ? l + 1 : l - 1;
+        z = down ? 0.0 : (*layers)[l].thickness;
+        crossed_rough_since_event = true;
+      } else if (!down && l == 0 && rough) {  // rough top interface, met from inside
         // The facets seen from -d (pointing away from the surface into layer 0): reflection with
         // probability F, else refraction out; the packet keeps G2/G1 (power mode).
         const double u0 = rng.uniform(), u1 = rng.uniform(), u_choice = rng.uniform();

@@ -61,6 +61,9 @@ void check_brdf_method(const LayerStack& stack, const std::string& source, BrdfM
   if (method != BrdfMethod::MonteCarlo && stack.rough_top())
     throw std::runtime_error(source + ": roughness: the " + brdf_method_name(method) +
                              " solution is for a smooth top interface; use --method monte-carlo");
+  if (method != BrdfMethod::MonteCarlo && stack.energy_conserving_rough())
+    throw std::runtime_error(source + ": bottom_roughness: the " + brdf_method_name(method) +
+                             " solution is for smooth interfaces; use --method monte-carlo");
 }
 
 BrdfResult compute_brdf(const LayerStack& stack, const std::string& source, const BrdfRequest& request) {

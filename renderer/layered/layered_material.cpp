@@ -14,7 +14,7 @@ namespace {
 // error 0; materials/tables/albedo.h), by `walks` walks for a rough one (its facets are not in
 // adding-doubling).
 Spectrum albedo_of(const LayerStack& stack, int walks, Spectrum* standard_error = nullptr) {
-  if (!stack.rough_top()) {
+  if (!stack.rough_top() && !stack.energy_conserving_rough()) {
     if (standard_error) *standard_error = Spectrum(0.0);
     return diffuse_bihemispherical_albedo_adding_doubling(stack);
   }
@@ -138,6 +138,8 @@ std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode
        << " of the top interface: a smooth mirror, no glossy lobe";
     add(os.str());
   }
+  if (smooth_only && !material.base_stack().rough_top() && material.base_stack().energy_conserving_rough())
+    add("the rough inner interfaces (bottom_roughness): smooth mirrors");
   return out;
 }
 

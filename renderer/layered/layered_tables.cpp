@@ -36,7 +36,7 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     // A rough top is not tabulated (its glossy lobe would need its own table): the smooth stack,
     // with the warning of render_job (ignored_by_mode). Tables point to their stack: kept here.
     const LayerStack* stack = &m->base_stack();
-    if (stack->rough_top()) {
+    if (stack->rough_top() || stack->energy_conserving_rough()) {
       owned_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
       stack = owned_stacks_.back().get();
     }
@@ -58,7 +58,7 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       std::array<const LayerStack*, 2> pair{nullptr, nullptr};
       auto up = std::make_unique<LayerStack>();
       apply_parameters(t, ps, v.data(), up.get());
-      if (up->rough_top()) *up = with_smooth_top(*up);
+      if (up->rough_top() || up->energy_conserving_rough()) *up = with_smooth_top(*up);
       pair[0] = up.get();
       if (sides == 2) {
         owned_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));

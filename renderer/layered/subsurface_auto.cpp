@@ -620,7 +620,7 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
       continue;
     }
     const LayeredMaterial& m = *bindings.by_material[i];
-    if (m.base_stack().rough_top()) {
+    if (m.base_stack().rough_top() || m.base_stack().energy_conserving_rough()) {
       // The other modes would drop the glossy lobe (and first order and tables would refract
       // through a mirror): no prediction can make them right.
       out[i].mode = SubsurfaceMode::RandomWalk;

@@ -8,6 +8,7 @@
 #include "materials/interfaces/fresnel.h"
 #include "materials/phase/henyey_greenstein.h"
 #include "materials/interfaces/microfacet.h"
+#include "materials/interfaces/microsurface.h"
 #include "materials/walk/next_flight_connection.h"
 #include "materials/walk/random_walk.h"
 #include "materials/walk/walk_estimator.h"
@@ -38,7 +39,26 @@ WalkScratch& walk_scratch() {
 // it ends there, -1 if the walk runs instead.
 int top_reflection(const LayerStack& stack, const glm::dvec3& wo, double r_top, Rng& rng, LightDirection* lights,
                    int light_count, SurfaceScatter* next) {
-  if (stack.rough_top()) {
+  if (const double alpha = stack.energy_conserving_alpha(0); alpha > 0.0) {
+    // An energy-conserving rough top (materials/interfaces/microsurface.h): its glossy lobe towards
+    // every light by an unbiased estimate of the BSDF; the walk samples it (its reflection at
+    // entry, WalkResult::entry_reflection, weight 1). The walk's density of that reflection has
+    // no closed form, so the MIS weights use its first order, density_single, in place of it, on
+    // both sides (here and in WalkScatter::run): weights that sum to 1 for every direction
+    // keep the estimate unbiased whatever density they use (Veach 1997, section 9.2.2), and the
+    // first order is the whole lobe at small alpha, where sampling must take the highlight.
+    const MicrosurfaceDielectric top{{alpha}, stack.above_ior, stack.layers[0].ior};
+    for (int k = 0; k < light_count; ++k) {
+      const glm::dvec3& wl = lights[k].wi;
+      if (!(wl.z > 0.0)) continue;
+      const double f = top.eval(wo, wl, rng);
+      if (!(f > 0.0)) continue;
+      const double mis = lights[k].delta ? 1.0 : power_heuristic(lights[k].pdf, top.density_single(wo, wl));
+      lights[k].f_cos += Spectrum(f * wl.z * mis);
+    }
+    return -1;
+  }
+  if (stack.single_scattering_top()) {
     // The glossy lobe of a rough top (materials/interfaces/microfacet.h): evaluated for every light
     // direction, MIS against its own sampling, which is chosen with probability r_top.
     const RoughDielectric top = top_interface(stack);
@@ -78,7 +98,8 @@ class WalkScatter {
   WalkScatter(const LayerStack& stack, const RandomWalkOptions& options, double r_top, Rng& rng, LightDirection* lights,
               int light_count, LightSampler* per_event)
       : scratch_(walk_scratch()), stack_(stack), options_(options), rng_(rng), lights_(lights), light_count_(light_count), per_event_(per_event),
-        entry_(1.0 / (1.0 - r_top)), t_factor_(transmission_radiance_factor(stack)), rough_(stack.rough_top()),
+        entry_(1.0 / (1.0 - r_top)), t_factor_(transmission_radiance_factor(stack)), rough_(stack.single_scattering_top()),
+        microsurfaces_(stack.energy_conserving_rough()),
         n_layers_(static_cast<int>(stack.layers.size())), settings_(options) {
     settings_.tally_absorbed = false;  // the renderer never reads it
     // The similar stack of an approximate walk (built per hit: the stack may vary over the surface).
@@ -120,6 +141,7 @@ class WalkScatter {
   const double entry_;
   const double t_factor_;
   const bool rough_;
+  const bool microsurfaces_;  // energy-conserving rough interfaces: connections cross them with rng_
   const int n_layers_;
   WalkOptions settings_;  // the options as the kernel runs them at this hit
   // The walk's previous event while an event is connected, its last one afterwards. Updated at the
@@ -169,8 +191,9 @@ void WalkScatter::prepare_lights() {
   s.scale.assign(light_count_, 0.0);
   for (int k = 0; k < light_count_; ++k) {
     const glm::dvec2 u = u_interface();
-    prepare_exit(stack_, lights_[k].wi, &s.exits[k], settings_.guiding, u);
-    if (settings_.similar) prepare_exit(s.similar, lights_[k].wi, &s.similar_exits[k], settings_.guiding, u);
+    Rng* crossing = microsurfaces_ ? &rng_ : nullptr;
+    prepare_exit(stack_, lights_[k].wi, &s.exits[k], settings_.guiding, u, crossing);
+    if (settings_.similar) prepare_exit(s.similar, lights_[k].wi, &s.similar_exits[k], settings_.guiding, u, crossing);
     s.scale[k] = light_scale(lights_[k], s.exits[k]);
   }
   // Next-flight connections: per delta light and layer, whether the layer qualifies (exact and
@@ -256,7 +279,7 @@ inline void WalkScatter::connect_light(const ScatterEvent& e, int k, bool switch
 inline void WalkScatter::connect_own_sample(const ScatterEvent& e) {
   LightDirection own;
   if (per_event_ && per_event_->draw(rng_, &own)) {
-    prepare_exit(stack_of(e), own.wi, &scratch_.own_exit, settings_.guiding, u_interface());
+    prepare_exit(stack_of(e), own.wi, &scratch_.own_exit, settings_.guiding, u_interface(), microsurfaces_ ? &rng_ : nullptr);
     const double own_scale = light_scale(own, scratch_.own_exit);
     if (own_scale != 0.0) {
       const Spectrum c = contribution(e, scratch_.own_exit, own, own_scale);
@@ -292,7 +315,15 @@ bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count
   if (walk.side == WalkResult::Side::Bottom) next->weight *= t_factor_;
   next->delta = true;
   next->pdf = 0.0;
-  if (walk.straight_from_last_event && !options_.test_hooks.naive) {
+  if (walk.entry_reflection) {
+    // The glossy reflection of an energy-conserving rough top: MIS density as in top_reflection.
+    next->delta = false;
+    next->pdf = MicrosurfaceDielectric{{stack_.top_roughness}, stack_.above_ior, stack_.layers[0].ior}.density_single(wo, walk.direction);
+  } else if (walk.straight_from_last_event && walk.crossed_rough) {
+    // Through energy-conserving rough interfaces the light connections estimate the direct light
+    // alone (WalkResult::crossed_rough): pdf 0 gives this exit weight 0 on an emitter.
+    next->delta = false;
+  } else if (walk.straight_from_last_event && !options_.test_hooks.naive) {
     next->delta = false;
     // connections_only: pdf 0 gives such an exit weight 0 on an emitter.
     next->pdf = options_.test_hooks.connections_only ? 0.0 : exit_pdf_for_mis(stack_of(last_), last_, walk.direction, settings_.guiding, walk.top_inside);
@@ -305,7 +336,9 @@ bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count
 bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
                                 LightSampler* per_event, SurfaceScatter* next) const {
   for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
-  const double r_top = fresnel_dielectric(wo.z, stack_.above_ior, stack_.layers[0].ior);
+  // The top's reflection chosen with probability r_top before the walk; an energy-conserving
+  // rough top is the walk's own (r_top 0: the walk takes every path).
+  const double r_top = stack_.energy_conserving_alpha(0) > 0.0 ? 0.0 : fresnel_dielectric(wo.z, stack_.above_ior, stack_.layers[0].ior);
   const int reflected = top_reflection(stack_, wo, r_top, rng, lights, light_count, next);
   if (reflected >= 0) return reflected == 1;
   WalkScatter walk(stack_, options_, r_top, rng, lights, light_count, per_event);

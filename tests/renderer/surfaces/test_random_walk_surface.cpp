@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 
 #include "materials/interfaces/microfacet.h"
+#include "materials/interfaces/microsurface.h"
 #include "materials/walk/random_walk.h"
 #include "renderer/surfaces/random_walk_surface.h"
 #include "tests/support/sphere_quadrature.h"
@@ -48,6 +49,37 @@ double glossy_albedo(const RoughDielectric& top, const glm::dvec3& wo) {
 
 double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
 
+// The surface under a uniform sky of radiance 1 sampled by the cosine: one light sample per call,
+// MIS against the surface's continuation (weight 1 for a delta continuation). Its mean is the
+// surface's albedo at wo (side -1: the sky below, the surface's transmittance).
+void sky_furnace(const RandomWalkSurface& surface, const glm::dvec3& wo, std::uint64_t seed, int calls, RunningStats* est,
+                 double side = 1.0) {
+  for (int k = 0; k < calls; ++k) {
+    Rng rng(seed, k);
+    LightDirection light;
+    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    light.pdf = light.wi.z * kInvPi;
+    light.wi.z *= side;
+    SurfaceScatter next;
+    Spectrum x(0.0);
+    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z * side > 0.0)
+      x = next.weight * (next.delta ? 1.0 : power(next.pdf, std::abs(next.wi.z) * kInvPi));
+    x += light.f_cos / light.pdf;
+    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
+  }
+}
+
+// materials' walks: the mean weight of their top exits (with the walk's own glossy reflection
+// where it takes it), or of their bottom exits.
+void walk_albedo(const LayerStack& stack, const glm::dvec3& wo, std::uint64_t seed, int walks, RunningStats* walk,
+                 WalkResult::Side side = WalkResult::Side::Top) {
+  for (int k = 0; k < walks; ++k) {
+    Rng rng(seed, k);
+    const WalkResult r = random_walk(stack, wo, rng);
+    for (int c = 0; c < 3; ++c) walk[c].add(r.side == side ? r.weight[c] : 0.0);
+  }
+}
+
 class SkyFurnace : public testing::TestWithParam<std::pair<double, double>> {};
 
 // A broad lobe where the light samples carry most of it, and a narrow one at grazing view
@@ -62,23 +94,8 @@ TEST_P(SkyFurnace, IsGlossyPlusWalkAlbedo) {
   RandomWalkOptions options;
   const RandomWalkSurface surface(stack, kRandomHero, options);
   RunningStats est[3], walk[3];
-  for (int k = 0; k < 200000; ++k) {
-    Rng rng(31, k);
-    LightDirection light;
-    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-    light.pdf = light.wi.z * kInvPi;
-    SurfaceScatter next;
-    Spectrum x(0.0);
-    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z > 0.0)
-      x = next.weight * (next.delta ? 1.0 : power(next.pdf, next.wi.z * kInvPi));
-    x += light.f_cos / light.pdf;
-    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
-  }
-  for (int k = 0; k < 200000; ++k) {
-    Rng rng(32, k);
-    const WalkResult r = random_walk(stack, wo, rng);
-    for (int c = 0; c < 3; ++c) walk[c].add(r.side == WalkResult::Side::Top ? r.weight[c] : 0.0);
-  }
+  sky_furnace(surface, wo, 31, 200000, est);
+  walk_albedo(stack, wo, 32, 200000, walk);
   const double glossy = glossy_albedo(RoughDielectric{{alpha}, 1.0, 1.4}, wo);
   EXPECT_GT(glossy, 0.02);
   for (int c = 0; c < 3; ++c)
@@ -113,6 +130,71 @@ TEST(RandomWalkSurfaceRough, DeltaLightConnectionIsGlossyPlusWalkBrdf) {
   for (int c = 0; c < 3; ++c)
     EXPECT_TRUE(WithinKSigma(est[c].mean(), glossy + walk[c].mean(), std::hypot(est[c].standard_error(), walk[c].standard_error())))
         << "channel " << c;
+}
+
+// The energy-conserving rough interfaces (materials/interfaces/microsurface.h): light samples
+// alone carry the glossy lobe and the exits through rough interfaces (their continuation counts 0
+// on an emitter). Under the cosine-sampled sky, E[connection / p + continuation x MIS] must be the
+// albedo that materials' walks give by their exits alone (glossy reflection included): two
+// independent estimators. A white stack (no absorption, white base, a rough inner interface too)
+// must give 1.
+struct EnergyConservingCase {
+  double alpha, theta;
+  bool white;
+};
+class EnergyConservingSkyFurnace : public testing::TestWithParam<EnergyConservingCase> {};
+INSTANTIATE_TEST_SUITE_P(RandomWalkSurfaceRough, EnergyConservingSkyFurnace,
+                         testing::Values(EnergyConservingCase{0.3, 50.0, false}, EnergyConservingCase{0.08, 75.0, false},
+                                         EnergyConservingCase{0.6, 30.0, true}));
+
+TEST_P(EnergyConservingSkyFurnace, IsTheWalksAlbedo) {
+  const EnergyConservingCase c = GetParam();
+  LayerStack stack = rough_skin(c.alpha);
+  stack.interface_model = InterfaceModel::EnergyConserving;
+  if (c.white) {
+    stack.layers[0] = make_layer("top", 1.5, 0.2, Spectrum(0.0), Spectrum(6.0), Spectrum(0.7));
+    stack.layers[0].bottom_roughness = c.alpha;
+    stack.layers.push_back(make_layer("bottom", 1.3, 0.3, Spectrum(0.0), Spectrum(4.0), Spectrum(0.0)));
+    stack.below.albedo = Spectrum(1.0);
+  }
+  ASSERT_EQ(validate_stack(stack), "");
+  const glm::dvec3 wo = from_angle(c.theta);
+  const RandomWalkSurface surface(stack, kRandomHero, RandomWalkOptions{});
+  RunningStats est[3], walk[3];
+  sky_furnace(surface, wo, 35, 100000, est);
+  walk_albedo(stack, wo, 36, 100000, walk);
+  for (int ch = 0; ch < 3; ++ch) {
+    const double se = std::hypot(est[ch].standard_error(), walk[ch].standard_error());
+    EXPECT_TRUE(WithinKSigma(est[ch].mean(), walk[ch].mean(), se)) << "channel " << ch;
+    if (c.white) {
+      EXPECT_TRUE(WithinKSigma(est[ch].mean(), 1.0, est[ch].standard_error())) << "channel " << ch;
+    }
+  }
+}
+
+TEST(RandomWalkSurfaceRough, EnergyConservingLeafTransmitsItsWalksTransmittance) {
+  // A rough leaf (air on both sides: no n^2 factor) under a sky below: the light samples through
+  // its rough bottom and inner interfaces (sampled microsurface crossings) plus the continuations
+  // that leave below must add up to the transmittance of materials' walks.
+  LayerStack s;
+  s.interface_model = InterfaceModel::EnergyConserving;
+  s.top_roughness = 0.3;
+  s.layers.push_back(make_layer("cuticle", 1.5, 0.03, Spectrum(0.1), Spectrum(20.0), Spectrum(0.8)));
+  s.layers[0].bottom_roughness = 0.5;
+  s.layers.push_back(make_layer("mesophyll", 1.4, 0.2, Spectrum(1.0, 0.3, 2.0), Spectrum(10.0), Spectrum(0.3)));
+  s.layers[1].bottom_roughness = 0.2;
+  s.below.ior = 1.0;
+  ASSERT_EQ(validate_stack(s), "");
+  const glm::dvec3 wo = from_angle(30.0);
+  const RandomWalkSurface surface(s, kRandomHero, RandomWalkOptions{});
+  RunningStats est[3], walk[3];
+  sky_furnace(surface, wo, 37, 100000, est, -1.0);
+  walk_albedo(s, wo, 38, 100000, walk, WalkResult::Side::Bottom);
+  for (int c = 0; c < 3; ++c) {
+    const double se = std::hypot(est[c].standard_error(), walk[c].standard_error());
+    EXPECT_TRUE(WithinKSigma(est[c].mean(), walk[c].mean(), se)) << "channel " << c;
+    EXPECT_GT(walk[c].mean(), 20.0 * se) << "channel " << c;
+  }
 }
 
 }  // namespace
