@@ -22,7 +22,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _lamina
-from ._lamina import DenoiseError, FitError, ImageIoError, StackFileError
+from ._lamina import Cancelled, DenoiseError, FitError, ImageIoError, StackFileError
 
 __version__: str = _lamina.__version__
 
@@ -117,6 +117,8 @@ def _run(work: Callable[[Any], Any], progress: Progress, label: str) -> Any:
     def target() -> None:
         try:
             outcome["value"] = work(state)
+        except Cancelled:  # asked by the calling thread, which raises its own KeyboardInterrupt
+            pass
         except BaseException as e:  # handed to the calling thread
             outcome["error"] = e
 
@@ -130,6 +132,10 @@ def _run(work: Callable[[Any], Any], progress: Progress, label: str) -> Any:
     except BaseException:
         state.cancel()
         thread.join()
+        # The exception's traceback keeps this frame alive: let go of the work, its thread and
+        # state, and its own Cancelled, so that they are freed with the call.
+        outcome.clear()
+        del state, thread, target, work
         raise
     finally:
         if isinstance(report, _TerminalBar):
