@@ -22,7 +22,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _lamina
-from ._lamina import DenoiseError, FitError, ImageIoError, StackFileError
+from ._lamina import Cancelled, DenoiseError, FitError, ImageIoError, StackFileError
 
 __version__: str = _lamina.__version__
 
@@ -109,33 +109,45 @@ def _reporter(progress: Progress, label: str):
 
 def _run(work: Callable[[Any], Any], progress: Progress, label: str) -> Any:
     """Runs work(state) in a thread (it releases the GIL) while this thread reports its progress;
-    Ctrl-C (or an exception in the callback) asks it to stop and is raised once it has."""
+    Ctrl-C (or an exception in the callback) asks it to stop and is raised once it has.
+
+    The end is signalled by an Event, not Thread.join: a KeyboardInterrupt inside join() can mark
+    a running thread as stopped (CPython's _wait_for_tstate_lock releases the lock the running
+    thread holds), and the work would then outlive the call."""
     report = _reporter(progress, label)
     state = _lamina.JobState()
     outcome: Dict[str, Any] = {}
+    done = threading.Event()
 
     def target() -> None:
         try:
             outcome["value"] = work(state)
+        except Cancelled:  # asked by the calling thread, which raises its own exception
+            pass
         except BaseException as e:  # handed to the calling thread
             outcome["error"] = e
+        finally:
+            done.set()
 
-    thread = threading.Thread(target=target, name=f"lamina {label}", daemon=True)
-    thread.start()
+    threading.Thread(target=target, name=f"lamina {label}", daemon=True).start()
     try:
-        while thread.is_alive():
-            thread.join(0.05)
+        while not done.wait(0.05):
             if report is not None and state.total:
                 report(state.done, state.total)
     except BaseException:
         state.cancel()
-        thread.join()
+        while True:  # the work stops at its next progress report; a second Ctrl-C waits too
+            try:
+                if done.wait(0.1):
+                    break
+            except KeyboardInterrupt:
+                pass
         raise
     finally:
         if isinstance(report, _TerminalBar):
             report.close()
     if "error" in outcome:
-        raise outcome["error"]
+        raise outcome.pop("error")
     return outcome["value"]
 
 

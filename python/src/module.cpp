@@ -126,36 +126,11 @@ DoubleArray bins(const BrdfTable& t, const std::vector<Spectrum>& v) {
   return to_numpy(std::move(out), {2, static_cast<std::size_t>(t.options.bins_theta), static_cast<std::size_t>(t.options.bins_phi), 3});
 }
 
-nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::string& method, std::uint64_t samples,
-              std::uint64_t seed, int bins_theta, int bins_phi, int roulette_cap, int quadrature_points, bool table,
-              JobState* state) {
-  BrdfRequest request;
-  if (!parse_brdf_method(method, &request.method))
-    throw std::invalid_argument("method: expected first-order, monte-carlo or adding-doubling (got '" + method + "')");
-  BrdfOptions& o = request.options;
-  o.theta_i_deg = theta_i;
-  o.phi_i_deg = phi_i;
-  o.samples = samples;
-  o.seed = seed;
-  o.bins_theta = bins_theta;
-  o.bins_phi = bins_phi;
-  o.walk.forced_exponential_after = roulette_cap;
-  request.quadrature_points = quadrature_points;
-  request.table = table;
-  if (state) {
-    state->total = request.method == BrdfMethod::MonteCarlo ? samples : 0;
-    o.on_progress = [state](std::uint64_t n) { state->advance(n); };
-  }
-  BrdfResult r;
-  {
-    nb::gil_scoped_release release;
-    r = compute_brdf(stack.stack, stack.source, request);
-  }
-  nb::dict d;
-  d["method"] = brdf_method_name(request.method);
-  d["notes"] = r.notes;
+// The totals of `lamina brdf --summary`, by key: value and stderr (and adding-doubling's
+// discretisation error); the method's extra keys go into `d`.
+nb::dict brdf_totals(BrdfMethod method, const BrdfResult& r, nb::dict& d) {
   nb::dict totals;
-  if (request.method == BrdfMethod::AddingDoubling) {
+  if (method == BrdfMethod::AddingDoubling) {
     const AddingDoublingTotals& t = r.adding_doubling.totals;
     const AddingDoublingTotals& e = r.adding_doubling.error;
     auto put = [&](const char* key, const Spectrum& v, const Spectrum& err) {
@@ -184,7 +159,7 @@ nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::str
     totals["T_ballistic"] = estimate_dict(t.T_ballistic);
     totals["T_diffuse"] = estimate_dict(t.T_diffuse);
     totals["absorbed"] = estimate_dict(t.absorbed);
-    if (request.method == BrdfMethod::MonteCarlo) {
+    if (method == BrdfMethod::MonteCarlo) {
       totals["unresolved"] = estimate_dict(t.unresolved);
       d["unresolved_walks"] = t.unresolved_walks;
       static const char* kEnds[] = {"exit_top", "exit_bottom", "absorbed", "roulette", "lost"};
@@ -193,7 +168,38 @@ nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::str
       d["walk_ends"] = ends;
     }
   }
-  d["totals"] = totals;
+  return totals;
+}
+
+nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::string& method, std::uint64_t samples,
+              std::uint64_t seed, int bins_theta, int bins_phi, int roulette_cap, int quadrature_points, bool table,
+              JobState* state) {
+  BrdfRequest request;
+  if (!parse_brdf_method(method, &request.method))
+    throw std::invalid_argument("method: expected first-order, monte-carlo or adding-doubling (got '" + method + "')");
+  BrdfOptions& o = request.options;
+  o.theta_i_deg = theta_i;
+  o.phi_i_deg = phi_i;
+  o.samples = samples;
+  o.seed = seed;
+  o.bins_theta = bins_theta;
+  o.bins_phi = bins_phi;
+  o.walk.forced_exponential_after = roulette_cap;
+  request.quadrature_points = quadrature_points;
+  request.table = table;
+  if (state) {
+    state->total = request.method == BrdfMethod::MonteCarlo ? samples : 0;
+    o.on_progress = [state](std::uint64_t n) { state->advance(n); };
+  }
+  BrdfResult r;
+  {
+    nb::gil_scoped_release release;
+    r = compute_brdf(stack.stack, stack.source, request);
+  }
+  nb::dict d;
+  d["method"] = brdf_method_name(request.method);
+  d["notes"] = r.notes;
+  d["totals"] = brdf_totals(request.method, r, d);
   if (r.has_table) {
     const BrdfTable& t = r.table;
     d["value"] = bins(t, t.value);
@@ -268,6 +274,87 @@ nb::dict fit(const PyStack& stack, const std::string& data_text, const std::stri
 // ---------------------------------------------------------------------------------------------
 // lamina render
 
+// The walk's options by their `lamina render` flags, each checked against its row of
+// kWalkOptionTable (renderer/render/walk_option_table.h) as the CLI's validators do.
+void set_walk_option(const WalkOptionSpec& spec, const std::string& flag, const std::string& value, RandomWalkOptions* walk) {
+  if (spec.kind == WalkOptionSpec::Kind::Switch) {
+    if (value != spec.on_word && value != spec.off_word)
+      throw std::invalid_argument(flag + ": expected " + spec.on_word + " or " + spec.off_word);
+    set_walk_switch(spec, value, walk);
+    return;
+  }
+  std::size_t used = 0;
+  double v = std::nan("");
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+  }
+  const bool integer = spec.kind == WalkOptionSpec::Kind::Integer;
+  const bool inside = (spec.lo_open ? v > spec.lo : v >= spec.lo) && (spec.hi_open ? v < spec.hi : v <= spec.hi);
+  if (used != value.size() || !inside || (integer && v != std::floor(v)))
+    throw std::invalid_argument(flag + ": must be " + (integer ? "an integer" : "a finite number") + " in " +
+                                (spec.lo_open ? "(" : "[") + std::to_string(spec.lo) + ", " + std::to_string(spec.hi) +
+                                (spec.hi_open ? ")" : "]") + " (got '" + value + "')");
+  if (integer) walk->*spec.integer_member = static_cast<int>(v);
+  else walk->*spec.real_member = v;
+}
+
+RandomWalkOptions walk_options_from(const std::vector<std::pair<std::string, std::string>>& options) {
+  RandomWalkOptions walk;
+  for (const auto& [flag, value] : options) {
+    bool found = false;
+    for (const WalkOptionSpec& spec : kWalkOptionTable)
+      if (flag == spec.flag) {
+        set_walk_option(spec, flag, value, &walk);
+        found = true;
+      }
+    if (!found) throw std::invalid_argument("unknown walk option '" + flag + "'");
+  }
+  return walk;
+}
+
+// The named choices of a render, parsed by the library's parsers (the CLI's).
+void set_render_choices(const std::string& subsurface, double tolerance, const std::string& table_method,
+                        const std::string& aovs, const std::string& tone_curve, RenderRequest* request) {
+  std::string bad;
+  if (!parse_aov_names(aovs, &request->settings.aovs, &bad))
+    throw std::invalid_argument("aovs '" + aovs + "': unknown AOV '" + bad + "' (expected albedo, normal, depth, variance, all or none)");
+  SubsurfaceChoice choice;
+  if (!parse_subsurface_choice(subsurface, &choice))
+    throw std::invalid_argument("subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
+  choice.tolerance = choice.automatic ? tolerance : 0.0;
+  if (choice.automatic && !(tolerance > 0.0)) throw std::invalid_argument("subsurface auto needs tolerance E (e.g. 0.05)");
+  request->subsurface = choice;
+  if (table_method != "adding-doubling" && table_method != "walk")
+    throw std::invalid_argument("table_method '" + table_method + "': expected adding-doubling or walk");
+  request->table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
+  if (!parse_tone_curve(tone_curve, &request->tone_map.curve))
+    throw std::invalid_argument("tone_curve '" + tone_curve + "': expected filmic or clamp");
+}
+
+// The image (moved into numpy arrays), its header and the render's numbers.
+nb::dict render_result_dict(RenderResult&& r, const std::vector<std::string>& info, const std::vector<std::string>& warnings) {
+  nb::dict d;
+  const std::size_t h = r.image.height, w = r.image.width;
+  d["rgb"] = image_to_numpy(std::move(r.image));
+  nb::list channels;
+  for (ExtraChannel& c : r.channels) {
+    const std::string name = c.name;
+    channels.append(nb::make_tuple(name, to_numpy(std::move(c.values), {h, w})));
+  }
+  d["channels"] = channels;
+  d["metadata"] = r.metadata;
+  d["window"] = nb::make_tuple(r.window.x, r.window.y, r.window.full_width, r.window.full_height);
+  d["seconds"] = r.seconds;
+  d["camera"] = r.camera;
+  d["info"] = info;
+  d["warnings"] = warnings;
+  d["invalid_samples"] = r.stats.invalid_samples;
+  d["clamped_samples"] = r.stats.clamped_samples;
+  d["layered_materials"] = r.layered_materials;
+  return d;
+}
+
 nb::dict render(const std::string& scene, const std::string& out, const std::string& png, int width, int height, int spp,
                 std::uint64_t seed, int threads, const std::string& subsurface, double tolerance, const std::string& camera,
                 const std::string& materials, const std::string& env, int max_depth, const std::string& aovs,
@@ -295,50 +382,8 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
     s.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
   }
   request.tone_map.exposure = exposure;
-  if (!parse_tone_curve(tone_curve, &request.tone_map.curve))
-    throw std::invalid_argument("tone_curve '" + tone_curve + "': expected filmic or clamp");
-  std::string bad;
-  if (!parse_aov_names(aovs, &s.aovs, &bad))
-    throw std::invalid_argument("aovs '" + aovs + "': unknown AOV '" + bad + "' (expected albedo, normal, depth, variance, all or none)");
-  SubsurfaceChoice choice;
-  if (!parse_subsurface_choice(subsurface, &choice))
-    throw std::invalid_argument("subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
-  choice.tolerance = choice.automatic ? tolerance : 0.0;
-  if (choice.automatic && !(tolerance > 0.0)) throw std::invalid_argument("subsurface auto needs tolerance E (e.g. 0.05)");
-  request.subsurface = choice;
-  if (table_method != "adding-doubling" && table_method != "walk")
-    throw std::invalid_argument("table_method '" + table_method + "': expected adding-doubling or walk");
-  request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
-  RandomWalkOptions walk;
-  for (const auto& [flag, value] : walk_options) {
-    bool found = false;
-    for (const WalkOptionSpec& spec : kWalkOptionTable) {
-      if (flag != spec.flag) continue;
-      found = true;
-      if (spec.kind == WalkOptionSpec::Kind::Switch) {
-        if (value != spec.on_word && value != spec.off_word)
-          throw std::invalid_argument(flag + ": expected " + spec.on_word + " or " + spec.off_word);
-        set_walk_switch(spec, value, &walk);
-      } else {
-        std::size_t used = 0;
-        double v = std::nan("");
-        try {
-          v = std::stod(value, &used);
-        } catch (const std::exception&) {
-        }
-        const bool integer = spec.kind == WalkOptionSpec::Kind::Integer;
-        const bool inside = (spec.lo_open ? v > spec.lo : v >= spec.lo) && (spec.hi_open ? v < spec.hi : v <= spec.hi);
-        if (used != value.size() || !inside || (integer && v != std::floor(v)))
-          throw std::invalid_argument(flag + ": must be " + (integer ? "an integer" : "a finite number") + " in " +
-                                      (spec.lo_open ? "(" : "[") + std::to_string(spec.lo) + ", " + std::to_string(spec.hi) +
-                                      (spec.hi_open ? ")" : "]") + " (got '" + value + "')");
-        if (integer) walk.*spec.integer_member = static_cast<int>(v);
-        else walk.*spec.real_member = v;
-      }
-    }
-    if (!found) throw std::invalid_argument("unknown walk option '" + flag + "'");
-  }
-  request.walk = walk;
+  set_render_choices(subsurface, tolerance, table_method, aovs, tone_curve, &request);
+  request.walk = walk_options_from(walk_options);
   request.scene_path = scene;
   request.out_path = out;
   request.png_path = png;
@@ -365,25 +410,7 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
     nb::gil_scoped_release release;
     r = render_job(request, log);
   }
-  nb::dict d;
-  const std::size_t h = r.image.height, w = r.image.width;
-  d["rgb"] = image_to_numpy(std::move(r.image));
-  nb::list channels;
-  for (ExtraChannel& c : r.channels) {
-    const std::string name = c.name;
-    channels.append(nb::make_tuple(name, to_numpy(std::move(c.values), {h, w})));
-  }
-  d["channels"] = channels;
-  d["metadata"] = r.metadata;
-  d["window"] = nb::make_tuple(r.window.x, r.window.y, r.window.full_width, r.window.full_height);
-  d["seconds"] = r.seconds;
-  d["camera"] = r.camera;
-  d["info"] = info;
-  d["warnings"] = warnings;
-  d["invalid_samples"] = r.stats.invalid_samples;
-  d["clamped_samples"] = r.stats.clamped_samples;
-  d["layered_materials"] = r.layered_materials;
-  return d;
+  return render_result_dict(std::move(r), info, warnings);
 }
 
 // ---------------------------------------------------------------------------------------------
