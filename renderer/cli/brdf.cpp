@@ -208,9 +208,9 @@ int run_brdf(int argc, char** argv) {
       std::fprintf(stderr, "lamina brdf: note: --quadrature-points is only used by --method adding-doubling\n");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
-    if (method != "monte-carlo" && stack.rough_top()) {
-      std::fprintf(stderr, "lamina brdf: %s: roughness: the %s solution is for a smooth top interface; use --method monte-carlo\n",
-                   stack_path.c_str(), method == "first-order" ? "first-order" : "adding-doubling");
+    if (method == "first-order" && stack.rough_top()) {
+      std::fprintf(stderr, "lamina brdf: %s: roughness: the first-order solution is for a smooth top interface; use --method monte-carlo or adding-doubling\n",
+                   stack_path.c_str());
       return 1;
     }
     // Fail before a long computation if an output cannot be written.
