@@ -683,33 +683,45 @@ struct Problem {
   Medium above, below;  // below: only for a transmitting stack
   std::vector<Medium> media;
   bool lambert = false, semi = false, transmits = false;
-  // A rough top (stack.rough_top()): its projection on every mode the solution uses (10.).
+  // A rough top (stack.rough_top()): its projection on every mode the solution uses (10.), the
+  // nodes' (cached: the same for every incidence) and the incidences' columns apart.
   std::shared_ptr<const InterfaceFourier> rough_top;
+  std::shared_ptr<const BeamFourier> rough_beams;
+  std::vector<int> rough_above, rough_below, rough_incidence;  // their global node indices
   int size() const { return nodes.size(); }
 };
 
 // 10. The rough top of mode `mode` on all nodes: the projected blocks (interface_fourier.h)
-// embedded at the nodes of the media above and below it. Not diagonal.
-Element rough_interface_element(const InterfaceFourier& f, const Medium& above, const Medium& below, int size, int mode) {
+// embedded at the real nodes of the media above and below it, and the incidences' columns.
+// Not diagonal.
+Element rough_interface_element(const Problem& p, int size, int mode) {
   Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), false, {}};
+  const InterfaceFourier& f = *p.rough_top;
   if (mode >= f.modes) return e;
-  auto embed = [&](const std::vector<double>& block, const Medium& to, const Medium& from, Matrix* m) {
-    const int cols = static_cast<int>(from.active.size());
-    for (std::size_t i = 0; i < to.active.size(); ++i)
-      for (int j = 0; j < cols; ++j) (*m)(to.active[i], from.active[j]) = block[i * cols + j];
+  auto embed = [&](const std::vector<double>& block, const std::vector<int>& to, const std::vector<int>& from, Matrix* m) {
+    const std::size_t cols = from.size();
+    for (std::size_t i = 0; i < to.size(); ++i)
+      for (std::size_t j = 0; j < cols; ++j) (*m)(to[i], from[j]) = block[i * cols + j];
   };
-  embed(f.Rt[mode], above, above, &e.Rt);
-  embed(f.Td[mode], below, above, &e.Td);
-  embed(f.Rb[mode], below, below, &e.Rb);
-  embed(f.Tu[mode], above, below, &e.Tu);
+  embed(f.Rt[mode], p.rough_above, p.rough_above, &e.Rt);
+  embed(f.Td[mode], p.rough_below, p.rough_above, &e.Td);
+  embed(f.Rb[mode], p.rough_below, p.rough_below, &e.Rb);
+  embed(f.Tu[mode], p.rough_above, p.rough_below, &e.Tu);
+  embed(p.rough_beams->Rt[mode], p.rough_above, p.rough_incidence, &e.Rt);
+  embed(p.rough_beams->Td[mode], p.rough_below, p.rough_incidence, &e.Td);
   return e;
 }
 
-FourierDirections fourier_directions(const Medium& m) {
+// A medium's real nodes (W > 0) as the projection's directions, and their global indices.
+FourierDirections real_directions(const Medium& m, std::vector<int>* global) {
   FourierDirections d;
-  d.mu = m.mu;
-  d.x_lo = m.x_lo;
-  d.x_hi = m.x_hi;
+  for (std::size_t k = 0; k < m.active.size(); ++k) {
+    if (m.W[k] == 0.0) continue;
+    d.mu.push_back(m.mu[k]);
+    d.x_lo.push_back(m.x_lo[k]);
+    d.x_hi.push_back(m.x_hi[k]);
+    global->push_back(m.active[k]);
+  }
   return d;
 }
 
@@ -739,9 +751,19 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
     int modes = 1;
     if (rough_modes < 0)
       for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
-    p.rough_top = std::make_shared<InterfaceFourier>(
-        project_interface(stack.top_roughness, stack.above_ior, stack.layers[0].ior, settings.rough_eval,
-                          fourier_directions(p.above), fourier_directions(p.media[0]), modes));
+    const FourierDirections above = real_directions(p.above, &p.rough_above);
+    const FourierDirections below = real_directions(p.media[0], &p.rough_below);
+    FourierDirections beams;
+    for (int j : p.nodes.incidences) {
+      const double mu = p.nodes.t[j];  // the incidence's cosine in the medium above (make_nodes)
+      beams.mu.push_back(mu);
+      beams.x_lo.push_back(mu * mu);
+      beams.x_hi.push_back(mu * mu);
+      p.rough_incidence.push_back(j);
+    }
+    const double alpha = stack.top_roughness, n0 = stack.above_ior, n1 = stack.layers[0].ior;
+    p.rough_top = std::make_shared<InterfaceFourier>(project_interface(alpha, n0, n1, settings.rough_eval, above, below, modes));
+    p.rough_beams = std::make_shared<BeamFourier>(project_beams(alpha, n0, n1, settings.rough_eval, beams, above, below, modes));
   }
   return p;
 }
@@ -775,7 +797,7 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
   }
   if (p.rough_top) {
     // 10. The top's own reflection is kept apart (Rt_direct) and the rest added as usual.
-    Element top = rough_interface_element(*p.rough_top, p.above, p.media[0], size, mode);
+    Element top = rough_interface_element(p, size, mode);
     Matrix direct = std::move(top.Rt);
     top.Rt = Matrix(size);
     acc = add_over(top, acc);
@@ -800,19 +822,21 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
   double glossy = 0.0;
   if (rough)
     for (int i = 0; i < size; ++i) glossy += acc.Rt_direct(i, j0);
-  double Rh = 0.0, Th = 0.0;
+  double Rh = 0.0, Th = 0.0, Rh_glossy = 0.0;
   for (std::size_t k = 0; k < p.above.active.size(); ++k) {
     const int j = p.above.active[k];
     if (p.above.W[k] == 0.0) continue;
-    double r = 0.0, t = 0.0;
+    double r = 0.0, t = 0.0, g = 0.0;
     for (int i = 0; i < size; ++i) {
       r += acc.Rt(i, j);
-      if (rough) r += acc.Rt_direct(i, j);
+      if (rough) g += acc.Rt_direct(i, j);
       if (acc.Td.n > 0) t += acc.Td(i, j);
     }
-    Rh += p.above.W[k] * r;
+    Rh += p.above.W[k] * (r + g);
+    Rh_glossy += p.above.W[k] * g;
     Th += p.above.W[k] * t;
   }
+  out->R_hemispherical_glossy[c] = Rh_glossy;
   if (rough) {
     out->R_specular[c] = glossy;
     out->T_ballistic[c] = 0.0;

@@ -65,6 +65,9 @@ struct AddingDoublingTotals {
   // Uniform diffuse incidence from above (equal radiance from every direction): the total
   // reflectance, transmittance and absorptance (unscattered light included in R and T).
   Spectrum R_hemispherical, T_hemispherical, absorbed_hemispherical;
+  // Under a rough top: the part of R_hemispherical that is the top's own reflection (the glossy
+  // lobe); 0 for a smooth top (whose unscattered part is zeroth_order's, exact).
+  Spectrum R_hemispherical_glossy;
   // brdf_table_adding_doubling only: the power of the delta-M forward peak that it puts in the
   // bin of the mirror (R) and ballistic (T) direction (adding_doubling.cpp, 9.): a measure of
   // how much of the table's angular detail the truncation of the phase function blurs.

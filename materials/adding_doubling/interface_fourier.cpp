@@ -27,6 +27,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <list>
+#include <memory>
+#include <mutex>
 
 #include <tbb/parallel_for.h>
 
@@ -67,8 +70,11 @@ std::vector<std::vector<double>> project_block(double alpha, double n_above, dou
   const int rows = out.size(), cols = in.size();
   std::vector<std::vector<double>> block(modes, std::vector<double>(static_cast<std::size_t>(rows) * cols, 0.0));
   // The azimuth panels: halving towards pi (the specular side).
+  // The panels halve until the last is at most alpha/4 wide (the lobes' azimuthal width is
+  // ~alpha / sin(theta)), at least 3 and at most phi_panels.
+  const int panels = std::clamp(1 + static_cast<int>(std::ceil(std::log2(4.0 * kPi / alpha))), 3, s.phi_panels);
   std::vector<double> edges{0.0};
-  for (int p = 1; p < s.phi_panels; ++p) edges.push_back(kPi * (1.0 - std::ldexp(1.0, -p)));
+  for (int p = 1; p < panels; ++p) edges.push_back(kPi * (1.0 - std::ldexp(1.0, -p)));
   edges.push_back(kPi);
   const bool refraction = in_sign != out_sign;
   const double n_in = in_sign > 0.0 ? n_above : n_below, n_out = out_sign > 0.0 ? n_above : n_below;
@@ -172,9 +178,11 @@ std::vector<std::vector<double>> project_block(double alpha, double n_above, dou
 
 }  // namespace
 
-InterfaceFourier project_interface(double alpha, double n_above, double n_below, const InterfaceEval& eval,
-                                   const FourierDirections& above, const FourierDirections& below, int modes,
-                                   const InterfaceProjectionSettings& settings) {
+namespace {
+
+InterfaceFourier project(double alpha, double n_above, double n_below, const InterfaceEval& eval,
+                         const FourierDirections& above, const FourierDirections& below, int modes,
+                         const InterfaceProjectionSettings& settings) {
   InterfaceFourier out;
   out.modes = modes;
   out.above = above.size();
@@ -183,6 +191,66 @@ InterfaceFourier project_interface(double alpha, double n_above, double n_below,
   out.Td = project_block(alpha, n_above, n_below, eval, above, 1.0, below, -1.0, modes, settings);
   out.Rb = project_block(alpha, n_above, n_below, eval, below, -1.0, below, -1.0, modes, settings);
   out.Tu = project_block(alpha, n_above, n_below, eval, below, -1.0, above, 1.0, modes, settings);
+  return out;
+}
+
+// The last projections made, by their exact inputs: a scene's table set projects the same top
+// on the same nodes for every table along a parameter that is not the roughness, and the table
+// mode's auto prediction again. A hit returns the same numbers a new projection would.
+using EvalFunction = double (*)(double, double, double, const glm::dvec3&, const glm::dvec3&);
+struct CacheKey {
+  double alpha, n_above, n_below;
+  int modes, cell_points, input_points, phi_panels, phi_points;
+  EvalFunction eval;
+  std::vector<double> above_mu, above_lo, above_hi, below_mu, below_lo, below_hi;
+  bool operator==(const CacheKey& o) const {
+    return alpha == o.alpha && n_above == o.n_above && n_below == o.n_below && modes == o.modes &&
+           cell_points == o.cell_points && input_points == o.input_points && phi_panels == o.phi_panels &&
+           phi_points == o.phi_points && eval == o.eval && above_mu == o.above_mu && above_lo == o.above_lo &&
+           above_hi == o.above_hi && below_mu == o.below_mu && below_lo == o.below_lo && below_hi == o.below_hi;
+  }
+};
+constexpr std::size_t kCacheSize = 8;
+std::mutex cache_mutex;
+std::list<std::pair<CacheKey, std::shared_ptr<const InterfaceFourier>>> cache;  // most recent first
+
+}  // namespace
+
+InterfaceFourier project_interface(double alpha, double n_above, double n_below, const InterfaceEval& eval,
+                                   const FourierDirections& above, const FourierDirections& below, int modes,
+                                   const InterfaceProjectionSettings& settings) {
+  // Only a plain function is known by its address; anything else is projected every time.
+  const EvalFunction* function = eval.target<EvalFunction>();
+  if (!function) return project(alpha, n_above, n_below, eval, above, below, modes, settings);
+  CacheKey key{alpha, n_above, n_below, modes, settings.cell_points, settings.input_points, settings.phi_panels,
+               settings.phi_points, *function, above.mu, above.x_lo, above.x_hi, below.mu, below.x_lo, below.x_hi};
+  {
+    std::lock_guard<std::mutex> lock(cache_mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it)
+      if (it->first == key) {
+        cache.splice(cache.begin(), cache, it);
+        return *cache.front().second;
+      }
+  }
+  auto made = std::make_shared<const InterfaceFourier>(project(alpha, n_above, n_below, eval, above, below, modes, settings));
+  std::lock_guard<std::mutex> lock(cache_mutex);
+  cache.emplace_front(std::move(key), made);
+  if (cache.size() > kCacheSize) cache.pop_back();
+  return *made;
+}
+
+}  // namespace lamina
+
+namespace lamina {
+
+BeamFourier project_beams(double alpha, double n_above, double n_below, const InterfaceEval& eval,
+                          const FourierDirections& beams, const FourierDirections& above,
+                          const FourierDirections& below, int modes, const InterfaceProjectionSettings& settings) {
+  BeamFourier out;
+  out.modes = modes;
+  out.beams = beams.size();
+  out.Rt = project_block(alpha, n_above, n_below, eval, beams, 1.0, above, 1.0, modes, settings);
+  out.Td = project_block(alpha, n_above, n_below, eval, beams, 1.0, below, -1.0, modes, settings);
   return out;
 }
 

@@ -45,16 +45,31 @@ struct InterfaceFourier {
 };
 
 struct InterfaceProjectionSettings {
-  int cell_points = 8;   // Gauss-Legendre points in the polar angle per outgoing cell
-  int input_points = 4;  // the same over an incoming cell (a node of weight zero: its direction)
-  int phi_panels = 8;   // azimuth [0, pi] in panels halving towards pi (the specular side)
+  int cell_points = 4;   // Gauss-Legendre points in the polar angle per outgoing cell (and piece)
+  int input_points = 2;  // the same over an incoming cell (a node of weight zero: its direction)
+  int phi_panels = 12;  // at most: azimuth [0, pi] in panels halving towards pi (the specular
+                        // side) until the last is alpha/4 wide
   int phi_points = 4;   // Gauss-Legendre points per panel
 };
 
 // The projection of the interface f (alpha, n_above, n_below) onto `modes` Fourier modes.
-// Columns whose direction does not exist on their side (mu <= 0) are zero.
+// Columns whose direction does not exist on their side (mu <= 0) are zero. The last few
+// projections are kept by their exact inputs (a plain-function eval only): a repeated call
+// returns the same numbers without projecting again.
 InterfaceFourier project_interface(double alpha, double n_above, double n_below, const InterfaceEval& eval,
                                    const FourierDirections& above, const FourierDirections& below, int modes,
                                    const InterfaceProjectionSettings& settings = {});
+
+// The columns of collimated beams from above (weight-zero directions: `beams`, their cells
+// empty) into the cells of `above` (Rt: na x beams) and `below` (Td: nb x beams), apart from
+// the projection of the nodes themselves, which is the same for every incidence and cached by
+// project_interface.
+struct BeamFourier {
+  int modes = 0, beams = 0;
+  std::vector<std::vector<double>> Rt, Td;  // [mode][i * beams + k]
+};
+BeamFourier project_beams(double alpha, double n_above, double n_below, const InterfaceEval& eval,
+                          const FourierDirections& beams, const FourierDirections& above,
+                          const FourierDirections& below, int modes, const InterfaceProjectionSettings& settings = {});
 
 }  // namespace lamina
