@@ -10,7 +10,7 @@
 //                 totals project mode 0 alone: another cache entry than the table's);
 //   totals (warm): then at another incidence (only the incidence's columns are projected);
 // and the same for the smooth stack (roughness 0) for comparison.
-// Usage: bench_rough_tables [repeats=5]
+// Usage: bench_rough_tables [repeats] (default: $BENCH_REPEATS, else 5)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -54,7 +54,8 @@ void report(const char* what, const Time& t) { std::printf("%-34s wall %8.4f s  
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int repeats = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const char* env = std::getenv("BENCH_REPEATS");
+  const int repeats = std::max(1, argc > 1 ? std::atoi(argv[1]) : env ? std::atoi(env) : 5);
   const lamina::LayerStack base = lamina::load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
   const lamina::TableSettings settings;
   for (bool rough : {true, false}) {
