@@ -101,6 +101,15 @@
 // 9. The delta-M forward peak is unscattered for the solver, so the scattered power it carries
 //    leaves in the mirror or ballistic direction; it is the difference between the exact
 //    diffuse total and the bins' power, and goes into the bin that holds that direction.
+// 10. A rough top (interface_fourier.h: its BSDF projected per mode onto these nodes, outgoing
+//    power gathered over each node's cell and incoming power spread over it; Jakob et al. 2014)
+//    is a full, non-diagonal element. It spreads the incident beam over the real nodes at once,
+//    so nothing stays in the incidence node and no forward peak is left over (9.). Its own
+//    reflection of the beam, Rt of the top, is kept apart (Element::Rt_direct): it is the glossy
+//    lobe, R_specular of the totals as the walk reports it, and not in the bins, which hold the
+//    light that entered the stack. The cells: each segment's Gauss nodes t_i take, in order of
+//    t, consecutive intervals of s = t^2 as long as their weights 2 t_i w_i (which sum to
+//    t_max^2), so a cell's measure is its node's weight exactly.
 #include "materials/adding_doubling/adding_doubling.h"
 
 #include <algorithm>
@@ -114,6 +123,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "materials/adding_doubling/interface_fourier.h"
 #include "materials/analytic/first_order.h"  // GaussLegendreRule
 #include "materials/interfaces/fresnel.h"
 #include "materials/base/sampling.h"  // kPi
@@ -342,6 +352,11 @@ __attribute__((target_clones("avx2", "default"))) void factorise(int n, double* 
 // (0 for the incidence nodes, which have b = n_above^2 and t = mu_0 and come after the real ones).
 struct Nodes {
   std::vector<double> b, t, du_weight;
+  // The node's cell in u, [u_lo, u_hi], of length du_weight (u_lo = u_hi for an incidence node):
+  // within its segment, cells of s = t^2 (du = b ds) laid end to end in the order of t, each as
+  // long as the node's weight 2 t_i w_i (they sum to t_max^2 exactly). Where a rough interface
+  // gathers outgoing power (interface_fourier.h).
+  std::vector<double> u_lo, u_hi;
   std::vector<int> incidences;
   int real = 0;  // nodes with weight > 0
   int size() const { return static_cast<int>(b.size()); }
@@ -359,10 +374,22 @@ Nodes make_nodes(const std::vector<double>& indices, double n_above, const std::
     const int count = a == 0.0 ? order : std::max(2, static_cast<int>(std::ceil(order * t_max)));
     std::vector<double> x(count), w(count);
     gauss_legendre(count, 0.0, t_max, x.data(), w.data());
+    std::vector<int> order_by_t(count);
+    for (int i = 0; i < count; ++i) order_by_t[i] = i;
+    std::sort(order_by_t.begin(), order_by_t.end(), [&](int i, int k) { return x[i] < x[k]; });
+    std::vector<double> s_lo(count), s_hi(count);
+    double s_end = 0.0;
+    for (int i : order_by_t) {
+      s_lo[i] = s_end;
+      s_end += 2.0 * x[i] * w[i];
+      s_hi[i] = s_end;
+    }
     for (int i = 0; i < count; ++i) {
       nodes.b.push_back(b);
       nodes.t.push_back(x[i]);
       nodes.du_weight.push_back(2.0 * b * x[i] * w[i]);
+      nodes.u_lo.push_back(b * (1.0 - std::min(s_hi[i], 1.0)));
+      nodes.u_hi.push_back(b * (1.0 - s_lo[i]));
     }
     a = b;
   }
@@ -372,6 +399,8 @@ Nodes make_nodes(const std::vector<double>& indices, double n_above, const std::
     nodes.b.push_back(n_above * n_above);
     nodes.t.push_back(mu0);
     nodes.du_weight.push_back(0.0);
+    nodes.u_lo.push_back(n_above * n_above * (1.0 - mu0 * mu0));
+    nodes.u_hi.push_back(nodes.u_lo.back());
   }
   return nodes;
 }
@@ -382,6 +411,7 @@ struct Medium {
   std::vector<int> active;  // global indices of the nodes that exist here
   std::vector<double> mu;   // their cosines
   std::vector<double> W;    // their flux weights (0 for the incidence node)
+  std::vector<double> x_lo, x_hi;  // their cells in mu^2 here (Nodes::u_lo, u_hi)
   int real = 0;             // active nodes with W > 0
 };
 
@@ -397,6 +427,8 @@ Medium make_medium(const Nodes& nodes, double n) {
     m.active.push_back(j);
     m.mu.push_back(std::min(1.0, std::sqrt(mu2)));
     m.W.push_back(nodes.du_weight[j] / n2);
+    m.x_lo.push_back(std::max(0.0, 1.0 - nodes.u_hi[j] / n2));
+    m.x_hi.push_back(std::max(0.0, 1.0 - nodes.u_lo[j] / n2));
     if (nodes.du_weight[j] > 0.0) ++m.real;
   }
   return m;
@@ -406,6 +438,9 @@ Medium make_medium(const Nodes& nodes, double n) {
 struct Element {
   Matrix Rt, Rb, Td, Tu;
   bool diagonal = false;  // all four matrices diagonal (an interface)
+  // A stack under a rough top (solve_stack): Rt holds the light that entered the stack and came
+  // back out, Rt_direct the top's own reflection (the glossy lobe), as the walk reports them.
+  Matrix Rt_direct;
 };
 
 // x d for a diagonal d: column j of x scaled by d_jj. The same values as the general product,
@@ -434,7 +469,7 @@ Element add_over(const Element& A, const Element& B) {
 }
 
 Element interface_element(const Medium& above, const Medium& below, int size) {
-  Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), true};
+  Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), true, {}};
   std::vector<double> mu_above(size, -1.0), mu_below(size, -1.0);
   for (std::size_t k = 0; k < above.active.size(); ++k) mu_above[above.active[k]] = above.mu[k];
   for (std::size_t k = 0; k < below.active.size(); ++k) mu_below[below.active[k]] = below.mu[k];
@@ -648,11 +683,50 @@ struct Problem {
   Medium above, below;  // below: only for a transmitting stack
   std::vector<Medium> media;
   bool lambert = false, semi = false, transmits = false;
+  // A rough top (stack.rough_top()): its projection on every mode the solution uses (10.), the
+  // nodes' (cached: the same for every incidence) and the incidences' columns apart.
+  std::shared_ptr<const InterfaceFourier> rough_top;
+  std::shared_ptr<const BeamFourier> rough_beams;
+  std::vector<int> rough_above, rough_below, rough_incidence;  // their global node indices
   int size() const { return nodes.size(); }
 };
 
+// 10. The rough top of mode `mode` on all nodes: the projected blocks (interface_fourier.h)
+// embedded at the real nodes of the media above and below it, and the incidences' columns.
+// Not diagonal.
+Element rough_interface_element(const Problem& p, int size, int mode) {
+  Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), false, {}};
+  const InterfaceFourier& f = *p.rough_top;
+  if (mode >= f.modes) return e;
+  auto embed = [&](const std::vector<double>& block, const std::vector<int>& to, const std::vector<int>& from, Matrix* m) {
+    const std::size_t cols = from.size();
+    for (std::size_t i = 0; i < to.size(); ++i)
+      for (std::size_t j = 0; j < cols; ++j) (*m)(to[i], from[j]) = block[i * cols + j];
+  };
+  embed(f.Rt[mode], p.rough_above, p.rough_above, &e.Rt);
+  embed(f.Td[mode], p.rough_below, p.rough_above, &e.Td);
+  embed(f.Rb[mode], p.rough_below, p.rough_below, &e.Rb);
+  embed(f.Tu[mode], p.rough_above, p.rough_below, &e.Tu);
+  embed(p.rough_beams->Rt[mode], p.rough_above, p.rough_incidence, &e.Rt);
+  embed(p.rough_beams->Td[mode], p.rough_below, p.rough_incidence, &e.Td);
+  return e;
+}
+
+// A medium's real nodes (W > 0) as the projection's directions, and their global indices.
+FourierDirections real_directions(const Medium& m, std::vector<int>* global) {
+  FourierDirections d;
+  for (std::size_t k = 0; k < m.active.size(); ++k) {
+    if (m.W[k] == 0.0) continue;
+    d.mu.push_back(m.mu[k]);
+    d.x_lo.push_back(m.x_lo[k]);
+    d.x_hi.push_back(m.x_hi[k]);
+    global->push_back(m.active[k]);
+  }
+  return d;
+}
+
 Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_theta_i,
-                     const AddingDoublingSettings& settings, const char* who) {
+                     const AddingDoublingSettings& settings, const char* who, int rough_modes = -1) {
   for (double mu : cos_theta_i)
     if (!(mu > 0.0 && mu <= 1.0)) throw std::invalid_argument(std::string(who) + ": cos_theta_i must be in (0, 1]");
   if (settings.quadrature_points < 2)
@@ -670,6 +744,27 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   p.above = make_medium(p.nodes, stack.above_ior);
   for (const Layer& l : stack.layers) p.media.push_back(make_medium(p.nodes, l.ior));
   if (p.transmits) p.below = make_medium(p.nodes, stack.below.ior);
+  // rough_modes: -1 every mode any layer uses (brdf_tables_adding_doubling's `modes`), 1 mode 0
+  // alone (the totals), 0 none (the media alone). The projection is the same for every channel
+  // (the indices are grey).
+  if (stack.rough_top() && rough_modes != 0) {
+    int modes = 1;
+    if (rough_modes < 0)
+      for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
+    const FourierDirections above = real_directions(p.above, &p.rough_above);
+    const FourierDirections below = real_directions(p.media[0], &p.rough_below);
+    FourierDirections beams;
+    for (int j : p.nodes.incidences) {
+      const double mu = p.nodes.t[j];  // the incidence's cosine in the medium above (make_nodes)
+      beams.mu.push_back(mu);
+      beams.x_lo.push_back(mu * mu);
+      beams.x_hi.push_back(mu * mu);
+      p.rough_incidence.push_back(j);
+    }
+    const double alpha = stack.top_roughness, n0 = stack.above_ior, n1 = stack.layers[0].ior;
+    p.rough_top = std::make_shared<InterfaceFourier>(project_interface(alpha, n0, n1, settings.rough_eval, above, below, modes));
+    p.rough_beams = std::make_shared<BeamFourier>(project_beams(alpha, n0, n1, settings.rough_eval, beams, above, below, modes));
+  }
   return p;
 }
 
@@ -700,7 +795,16 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
     if (layer.sigma_t()[c] == 0.0 && !layer.semi_infinite() && static_cast<int>(p.media[k].active.size()) == size) continue;
     acc = add_over(layer_element(layer, c, p.media[k], size, mode, doublings), acc);
   }
-  if (stack.above_ior != stack.layers[0].ior) acc = add_over(interface_element(p.above, p.media[0], size), acc);
+  if (p.rough_top) {
+    // 10. The top's own reflection is kept apart (Rt_direct) and the rest added as usual.
+    Element top = rough_interface_element(p, size, mode);
+    Matrix direct = std::move(top.Rt);
+    top.Rt = Matrix(size);
+    acc = add_over(top, acc);
+    acc.Rt_direct = std::move(direct);
+  } else if (stack.above_ior != stack.layers[0].ior) {
+    acc = add_over(interface_element(p.above, p.media[0], size), acc);
+  }
   return acc;
 }
 
@@ -712,23 +816,40 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
     R += acc.Rt(i, j0);
     if (acc.Td.n > 0) T += acc.Td(i, j0);
   }
-  double Rh = 0.0, Th = 0.0;
+  // 10. Under a rough top nothing is unscattered but the top's own reflection (the glossy lobe),
+  // which is R_specular, as in the walk's totals; the rest of R and all of T are diffuse.
+  const bool rough = acc.Rt_direct.n > 0;
+  double glossy = 0.0;
+  if (rough)
+    for (int i = 0; i < size; ++i) glossy += acc.Rt_direct(i, j0);
+  double Rh = 0.0, Th = 0.0, Rh_glossy = 0.0;
   for (std::size_t k = 0; k < p.above.active.size(); ++k) {
     const int j = p.above.active[k];
     if (p.above.W[k] == 0.0) continue;
-    double r = 0.0, t = 0.0;
+    double r = 0.0, t = 0.0, g = 0.0;
     for (int i = 0; i < size; ++i) {
       r += acc.Rt(i, j);
+      if (rough) g += acc.Rt_direct(i, j);
       if (acc.Td.n > 0) t += acc.Td(i, j);
     }
-    Rh += p.above.W[k] * r;
+    Rh += p.above.W[k] * (r + g);
+    Rh_glossy += p.above.W[k] * g;
     Th += p.above.W[k] * t;
   }
-  out->R_specular[c] = z.R_specular[c];
-  out->T_ballistic[c] = z.T_ballistic[c];
-  out->R_diffuse[c] = R - z.R_specular[c];
-  out->T_diffuse[c] = T - z.T_ballistic[c];
-  out->absorbed[c] = 1.0 - R - T;
+  out->R_hemispherical_glossy[c] = Rh_glossy;
+  if (rough) {
+    out->R_specular[c] = glossy;
+    out->T_ballistic[c] = 0.0;
+    out->R_diffuse[c] = R;
+    out->T_diffuse[c] = T;
+    out->absorbed[c] = 1.0 - R - glossy - T;
+  } else {
+    out->R_specular[c] = z.R_specular[c];
+    out->T_ballistic[c] = z.T_ballistic[c];
+    out->R_diffuse[c] = R - z.R_specular[c];
+    out->T_diffuse[c] = T - z.T_ballistic[c];
+    out->absorbed[c] = 1.0 - R - T;
+  }
   out->R_hemispherical[c] = Rh;
   out->T_hemispherical[c] = Th;
   out->absorbed_hemispherical[c] = 1.0 - Rh - Th;
@@ -738,7 +859,7 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
 
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings) {
-  const Problem p = make_problem(stack, {cos_theta_i}, settings, "adding_doubling_totals");
+  const Problem p = make_problem(stack, {cos_theta_i}, settings, "adding_doubling_totals", 1);
   AddingDoublingTotals out;
   out.nodes = p.nodes.real;
   const ZerothOrder z = zeroth_order(stack, cos_theta_i);
@@ -843,7 +964,7 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
   std::vector<std::vector<Spectrum>> value(n_inc);
   for (int q = 0; q < n_inc; ++q) {
     // The single-scattering part and the table's layout from the analytic first order.
-    if (settings.single_scattering_bins) {
+    if (settings.single_scattering_bins && !p.rough_top) {  // first order reads a smooth top
       tables[q] = brdf_table_first_order(stack, opts[q], 6, false);  // its totals are replaced below
     } else {
       tables[q].options = opts[q];
@@ -954,6 +1075,9 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
           binned_R += value[q][layout.bin_index(BrdfSide::Reflect, k, b)][c] * layout.projected_solid_angle(k);
           binned_T += value[q][layout.bin_index(BrdfSide::Transmit, k, b)][c] * layout.projected_solid_angle(k);
         }
+      // Under a rough top no light stays unscattered in the solver's incidence node (the top
+      // spreads it over the real nodes at once), so there is no peak: the bins hold it all.
+      if (p.rough_top) continue;
       t[q].R_forward_peak[c] = t[q].R_diffuse[c] - binned_R;
       add_peak(value[q], BrdfSide::Reflect, mu0[q], c, t[q].R_forward_peak[c]);
       if (p.transmits) {
@@ -986,7 +1110,7 @@ BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions&
 }
 
 DeltaMTruncation delta_m_truncation(const LayerStack& stack, const AddingDoublingSettings& settings) {
-  const Problem p = make_problem(stack, {1.0}, settings, "delta_m_truncation");
+  const Problem p = make_problem(stack, {1.0}, settings, "delta_m_truncation", 0);
   DeltaMTruncation out;
   for (std::size_t k = 0; k < stack.layers.size(); ++k) {
     const Layer& layer = stack.layers[k];

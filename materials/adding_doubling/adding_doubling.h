@@ -4,7 +4,8 @@
 //
 // What it solves: the azimuthally averaged (Fourier m = 0) radiative transfer equation in every
 // layer, with the layers' HG lobes, smooth Fresnel interfaces (the n^2 law of radiance and total
-// internal reflection), a Lambert substrate or a semi-infinite last layer, exactly as the walk
+// internal reflection) or a rough top (its BSDF projected onto the same basis:
+// interface_fourier.h), a Lambert substrate or a semi-infinite last layer, exactly as the walk
 // models the stack (materials/walk/random_walk.cpp). The m = 0 component carries all of the power, so
 // it gives every total (reflected, transmitted, absorbed) for collimated incidence at any angle
 // and for uniform diffuse incidence. The BRDF/BTDF on the bins of materials/brdf/brdf_table.h comes
@@ -31,6 +32,7 @@
 
 #include <vector>
 
+#include "materials/adding_doubling/interface_fourier.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/base/spectrum.h"
 #include "materials/stack/stack.h"
@@ -48,6 +50,9 @@ struct AddingDoublingSettings {
   // Solve this channel alone (0, 1, 2) and leave the others' totals (and bins) 0, a third of the
   // cost (lamina fit fits channels apart, materials/fit/stack_fit.h); -1: all.
   int only_channel = -1;
+  // A rough top's BSDF, projected onto the solver's basis (interface_fourier.h): today's
+  // single-scattering GGX dielectric, as the walk's rough top.
+  InterfaceEval rough_eval = single_scattering_ggx_eval;
 };
 
 struct AddingDoublingTotals {
@@ -60,6 +65,9 @@ struct AddingDoublingTotals {
   // Uniform diffuse incidence from above (equal radiance from every direction): the total
   // reflectance, transmittance and absorptance (unscattered light included in R and T).
   Spectrum R_hemispherical, T_hemispherical, absorbed_hemispherical;
+  // Under a rough top: the part of R_hemispherical that is the top's own reflection (the glossy
+  // lobe); 0 for a smooth top (whose unscattered part is zeroth_order's, exact).
+  Spectrum R_hemispherical_glossy;
   // brdf_table_adding_doubling only: the power of the delta-M forward peak that it puts in the
   // bin of the mirror (R) and ballistic (T) direction (adding_doubling.cpp, 9.): a measure of
   // how much of the table's angular detail the truncation of the phase function blurs.
@@ -68,8 +76,10 @@ struct AddingDoublingTotals {
   int doublings = 0;  // doubling steps over all layers and channels
 };
 
-// The totals of `stack` (validate_stack must accept it; a rough top is treated as smooth, which
-// the caller should say) for light from above at cos_theta_i in (0, 1]. Throws
+// The totals of `stack` (validate_stack must accept it) for light from above at cos_theta_i in
+// (0, 1]. Under a rough top, as in the walk's totals (materials/brdf/brdf_table.cpp): R_specular is
+// the top's own reflection (the glossy lobe, not a delta), T_ballistic 0, R_diffuse and T_diffuse
+// all light that entered the stack and left (adding_doubling.cpp, 10.). Throws
 // std::invalid_argument for a cos_theta_i outside (0, 1] or a quadrature order below 2.
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings = {});
@@ -102,7 +112,10 @@ AddingDoublingEstimate adding_doubling_with_error(const LayerStack& stack, doubl
 // `multiple` = value - single. Cost: one solution per Fourier mode and channel (the modes up to
 // the delta-M order, about the number of nodes). The delta-M forward peak's power is put in the
 // bin of the mirror / ballistic direction (adding_doubling.cpp, 9.), so the bins' power equals
-// R_diffuse and T_diffuse. *totals (optional) receives the totals with the diffuse-incidence ones.
+// R_diffuse and T_diffuse. Under a rough top the bins hold the light that entered the stack (as
+// the walk's), `single` is 0, there is no forward peak, and the bins' power is R_diffuse up to
+// their cosine quadrature (~1e-3). *totals (optional) receives the totals with the
+// diffuse-incidence ones.
 BrdfTable brdf_table_adding_doubling(const LayerStack& stack, const BrdfOptions& options,
                                      const AddingDoublingSettings& settings = {},
                                      AddingDoublingTotals* totals = nullptr);

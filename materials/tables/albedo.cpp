@@ -70,7 +70,14 @@ Spectrum diffuse_albedo_bias(const LayerStack& stack, const WalkOptions& approxi
 
 Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack, const AddingDoublingSettings& settings) {
   // R_h: one adding-doubling solution (its diffuse-incidence totals do not depend on cos_theta_i).
-  const Spectrum r_h = adding_doubling_totals(stack, 1.0, settings).R_hemispherical;
+  const AddingDoublingTotals totals = adding_doubling_totals(stack, 1.0, settings);
+  const Spectrum r_h = totals.R_hemispherical;
+  // A rough top: its own (glossy) reflection is the unscattered part, from the same solution.
+  if (stack.rough_top()) {
+    Spectrum a = r_h - totals.R_hemispherical_glossy;
+    for (int c = 0; c < kChannels; ++c) a[c] = std::max(a[c], 0.0);
+    return a;
+  }
   // R_hs = 2 int_0^1 R_specular(mu) mu dmu. R_specular has a kink where an interface below starts
   // to reflect totally: at Snell's invariant n_above sin(theta) = n_k of a medium k with
   // n_k < n_above, i.e. mu = sqrt(1 - (n_k / n_above)^2). Gauss-Legendre on each segment.

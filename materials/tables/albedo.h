@@ -22,9 +22,12 @@ Spectrum diffuse_bihemispherical_albedo(const LayerStack& stack, int walks, std:
 // with R_h the total reflectance for uniform diffuse incidence (adding_doubling_totals, one
 // solution; it includes the unscattered light) and R_hs = 2 int R_specular(mu) mu dmu the
 // unscattered part (materials/analytic/zeroth_order, exact, by Gauss-Legendre quadrature in mu on the
-// segments between the critical cosines, where R_specular has kinks). Smooth tops only (a rough
-// top's facets are not in adding-doubling): the caller keeps the walk for those.
-// `settings`: R_h's solution (the default 16 points; R_hs is exact).
+// segments between the critical cosines, where R_specular has kinks). Under a rough top R_hs is
+// the hemispherical of the top's own (glossy) reflection, from the same solution
+// (AddingDoublingTotals::R_hemispherical_glossy); light that entered through the rough top and
+// left without scattering (reflected by an inner interface) counts as diffuse here, where the
+// walk's estimate leaves it out.
+// `settings`: R_h's solution (the default 16 points; R_hs is exact for a smooth top).
 Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack, const AddingDoublingSettings& settings = {});
 
 // The bias of an approximate walk (settings, e.g. similarity_after) on that albedo: the mean and

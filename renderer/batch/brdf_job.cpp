@@ -58,12 +58,12 @@ BrdfResult adding_doubling(const LayerStack& stack, const BrdfRequest& request) 
 }  // namespace
 
 void check_brdf_method(const LayerStack& stack, const std::string& source, BrdfMethod method) {
-  if (method != BrdfMethod::MonteCarlo && stack.rough_top())
-    throw std::runtime_error(source + ": roughness: the " + brdf_method_name(method) +
-                             " solution is for a smooth top interface; use --method monte-carlo");
+  if (method == BrdfMethod::FirstOrder && stack.rough_top())
+    throw std::runtime_error(source + ": roughness: the first-order solution is for a smooth top interface; "
+                             "use --method monte-carlo or adding-doubling");
   if (method != BrdfMethod::MonteCarlo && stack.energy_conserving_rough())
-    throw std::runtime_error(source + ": bottom_roughness: the " + brdf_method_name(method) +
-                             " solution is for smooth interfaces; use --method monte-carlo");
+    throw std::runtime_error(source + ": interface_model: the " + brdf_method_name(method) +
+                             " solution has no energy-conserving rough interfaces; use --method monte-carlo");
 }
 
 BrdfResult compute_brdf(const LayerStack& stack, const std::string& source, const BrdfRequest& request) {

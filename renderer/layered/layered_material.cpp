@@ -10,11 +10,11 @@
 namespace lamina {
 namespace {
 
-// The lambert mode's albedo of a stack: by adding-doubling for a smooth top (no noise: standard
-// error 0; materials/tables/albedo.h), by `walks` walks for a rough one (its facets are not in
-// adding-doubling).
+// The lambert mode's albedo of a stack: by adding-doubling, a single-scattering rough top's facets
+// projected onto its basis (no noise: standard error 0; materials/tables/albedo.h); by `walks`
+// walks for energy-conserving rough interfaces (their multiple scattering is not in adding-doubling).
 Spectrum albedo_of(const LayerStack& stack, int walks, Spectrum* standard_error = nullptr) {
-  if (!stack.rough_top() && !stack.energy_conserving_rough()) {
+  if (!stack.energy_conserving_rough()) {  // adding-doubling: smooth or single-scattering rough top
     if (standard_error) *standard_error = Spectrum(0.0);
     return diffuse_bihemispherical_albedo_adding_doubling(stack);
   }
@@ -123,15 +123,9 @@ int LayeredBindings::count() const {
 std::string ignored_by_mode(const LayeredMaterial& material, SubsurfaceMode mode) {
   std::string out;
   auto add = [&](const std::string& what) { out += (out.empty() ? "" : "; ") + what; };
-  // The table mode follows texture-driven parameters through tables along each of them
-  // (renderer/layered/layered_tables.h), except a roughness: its tables have a smooth top.
-  if (mode == SubsurfaceMode::Table && material.bindings()) {
-    std::string names;
-    for (const StackParameter& p : material.bindings()->parameters())
-      if (p.kind == StackParameter::Kind::kRoughness) names += (names.empty() ? "" : ", ") + p.path;
-    if (!names.empty()) add("the texture-driven roughness (" + names + "): a smooth top everywhere");
-  }
-  const bool smooth_only = mode == SubsurfaceMode::Table || mode == SubsurfaceMode::FirstOrder;
+  // The table mode follows texture-driven parameters, roughness included, through tables along
+  // each of them (renderer/layered/layered_tables.h), and renders a rough top's glossy lobe.
+  const bool smooth_only = mode == SubsurfaceMode::FirstOrder;
   if (smooth_only && material.base_stack().rough_top()) {
     std::ostringstream os;
     os << "the roughness " << material.base_stack().top_roughness

@@ -33,10 +33,12 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     const auto& m = bindings.by_material[i];
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
-    // A rough top is not tabulated (its glossy lobe would need its own table): the smooth stack,
-    // with the warning of render_job (ignored_by_mode). Tables point to their stack: kept here.
+    // A (single-scattering) rough top is tabulated as it is: the table holds the light that
+    // entered the stack and the surface adds the top's glossy lobe exactly
+    // (renderer/surfaces/table_surface.h). Energy-conserving rough interfaces are not in
+    // adding-doubling: the smooth stack, with the warning of render_job (ignored_by_mode).
     const LayerStack* stack = &m->base_stack();
-    if (stack->rough_top() || stack->energy_conserving_rough()) {
+    if (stack->energy_conserving_rough()) {
       owned_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
       stack = owned_stacks_.back().get();
     }
@@ -47,18 +49,18 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       continue;
     }
     // Texture-driven parameters (the model in layered_tables.h): T_0 from the template's values,
-    // and per parameter that changes a (smooth-top) table, its tables at kParameterNodes values.
+    // and per parameter that changes a table, its tables at kParameterNodes values.
     const std::vector<StackParameter>& ps = b->parameters();
     const StackTemplate& t = b->stack_template();
     std::vector<Spectrum> values(ps.size());
     for (std::size_t k = 0; k < ps.size(); ++k) values[k] = ps[k].template_value(t);
-    // The stack (and its flipped copy) for the given values, smooth-topped, kept alive here.
+    // The stack (and its flipped copy) for the given values, kept alive here.
     const int sides = m->transmits() ? 2 : 1;
     auto stacks_for = [&](const std::vector<Spectrum>& v) {
       std::array<const LayerStack*, 2> pair{nullptr, nullptr};
       auto up = std::make_unique<LayerStack>();
       apply_parameters(t, ps, v.data(), up.get());
-      if (up->rough_top() || up->energy_conserving_rough()) *up = with_smooth_top(*up);
+      if (up->energy_conserving_rough()) *up = with_smooth_top(*up);
       pair[0] = up.get();
       if (sides == 2) {
         owned_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));
@@ -70,7 +72,6 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
     const auto base = stacks_for(values);
     for (int side = 0; side < sides; ++side) tables_[{m.get(), side == 1}] = obtain(*base[side]);
     for (std::size_t k = 0; k < ps.size(); ++k) {
-      if (ps[k].kind == StackParameter::Kind::kRoughness) continue;
       ParameterAxis axis[2];
       axis[0].nodes = b->nodes(k, kParameterNodes);
       if (axis[0].nodes.values.size() < 2) continue;  // a constant parameter: nothing to interpolate

@@ -12,8 +12,9 @@
 // exact when at most one parameter differs from its template value and that one sits on a node,
 // and otherwise the first-order (product) approximation of the cross terms. Bins where T_0 is
 // below 1e-12 times the node's diffuse power keep T_0. Sampling stays with T_0's CDF (TableSurface), so
-// the estimator is unbiased for f whatever the model's error. A rough top's roughness does not
-// change a table (tables use the smooth top), so roughness parameters get no axis.
+// the estimator is unbiased for f whatever the model's error. A roughness parameter gets an axis
+// like any other (it changes the light that enters the stack); the glossy lobe itself is
+// evaluated exactly at the hit's roughness (renderer/surfaces/table_surface.h).
 #pragma once
 
 #include <map>
@@ -43,7 +44,7 @@ class LayeredTables {
   // The factors of the hit's texture-driven parameters (values from StackBindings::values at the
   // hit): for each parameter axis, the tables at the two nodes around its value and the weight
   // of the upper one. At most kMaxFactors; returns how many were written (0 for a material with
-  // no parameters, or with only roughness parameters). `values`: one per bound parameter.
+  // no parameters). `values`: one per bound parameter.
   static constexpr int kParameterNodes = 5;
   static constexpr int kMaxFactors = 16;
   int factors(const LayeredMaterial* m, bool from_below, const Spectrum* values, TableFactor* out) const;
@@ -65,8 +66,8 @@ class LayeredTables {
   std::map<std::pair<const LayeredMaterial*, bool>, std::vector<ParameterAxis>> axes_;
 
   int parameter_tables_count_ = 0;
-  // The stacks tables refer to (LayeredTable::stack) that no material holds: smooth-top copies
-  // of rough stacks, and the parameter tables' stacks.
+  // The stacks tables refer to (LayeredTable::stack) that no material holds: the parameter
+  // tables' stacks.
   std::vector<std::unique_ptr<LayerStack>> owned_stacks_;
   double seconds_ = 0.0;
   int built_ = 0, built_by_walk_ = 0, loaded_ = 0;

@@ -487,8 +487,12 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   ch.noise_floor = std::max(worst.shape.noise, worst.uniform.noise);
 
   const double tol = settings.tolerance;
+  // A rough top: the first-order mode refracts through a smooth mirror, which the prediction
+  // (delta parts D, a glossy lobe's total among them) cannot tell from the glossy lobe: never
+  // chosen. The table mode renders the lobe exactly and the lambert mode's error includes it.
+  const bool rough = material.base_stack().rough_top();
   if (ch.error_lambert <= tol) ch.mode = SubsurfaceMode::Lambert;
-  else if (ch.error_first_order <= tol) ch.mode = SubsurfaceMode::FirstOrder;
+  else if (!rough && ch.error_first_order <= tol) ch.mode = SubsurfaceMode::FirstOrder;
   else if (ch.error_table <= tol) ch.mode = SubsurfaceMode::Table;
   else ch.mode = SubsurfaceMode::RandomWalk;
   const double chosen = ch.mode == SubsurfaceMode::Lambert      ? ch.error_lambert
@@ -502,6 +506,7 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
                 short_name(ch.mode), chosen, ch.mode == SubsurfaceMode::RandomWalk ? "reference," : "<=", tol,
                 ch.error_lambert, ch.error_first_order, ch.error_table, ch.noise_floor);
   ch.reason = buf;
+  if (rough) ch.reason += " [rough top: first-order excluded]";
   if (exact) {
     ch.reason += string_printf(" [reference: adding-doubling, %d points", reference_points);
     if (reference_points < full_points)
@@ -620,11 +625,11 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
       continue;
     }
     const LayeredMaterial& m = *bindings.by_material[i];
-    if (m.base_stack().rough_top() || m.base_stack().energy_conserving_rough()) {
+    if (m.base_stack().energy_conserving_rough()) {
       // The other modes would drop the glossy lobe (and first order and tables would refract
       // through a mirror): no prediction can make them right.
       out[i].mode = SubsurfaceMode::RandomWalk;
-      out[i].reason = string_printf("chose random-walk (rough top interface, roughness %.3g: only the walk renders it; no prediction)",
+      out[i].reason = string_printf("chose random-walk (energy-conserving rough interfaces, top roughness %.3g: only the walk renders them; no prediction)",
                                     m.base_stack().top_roughness);
       continue;
     }

@@ -209,8 +209,10 @@ namespace {
 
 std::string albedo_key(const LayeredMaterial& m) {
   std::ostringstream what;
-  what << "lambert albedo\nwalks " << m.albedo_walks() << " seed " << LayeredMaterial::kAlbedoSeed << '\n'
-       << stack_fingerprint(m.base_stack());
+  what << "lambert albedo\nwalks " << m.albedo_walks() << " seed " << LayeredMaterial::kAlbedoSeed << '\n';
+  // A rough top's albedo is adding-doubling's now, no longer its walks': not the old records.
+  if (m.base_stack().rough_top()) what << "rough top by adding-doubling\n";
+  what << stack_fingerprint(m.base_stack());
   return walk_cache_key(what.str());
 }
 

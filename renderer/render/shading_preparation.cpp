@@ -88,7 +88,7 @@ void compute_lambert_albedos(const ShadingInputs& in, const RenderLog& log) {
     }
   int from_cache = 0;
   for (const auto& m : in.bindings->by_material) from_cache += m && !m->lambert_albedo_computed() ? 1 : 0;
-  say(log.info, string_printf("lambert mode: albedos by adding-doubling (the walk for a rough top) in %.2f s (%d from the cache)",
+  say(log.info, string_printf("lambert mode: albedos by adding-doubling in %.2f s (%d from the cache)",
                               seconds_since(t0), from_cache));
 }
 

@@ -5,6 +5,7 @@
 
 #include "materials/brdf/brdf_table.h"
 #include "materials/base/sampling.h"
+#include "materials/walk/random_walk.h"  // top_interface
 
 namespace lamina {
 
@@ -13,6 +14,15 @@ TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo) : Ta
 TableSurface::TableSurface(const LayeredTable& table, const LayerStack& hit_stack, const glm::dvec3& wo,
                            const TableFactor* factors, int factor_count)
     : table_(table), factors_(factors), factor_count_(factor_count), lobes_(hit_stack, wo) {
+  if (hit_stack.rough_top()) {
+    // No mirror delta: the smooth top's reflectance becomes the glossy lobe's sampling share.
+    glossy_ = true;
+    top_ = top_interface(hit_stack);
+    p_glossy_ = lobes_.p_specular;
+    lobes_.p_specular = 0.0;
+    lobes_.p_diffuse = std::max(0.0, 1.0 - lobes_.p_ballistic);
+    lobes_.zeroth.R_specular = Spectrum(0.0);
+  }
   const TableNodes at = table_nodes_at(table.settings, wo.z);
   for (int i = 0; i < 2; ++i) {
     node_[i] = at.node[i];
@@ -49,6 +59,7 @@ Spectrum TableSurface::eval(const glm::dvec3& wo, const glm::dvec3& wi) const {
   Spectrum f = value(node_[0], b) * weight_[0] + value(node_[1], b) * weight_[1];
   // Reciprocity (materials/walk/walk_estimator.h): the table holds f(wo -> wi).
   if (wi.z < 0.0) f *= lobes_.t_factor;
+  if (glossy_ && wi.z > 0.0) f += Spectrum(top_.eval(wo, wi));
   return f;
 }
 
@@ -64,11 +75,24 @@ double TableSurface::pdf(const glm::dvec3& wo, const glm::dvec3& wi) const {
     const double pb = table_.cdf[base + b] - (b > 0 ? table_.cdf[base + b - 1] : 0.0);
     p += weight_[i] * pb;
   }
-  return lobes_.p_diffuse * p * std::abs(wi.z) / table_.projected_solid_angle(k);
+  const double table_pdf = lobes_.p_diffuse * p * std::abs(wi.z) / table_.projected_solid_angle(k);
+  if (!glossy_) return table_pdf;
+  const double glossy_pdf = wi.z > 0.0 ? reflection_pdf(top_.distribution, wo, wi) : 0.0;
+  return p_glossy_ * glossy_pdf + (1.0 - p_glossy_) * table_pdf;
 }
 
 bool TableSurface::sample(const glm::dvec3& wo, glm::dvec2 u, BsdfSample* s) const {
   if (wo.z <= 0.0) return false;
+  if (glossy_) {
+    // The glossy lobe with probability p_glossy_ (u.x reused in both branches).
+    if (u.x < p_glossy_) {
+      glm::dvec3 wi;
+      double weight;
+      if (!top_.sample_reflection(wo, {u.x / p_glossy_, u.y}, &wi, &weight)) return false;
+      return complete_sample(*this, wo, wi, s);
+    }
+    u.x = std::min((u.x - p_glossy_) / (1.0 - p_glossy_), 1.0 - 1e-16);
+  }
   if (lobes_.sample(wo, u.x, s)) return true;
   if (lobes_.p_diffuse <= 0.0) return false;
   double v = lobes_.diffuse_u(u.x);

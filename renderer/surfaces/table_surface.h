@@ -1,9 +1,12 @@
 // table mode: the layered surface as a tabulated BRDF/BTDF (materials/tables/layered_table.h: layout,
-// interpolation and sampling) plus the exact zeroth order's delta lobes.
+// interpolation and sampling) plus the exact zeroth order's delta lobes, or, under a rough top,
+// the top's own glossy reflection evaluated exactly (its facets, materials/interfaces/microfacet.h;
+// the table holds the light that entered the stack, as adding-doubling and the walk tabulate it).
 #pragma once
 
 #include <glm/vec3.hpp>
 
+#include "materials/interfaces/microfacet.h"
 #include "materials/tables/layered_table.h"
 #include "materials/base/spectrum.h"
 #include "renderer/surfaces/surface.h"
@@ -24,7 +27,7 @@ class TableSurface final : public Bsdf {
   TableSurface(const LayeredTable& table, const glm::dvec3& wo);
   // With texture-driven parameters: `table` is T_0, the factors scale its bins (evaluation only;
   // sampling and pdf stay T_0's, so the estimate is unbiased for the scaled values), and the
-  // exact delta lobes come from `hit_stack`, the stack at the hit (a rough top read as smooth).
+  // exact delta lobes (or a rough top's glossy lobe) come from `hit_stack`, the stack at the hit.
   TableSurface(const LayeredTable& table, const LayerStack& hit_stack, const glm::dvec3& wo, const TableFactor* factors,
                int factor_count);
   Spectrum eval(const glm::dvec3& wo, const glm::dvec3& wi) const override;
@@ -38,6 +41,11 @@ class TableSurface final : public Bsdf {
   const TableFactor* factors_ = nullptr;
   int factor_count_ = 0;
   ZerothOrderLobes lobes_;
+  // A rough top: its reflection lobe, sampled with probability p_glossy_ (the smooth top's
+  // Fresnel reflectance at wo, close to the lobe's albedo), in place of the mirror delta.
+  bool glossy_ = false;
+  RoughDielectric top_;
+  double p_glossy_ = 0.0;
   int node_[2] = {0, 0};
   double weight_[2] = {1.0, 0.0};
 };
