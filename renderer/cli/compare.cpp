@@ -49,7 +49,9 @@ Image read_checked(const std::string& path, int* channels) {
 }
 
 int compare(const CompareArgs& args) {
-  cli::check_output_paths({{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}});
+  const std::vector<cli::OutputPath> output_paths = {{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}};
+  cli::check_output_paths(output_paths);
+  cli::check_outputs_not_inputs(output_paths, {{"the reference", args.reference}, {"the test image", args.test}});
   int ref_channels = 0, test_channels = 0;
   Image ref = read_checked(args.reference, &ref_channels);
   Image test = read_checked(args.test, &test_channels);
@@ -120,6 +122,7 @@ int compare(const CompareArgs& args) {
     j["mse"] = m.mse;
     j["rmse"] = m.rmse;
     j["ssim"] = m.ssim;
+    cli::check_finite_numbers(j, "--json '" + args.out_json + "'");
     outputs.write(args.out_json, [&](const std::string& tmp) { write_file_atomically(tmp, j.dump(2) + "\n"); });
   }
   outputs.commit();

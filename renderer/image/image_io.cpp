@@ -274,6 +274,7 @@ struct RawImage {
   std::vector<std::string> names;
   std::vector<float> values;  // width * height * names.size(), interleaved
   bool srgb_encoded = false;
+  DataWindow window;  // EXR: where the pixels sit in the display window
 };
 
 void check_samples(const std::string& path, double width, double height, double channels) {
@@ -305,6 +306,14 @@ RawImage read_exr(const std::string& path) {
     raw.width = static_cast<int>(width);
     raw.height = static_cast<int>(height);
     raw.names = names;
+    // A crop's data window inside a larger display window (write_exr's DataWindow).
+    const Imath::Box2i display = header.displayWindow();
+    raw.window.x = window.min.x;
+    raw.window.y = window.min.y;
+    if (display != window) {
+      raw.window.full_width = display.max.x + 1;
+      raw.window.full_height = display.max.y + 1;
+    }
     const std::size_t nc = names.size();
     raw.values.assign(static_cast<std::size_t>(raw.width) * raw.height * nc, 0.0f);
     Imf::FrameBuffer frame;
@@ -493,6 +502,7 @@ ChannelImage read_channels(const std::string& path) {
   out.height = raw.height;
   out.names = std::move(raw.names);
   out.values = std::move(raw.values);
+  out.window = raw.window;
   return out;
 }
 

@@ -37,9 +37,11 @@ struct DataWindow {
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
                const std::vector<ExtraChannel>& extra, const DataWindow& window = {});
 // Every channel of an image file by name (R, G, B, the AOVs' "albedo.R", "N.X", "Z", ...),
-// interleaved as stored; the size is the data window's.
+// interleaved as stored; the size is the data window's, and `window` says where it sits (an EXR
+// crop: write it with the same window to keep the crop in place; other formats: the whole).
 struct ChannelImage {
   int width = 0, height = 0;
+  DataWindow window;
   std::vector<std::string> names;
   std::vector<float> values;  // width * height * names.size()
   int find(const std::string& name) const;  // the channel's index, -1 if absent

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -127,7 +128,7 @@ DataWindow data_window(const RenderSettings& settings) {
 // image so far written to the outputs (each atomically), marked as a preview in the header; the
 // final image replaces them in the end.
 Image render(const RenderRequest& request, const LoadedScene& loaded, const LayeredShading& layered, RenderResult* result,
-             RenderAovs* aovs) {
+             RenderAovs* aovs, bool* previews_written) {
   RenderSettings settings = request.settings;
   settings.layered = &layered;
   const std::uint64_t pixels = pixel_count(rendered_region(settings));
@@ -144,6 +145,7 @@ Image render(const RenderRequest& request, const LoadedScene& loaded, const Laye
     preview_meta.emplace_back("lamina:preview", string_printf("%.6g", static_cast<double>(samples) / static_cast<double>(pixels)));
     write_exr(request.out_path, so_far, preview_meta, {}, data_window(settings));
     if (!request.png_path.empty()) write_png(request.png_path, tone_mapped(so_far, request.tone_map));
+    *previews_written = true;
   };
   const Image image =
       render_image(*loaded.scene, *loaded.lights, *loaded.camera, settings, &result->stats, on_progress, aovs);
@@ -227,6 +229,21 @@ void write_outputs(const RenderRequest& request, const Image& image, const Metad
   outputs.commit();
 }
 
+// A render that fails after writing previews removes them: the previous files are already
+// replaced, so the outputs hold nothing rather than an unfinished image (docs/contracts.md,
+// "Outputs"), and the message says so. Only regular files are removed.
+[[noreturn]] void fail_after_previews(const RenderRequest& request, const std::exception& e) {
+  std::string removed;
+  for (const std::string& path : {request.out_path, request.png_path}) {
+    std::error_code ec;
+    if (path.empty() || !std::filesystem::is_regular_file(path, ec)) continue;
+    std::filesystem::remove(path, ec);
+    removed += (removed.empty() ? "'" : " and '") + path + "'";
+  }
+  throw std::runtime_error(std::string(e.what()) + (removed.empty() ? std::string("")
+                                                                    : "; the previews written during the render were removed: nothing is left at " + removed));
+}
+
 }  // namespace
 
 RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
@@ -253,15 +270,21 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   result.camera = loaded.camera_desc.name;
   result.layered_materials = loaded.bindings.count();
   RenderAovs aovs;
-  const Image image = render(request, loaded, shading.layered, &result, &aovs);
-  if (cache)
-    for (const auto& m : loaded.bindings.by_material)
-      if (m) store_lambert_albedo(*cache, *m);
+  bool previews_written = false;
+  try {
+    const Image image = render(request, loaded, shading.layered, &result, &aovs, &previews_written);
+    if (cache)
+      for (const auto& m : loaded.bindings.by_material)
+        if (m) store_lambert_albedo(*cache, *m);
 
-  if (request.subsurface.automatic) result.auto_choices = mode_choices(loaded, shading.choices);
-  Metadata meta = render_metadata({request, result}, shading.similarity_bias, shading.ignored);
-  write_outputs(request, image, meta, extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings))));
-  result.metadata = std::move(meta);
+    if (request.subsurface.automatic) result.auto_choices = mode_choices(loaded, shading.choices);
+    Metadata meta = render_metadata({request, result}, shading.similarity_bias, shading.ignored);
+    write_outputs(request, image, meta, extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings))));
+    result.metadata = std::move(meta);
+  } catch (const std::exception& e) {
+    if (previews_written) fail_after_previews(request, e);
+    throw;
+  }
   return result;
 }
 

@@ -4,12 +4,14 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "tests/support/image_files.h"
 #include <gtest/gtest.h>
@@ -359,6 +361,47 @@ TEST(RenderJobOutputs, AFailedPngLeavesNoNewExr) {
   render_job(request);
   EXPECT_NO_THROW(read_image(out));
   EXPECT_NO_THROW(read_image(request.png_path));
+}
+
+// A render whose final write fails after it wrote previews leaves nothing at its outputs (the
+// previews replaced what was there; an unfinished image under the output's name would pass for
+// the render) and says so. The EXR's path becomes a directory while the render runs, after the
+// first preview: every later write to it fails.
+TEST(RenderJobOutputs, AFailureAfterPreviewsRemovesThemAndSaysSo) {
+  TempDir dir("job-previews");
+  write_quad(dir / "quad.gltf");
+  RenderRequest request;
+  request.scene_path = dir / "quad.gltf";
+  request.out_path = dir / "out.exr";
+  request.png_path = dir / "out.png";
+  request.env = "1";
+  request.settings.width = 16;
+  request.settings.height = 12;
+  request.settings.spp = 1 << 20;
+  request.settings.time_limit = 3.0;  // bounds the render should the swap below come late
+  request.settings.preview_every = 1e-6;
+  std::string error;
+  std::thread job([&] {
+    try {
+      render_job(request);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  });
+  for (int i = 0; i < 3000 && !std::filesystem::exists(request.png_path); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const bool previewed = std::filesystem::exists(request.png_path);
+  std::error_code ec;
+  std::filesystem::remove(request.out_path, ec);
+  std::filesystem::create_directory(request.out_path);
+  job.join();
+  ASSERT_TRUE(previewed) << "no preview was written";
+  EXPECT_NE(error.find("'" + request.out_path + "'"), std::string::npos) << error;
+  EXPECT_NE(error.find("the previews written during the render were removed: nothing is left at '" + request.png_path + "'"),
+            std::string::npos)
+      << error;
+  EXPECT_FALSE(std::filesystem::exists(request.png_path)) << "a preview was left at the output path";
+  EXPECT_TRUE(std::filesystem::is_directory(request.out_path)) << "only regular files are removed";
 }
 
 // Under a 1 GB address-space limit (ulimit -v), a 16384 x 16384 image (3 GiB of floats) cannot be
