@@ -95,6 +95,12 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   out->camera_desc = request.camera_name.empty()
                          ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                          : find_camera(desc, request.camera_name);
+  // The image's aspect is --width/--height (yfov spans the height); a camera's own aspectRatio
+  // that differs does not act, and the user is told once.
+  if (const double a = out->camera_desc.aspect_ratio; a > 0.0 && std::abs(a / aspect - 1.0) > 1e-3)
+    say(log.warning, string_printf("%s: camera '%s': aspectRatio %g is not used: the image's aspect is --width/--height = %g "
+                                   "(yfov spans the height; give a width and height in the ratio %g to match the file)",
+                                   request.scene_path.c_str(), out->camera_desc.name.c_str(), a, aspect, a));
   for (std::size_t i = 0; i < out->bindings.by_material.size(); ++i)
     out->material_names.push_back(desc.material(static_cast<int>(i)).name);
   out->scene = std::make_unique<Scene>(std::move(desc));

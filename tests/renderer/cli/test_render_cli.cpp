@@ -101,6 +101,24 @@ TEST(RenderCli, NamedCameraAndEnvironmentFile) {
   for (float v : im.rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
+// A camera's aspectRatio does not set the image's shape (--width/--height does): when they
+// differ, one warning says so, naming the camera; when they agree, nothing is said.
+TEST(RenderCli, ACameraAspectRatioThatDoesNotActIsAWarning) {
+  TempDir dir("cli-aspect");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.json()["cameras"] = {{{"name", "wide"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"aspectRatio", 2.0}, {"znear", 0.1}}}}};
+  b.add_node({{"camera", 0}, {"translation", {0, 0, 4}}});
+  b.write_gltf(dir / "wide.gltf");
+  const Result square = run(dir, dir / "wide.gltf -o " + dir / "a.exr --width 8 --height 8 --spp 1 --env 1");
+  ASSERT_EQ(square.exit_code, 0) << square.err;
+  EXPECT_NE(square.err.find("warning: " + dir / "wide.gltf" + ": camera 'wide': aspectRatio 2 is not used"), std::string::npos)
+      << square.err;
+  const Result matched = run(dir, dir / "wide.gltf -o " + dir / "b.exr --width 16 --height 8 --spp 1 --env 1");
+  ASSERT_EQ(matched.exit_code, 0) << matched.err;
+  EXPECT_EQ(matched.err.find("aspectRatio"), std::string::npos) << matched.err;
+}
+
 TEST(RenderCli, BadScenesFailCleanly) {
   TempDir dir("cli-bad");
   const std::string out = dir / "out.exr";
