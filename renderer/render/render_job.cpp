@@ -21,6 +21,7 @@
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/paths.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
 
@@ -90,6 +91,12 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   SceneDesc desc = load_gltf(request.scene_path);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
   out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks);
+  // The command line checked the files it names; the stack files are known only now.
+  for (const auto& m : out->bindings.by_material)
+    for (const std::string& output : {request.out_path, request.png_path})
+      if (m && same_file(output, m->source()))
+        throw std::runtime_error("the output '" + output + "' is the stack file '" + m->source() +
+                                 "' of a material: an input is never overwritten");
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()

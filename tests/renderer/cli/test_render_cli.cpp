@@ -221,6 +221,22 @@ void write_layered_quad(const TempDir& dir, const std::string& gltf, const std::
   std::ofstream(dir / "map.json") << nlohmann::json{{material, stack_file}}.dump();
 }
 
+// An output that is a stack file the material map names (found only when the map is read) is
+// refused before anything is rendered, and the stack stays as it was.
+TEST(RenderCliLayered, AnOutputThatIsAStackFileIsRefused) {
+  TempDir dir("cli-stack-output");
+  const std::string stack =
+      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3}]})";
+  write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json", stack);
+  for (const std::string outputs : {"-o " + dir / "m/leaf.json", "-o " + dir / "x.exr --png " + dir / "m/../m/leaf.json"}) {
+    const Result r = run(dir, dir / "leaf.gltf --materials " + dir / "map.json " + outputs + " --width 4 --height 4 --spp 1");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("is the stack file"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(dir / "m/leaf.json"), stack);
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.exr"));
+  }
+}
+
 // A quad whose material "leaf" is bound to a stack by --materials (path relative to the map),
 // rendered in every --subsurface mode; the EXR records the layered counters. A map naming a
 // missing stack file fails with one line naming the map, the material and the file.
