@@ -87,13 +87,21 @@ int compare(const CompareArgs& args) {
   cli::StagedOutputs outputs;
   if (!args.out_exr.empty()) {
     const Image rel = relative_difference(ref, test, m.guard_floor);
+    // A derived image keeps its input's place: the window of a reference that is a crop of a
+    // render, moved by --crop's offset (a whole reference gives a whole image, as before).
+    DataWindow window = read_data_window(args.reference);
+    if (!args.crop.empty() && window.full_width > 0) {
+      window.x += args.crop[0];
+      window.y += args.crop[1];
+    }
     outputs.write(args.out_exr, [&](const std::string& tmp) {
       write_exr(tmp, rel,
                 {{"lamina:compare:reference", args.reference},
                  {"lamina:compare:test", args.test},
                  {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                  {"lamina:compare:guard_floor", std::to_string(m.guard_floor)},
-                 {"lamina:compare:smooth_sigma", string_printf("%g", args.smooth)}});
+                 {"lamina:compare:smooth_sigma", string_printf("%g", args.smooth)}},
+                {}, window);
     });
   }
   if (!args.out_png.empty()) {

@@ -543,4 +543,22 @@ Metadata read_metadata(const std::string& path) {
   return metadata;
 }
 
+DataWindow read_data_window(const std::string& path) {
+  const ContainerCheck check = check_container(path);
+  if (!check.problem.empty()) throw ImageIoError("cannot read '" + path + "': " + check.problem);
+  if (check.kind != Container::kExr) return {};
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i data = file.header().dataWindow(), display = file.header().displayWindow();
+    DataWindow w{data.min.x, data.min.y, 0, 0};
+    if (display != data) {
+      w.full_width = display.max.x + 1;
+      w.full_height = display.max.y + 1;
+    }
+    return w;
+  } catch (const std::exception& e) {
+    throw ImageIoError("cannot read '" + path + "': " + e.what());
+  }
+}
+
 }  // namespace lamina

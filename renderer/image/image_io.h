@@ -73,6 +73,10 @@ constexpr std::size_t kMaxImageSamples = std::size_t(1) << 28;
 double srgb_encode(double linear);
 double srgb_decode(double encoded);
 
+// Where an EXR's pixels sit in its display window (a crop, as write_exr's DataWindow), from the
+// header alone; the whole image ({}) for other formats. Throws ImageIoError as read_metadata.
+DataWindow read_data_window(const std::string& path);
+
 // Reads the string attributes of an EXR header (e.g. a batch job's hash); none for other
 // formats (the file must still be a readable image).
 Metadata read_metadata(const std::string& path);
