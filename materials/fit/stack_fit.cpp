@@ -13,6 +13,9 @@
 #include <nlopt.h>
 #include <tbb/parallel_for.h>
 
+#include "materials/stack/decimal.h"
+#include "materials/stack/text_file.h"
+
 namespace lamina {
 
 namespace {
@@ -102,13 +105,14 @@ void read_csv_rows(const std::string& text, const std::string& source, const Csv
   if (column.empty()) throw FitError(source + ": " + spec.empty);
 }
 
-// A finite number, the whole field; else throws with `what`.
-double parse_number(const std::string& field, const std::string& where, const std::string& column) {
+// A finite decimal number, the whole field (materials/stack/decimal.h), in [lo, hi]; else throws
+// naming the line and the column.
+double parse_number(const std::string& field, const std::string& where, const std::string& column,
+                    double lo = -std::numeric_limits<double>::max(), double hi = std::numeric_limits<double>::max()) {
   if (field.empty()) throw FitError(where + ": " + column + " is empty");
-  char* end = nullptr;
-  const double v = std::strtod(field.c_str(), &end);
-  if (end != field.c_str() + field.size()) throw FitError(where + ": " + column + " '" + field + "' is not a number");
-  if (!std::isfinite(v)) throw FitError(where + ": " + column + " '" + field + "' is not finite");
+  double v = 0.0;
+  const std::string why = parse_real_in(field, lo, hi, &v);
+  if (!why.empty()) throw FitError(where + ": " + column + " '" + field + "' is " + why);
   return v;
 }
 
@@ -256,9 +260,8 @@ std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, cons
       if (m.theta_i_deg < 0.0 || m.theta_i_deg >= 90.0)
         throw FitError(where + ": theta_i_deg " + th + " is not in [0, 90) (or 'diffuse')");
     }
-    m.value = parse_number(f[column["value"]], where, "value");
-    m.sigma = parse_number(f[column["sigma"]], where, "sigma");
-    if (m.sigma <= 0.0) throw FitError(where + ": sigma " + f[column["sigma"]] + " must be > 0");
+    m.value = parse_number(f[column["value"]], where, "value", -kMaxFitValue, kMaxFitValue);
+    m.sigma = parse_number(f[column["sigma"]], where, "sigma", kMinFitSigma, kMaxFitSigma);
     out.push_back(m);
   });
   if (out.empty()) throw FitError(source + ": no measurements after the header");
@@ -297,12 +300,14 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
     r.phi_o = parse_number(f[column["phi_o_deg"]], where, "phi_o_deg");
     if (r.theta_o < 0.0 || r.theta_o > 90.0) throw FitError(where + ": theta_o_deg " + f[column["theta_o_deg"]] + " is not in [0, 90]");
     if (r.phi_o < 0.0 || r.phi_o >= 360.0) throw FitError(where + ": phi_o_deg " + f[column["phi_o_deg"]] + " is not in [0, 360)");
-    r.m.value = parse_number(f[column["value"]], where, "value");
-    const double stderr_ = parse_number(f[column["stderr"]], where, "stderr");
-    if (stderr_ < 0.0) throw FitError(where + ": stderr " + f[column["stderr"]] + " is negative");
-    r.m.sigma = std::sqrt(stderr_ * stderr_ + sigma_floor * sigma_floor);
+    r.m.value = parse_number(f[column["value"]], where, "value", -kMaxFitValue, kMaxFitValue);
+    const double stderr_ = parse_number(f[column["stderr"]], where, "stderr", 0.0, kMaxFitSigma);
+    r.m.sigma = std::hypot(stderr_, sigma_floor);
     if (!(r.m.sigma > 0.0))
       throw FitError(where + ": stderr is 0 and no sigma floor is given: the bin has no uncertainty to weigh it by");
+    if (!(r.m.sigma >= kMinFitSigma && r.m.sigma <= kMaxFitSigma))
+      throw FitError(where + ": the bin's sigma sqrt(stderr^2 + floor^2) = " + number_text(r.m.sigma) + " is not in [" +
+                     number_text(kMinFitSigma) + ", " + number_text(kMaxFitSigma) + "]");
     // Distinct values: equal to the format's 9 digits.
     auto add_distinct = [](std::vector<double>& v, double x) {
       for (double y : v)
@@ -336,11 +341,10 @@ std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::
 }
 
 std::vector<FitMeasurement> load_fit_measurements(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FitError(path + ": cannot open");
-  std::stringstream s;
-  s << in.rdbuf();
-  return parse_fit_measurements(s.str(), path);
+  std::string text;
+  const std::string why = read_text_file(path, &text);
+  if (!why.empty()) throw FitError(path + ": cannot read the measurements: " + why);
+  return parse_fit_measurements(text, path);
 }
 
 std::vector<double> fit_model_values(const LayerStack& stack, const std::vector<FitMeasurement>& data,

@@ -76,10 +76,18 @@ struct FitMeasurement {
   int side = 0, bin_theta = 0, bin_phi = 0, bins_theta = 0, bins_phi = 0;
 };
 
+// The range of a measurement's value and sigma (each bin's combined sigma for a table), both
+// typos far beyond any reflectance, transmittance or BRDF in 1/sr: within them every residual
+// (model - value) / sigma, its square and chi^2 stay finite (at most ~1e36 a measurement), and
+// so does every weight 1 / sigma^2.
+constexpr double kMaxFitValue = 1e6;
+constexpr double kMinFitSigma = 1e-12, kMaxFitSigma = 1e6;
+
 // Reads the measurement CSV (docs/contracts.md "lamina fit"): a header with the columns
 // quantity,channel,theta_i_deg,value,sigma (any order, extra columns are an error), then one row
-// per measurement; channel is r, g or b; theta_i_deg is a number in [0, 90) or "diffuse"; sigma
-// > 0. Throws FitError("FILE: line N: reason") (or "FILE: reason" for the file as a whole).
+// per measurement; channel is r, g or b; theta_i_deg is a number in [0, 90) or "diffuse"; value
+// in [-kMaxFitValue, kMaxFitValue], sigma in [kMinFitSigma, kMaxFitSigma]; every number in the
+// decimal notation of materials/stack/decimal.h. Throws FitError("FILE: line N: reason") (or "FILE: reason" for the file as a whole).
 std::vector<FitMeasurement> parse_fit_measurements(const std::string& text, const std::string& source_name);
 std::vector<FitMeasurement> load_fit_measurements(const std::string& path);
 
@@ -91,7 +99,7 @@ std::vector<FitMeasurement> load_fit_measurements(const std::string& path);
 // degrees, to 1e-6 degree); a subset of the bins may be given as long as every ring and every
 // azimuth appears. Each bin's sigma is sqrt(stderr^2 + sigma_floor^2) (the table's own
 // standard error, and a floor for what it leaves out, e.g. a measurement's calibration); it
-// must be > 0. Throws FitError("FILE: line N: reason").
+// must be in [kMinFitSigma, kMaxFitSigma], the value as above. Throws FitError("FILE: line N: reason").
 std::vector<FitMeasurement> parse_fit_table(const std::string& text, const std::string& source_name, double theta_i_deg,
                                             double sigma_floor);
 

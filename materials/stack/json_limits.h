@@ -14,6 +14,8 @@
 #include <string>
 #include <string_view>
 
+#include <nlohmann/json.hpp>
+
 namespace lamina {
 
 // The deepest nesting of arrays and objects any Lamina JSON input may have. Material files and
@@ -33,5 +35,15 @@ std::optional<std::size_t> json_nesting_exceeds(std::string_view text, int max_d
 
 // The message every reader appends to "FILE: ": "JSON nested deeper than 512 levels (at byte N)".
 std::string json_nesting_message(std::size_t offset, int max_depth = kMaxJsonNesting);
+
+// Every JSON input's parse: the nesting check above, then nlohmann's parser, whose exceptions
+// never reach the user as they are. Returns "" with the document in *out, or the reason for a
+// one-line error: "JSON nested deeper than ...", "number '1e999' is too large for a double (at
+// most 1.79769e+308)", or "malformed JSON: parse error at line L, column C: ..." (nlohmann's text
+// without its "[json.exception...]" tag). *path (if given) receives the JSON path where the parser
+// was when it failed ("settings.width", "layers[1].g"; "" for the document or where unknown), as
+// the readers name paths in their other messages; without `path` the reason starts with it,
+// "settings.width: number ...".
+std::string parse_json_text(std::string_view text, nlohmann::json* out, std::string* path = nullptr);
 
 }  // namespace lamina

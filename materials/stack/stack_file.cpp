@@ -1,6 +1,7 @@
 #include "materials/stack/stack_file.h"
 #include "materials/stack/json_keys.h"
 #include "materials/stack/json_limits.h"
+#include "materials/stack/text_file.h"
 
 #include <cerrno>
 #include <cmath>
@@ -249,30 +250,17 @@ StackTemplate parse_stack_template_json(const std::string& text, const std::stri
   // recursive walks over it (materials/stack/json_limits.h).
   if (const auto deep = json_nesting_exceeds(text)) throw StackFileError(source_name + ": " + json_nesting_message(*deep));
   json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::exception& e) {
-    // nlohmann's message reads "[json.exception.parse_error.101] parse error at line L, column
-    // C: ..." (or "number overflow parsing '1e999'" for a non-finite number); keep the part
-    // after the bracketed id, which names line and column where nlohmann knows them.
-    std::string what = e.what();
-    const std::size_t close = what.find("] ");
-    if (close != std::string::npos) what = what.substr(close + 2);
-    reader.fail("", "malformed JSON: " + what);
-  }
+  std::string where;
+  const std::string why = parse_json_text(text, &root, &where);
+  if (!why.empty()) reader.fail(where, why);
   return reader.stack(root);
 }
 
 StackTemplate load_stack_template(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw StackFileError(path + ": is a directory, not a material file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw StackFileError(path + ": cannot open material file (" + std::strerror(errno) + ")");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw StackFileError(path + ": error while reading the material file");
-  return parse_stack_template_json(text.str(), path);
+  std::string text;
+  const std::string why = read_text_file(path, &text);  // materials/stack/text_file.h: says why
+  if (!why.empty()) throw StackFileError(path + ": cannot read the material file: " + why);
+  return parse_stack_template_json(text, path);
 }
 
 LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {

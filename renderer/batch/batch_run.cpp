@@ -72,18 +72,24 @@ void write_text_if_changed(const std::string& path, const std::string& text) {
   }
 }
 
-// A job is complete when its EXR exists and its header carries the job's hash.
+// A job is complete when its EXR exists, its header carries the job's hash and is not a preview
+// (lamina:preview: the image so far of a render that did not finish), and every pixel reads: a
+// header with the hash in front of truncated or damaged pixels is not a finished job.
 bool job_complete(const std::string& out, const BatchJob& job, Metadata* metadata = nullptr) {
   const std::string path = job_exr(out, job);
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return false;
   try {
     Metadata meta = read_metadata(path);
-    for (const auto& [k, v] : meta)
-      if (k == "lamina:job_hash" && v == job.hash) {
-        if (metadata) *metadata = std::move(meta);
-        return true;
-      }
+    bool hash = false, preview = false;
+    for (const auto& [k, v] : meta) {
+      hash = hash || (k == "lamina:job_hash" && v == job.hash);
+      preview = preview || k == "lamina:preview";
+    }
+    if (!hash || preview) return false;
+    read_channels(path);  // throws when a pixel cannot be read
+    if (metadata) *metadata = std::move(meta);
+    return true;
   } catch (const std::exception&) {
   }
   return false;
@@ -361,6 +367,28 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
   return 0;
 }
 
+// No file the batch writes is one it reads: the manifest, a job's scene or environment file
+// (renderer/util/paths.h's same_file: links and other spellings resolved).
+void check_outputs_not_inputs(const std::string& out, const std::string& manifest, const std::vector<BatchJob>& jobs) {
+  std::vector<std::pair<std::string, std::string>> inputs = {{"the manifest", manifest}};
+  for (const BatchJob& job : jobs) {
+    inputs.push_back({"job " + job.id + "'s scene", job.scene_file});
+    if (!job.env.empty()) inputs.push_back({"job " + job.id + "'s environment", job.env});
+  }
+  std::vector<std::string> outputs;
+  for (const char* name : {"jobs.json", "summary.csv", "comparisons.csv", "contact_sheet.png"})
+    outputs.push_back((fs::path(out) / name).string());
+  for (const BatchJob& job : jobs) {
+    outputs.push_back(job_exr(out, job));
+    outputs.push_back((fs::path(out) / "jobs" / (job.id + ".png")).string());
+  }
+  for (const std::string& o : outputs)
+    for (const auto& [what, path] : inputs)
+      if (same_file(o, path))
+        throw BatchUsageError("--out '" + out + "': the output '" + o + "' is " + what + " '" + path +
+                              "': an input is never overwritten");
+}
+
 }  // namespace
 
 int run_batch_manifest(const BatchOptions& args, const BatchLog& log) {
@@ -383,6 +411,7 @@ int run_batch_manifest(const BatchOptions& args, const BatchLog& log) {
     return 0;
   }
 
+  check_outputs_not_inputs(out, args.manifest, jobs);
   std::error_code ec;
   fs::create_directories(fs::path(out) / "jobs", ec);
   if (ec || !fs::is_directory(fs::path(out) / "jobs")) throw BatchUsageError("--out '" + out + "': cannot create the directory");

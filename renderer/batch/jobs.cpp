@@ -8,7 +8,9 @@
 #include <set>
 #include <sstream>
 
+#include "materials/stack/json_limits.h"
 #include "materials/stack/stack_parameters.h"
+#include "materials/stack/text_file.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
 #include "renderer/util/version.h"
@@ -21,12 +23,10 @@ using nlohmann::json;
 using batch_detail::Where;
 
 std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ManifestError(path + ": cannot read the file");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw ManifestError(path + ": read error");
-  return s.str();
+  std::string text;
+  const std::string why = read_text_file(path, &text);  // materials/stack/text_file.h: says why
+  if (!why.empty()) throw ManifestError(path + ": cannot read the file: " + why);
+  return text;
 }
 
 }  // namespace
@@ -97,11 +97,8 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
     auto it = stacks.find(file);
     if (it != stacks.end()) return it->second;
     json j;
-    try {
-      j = json::parse(read_bytes(file));
-    } catch (const json::parse_error& e) {
-      throw ManifestError(file + ": not valid JSON: " + e.what());
-    }
+    const std::string why = parse_json_text(read_bytes(file), &j);
+    if (!why.empty()) throw ManifestError(file + ": " + why);
     if (!j.is_object()) throw ManifestError(file + ": not a material file (expected a JSON object)");
     return stacks.emplace(file, std::move(j)).first->second;
   };

@@ -14,7 +14,9 @@
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
 #include "materials/stack/json_keys.h"
+#include "materials/stack/decimal.h"
 #include "materials/stack/json_limits.h"
+#include "materials/stack/text_file.h"
 
 namespace lamina {
 namespace batch_detail {
@@ -97,9 +99,8 @@ bool is_number_list(const std::string& s) {
   while (true) {
     const std::size_t comma = s.find(',', start);
     const std::string part = s.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    char* end = nullptr;
-    const double v = std::strtod(part.c_str(), &end);
-    if (part.empty() || end != part.c_str() + part.size() || !std::isfinite(v)) return false;
+    double v = 0.0;
+    if (!parse_real(part, &v).empty()) return false;  // materials/stack/decimal.h: no hex, nan or overflow
     ++count;
     if (comma == std::string::npos) break;
     start = comma + 1;
@@ -422,21 +423,15 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
 }
 
 Manifest load_manifest(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw ManifestError(path + ": is a directory, not a manifest");
-  std::ifstream in(path);
-  if (!in) throw ManifestError(path + ": cannot open the manifest");
   // Read whole, so that the nesting depth is checked before parsing (materials/stack/json_limits.h):
   // no manifest nests more than a few levels, and deeper JSON would overflow the stack of the
   // recursive walks over the document.
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (const auto deep = json_nesting_exceeds(text)) throw ManifestError(path + ": " + json_nesting_message(*deep));
+  std::string text;
+  if (const std::string why = read_text_file(path, &text); !why.empty())
+    throw ManifestError(path + ": cannot read the manifest: " + why);
   json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw ManifestError(path + ": not valid JSON: " + e.what());
-  }
+  const std::string why = parse_json_text(text, &j);
+  if (!why.empty()) throw ManifestError(path + ": " + why);
   const std::string directory = fs::absolute(fs::path(path)).parent_path().lexically_normal().string();
   return parse_manifest(j, path, directory);
 }

@@ -56,7 +56,9 @@ using lamina::kChannels;
 constexpr long long kMaxSamples = 1000000000000LL;
 constexpr long long kMaxBins = 10000, kMaxBinsTotal = 1000000;
 
+// %.9g of a finite number; a non-finite one fails the command (docs/contracts.md, "Outputs").
 std::string format_number(double v) {
+  if (!std::isfinite(v)) throw std::runtime_error("the table has a non-finite value (" + std::to_string(v) + ")");
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
@@ -109,6 +111,7 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
     put("unresolved", t.totals.unresolved);
     j["unresolved_walks"] = t.totals.unresolved_walks;
   }
+  lamina::cli::check_finite_numbers(j, "the totals");
   return j.dump(2) + "\n";
 }
 
@@ -148,6 +151,7 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
     j["R_forward_peak"] = rgb(t.R_forward_peak);
     j["T_forward_peak"] = rgb(t.T_forward_peak);
   }
+  lamina::cli::check_finite_numbers(j, "the totals");
   return j.dump(2) + "\n";
 }
 
@@ -238,7 +242,9 @@ int run_brdf(int argc, char** argv) {
     lamina::parse_brdf_method(method, &request.method);  // one of the three names (checked above)
     lamina::check_brdf_method(stack, stack_path, request.method);
     // Fail before a long computation if an output cannot be written.
-    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}, {"--plot", plot_path}});
+    const std::vector<cli::OutputPath> output_paths = {{"--out", out_path}, {"--summary", summary_path}, {"--plot", plot_path}};
+    cli::check_output_paths(output_paths);
+    cli::check_outputs_not_inputs(output_paths, {{"the material file", stack_path}});
     BrdfOptions& options = request.options;
     options.theta_i_deg = theta_i;
     options.phi_i_deg = phi_i;

@@ -50,7 +50,9 @@ Image read_checked(const std::string& path, int* channels) {
 }
 
 int compare(const CompareArgs& args) {
-  cli::check_output_paths({{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}, {"--plot", args.out_plot}});
+  const std::vector<cli::OutputPath> output_paths = {{"--output", args.out_exr}, {"--png", args.out_png}, {"--json", args.out_json}, {"--plot", args.out_plot}};
+  cli::check_output_paths(output_paths);
+  cli::check_outputs_not_inputs(output_paths, {{"the reference", args.reference}, {"the test image", args.test}});
   if (!args.out_plot.empty() && (!args.crop.empty() || args.smooth > 0.0))
     throw std::runtime_error("--plot: not with --crop or --smooth (the plot shows the whole images as they are)");
   int ref_channels = 0, test_channels = 0;
@@ -88,13 +90,21 @@ int compare(const CompareArgs& args) {
   cli::StagedOutputs outputs;
   if (!args.out_exr.empty()) {
     const Image rel = relative_difference(ref, test, m.guard_floor);
+    // A derived image keeps its input's place: the window of a reference that is a crop of a
+    // render, moved by --crop's offset (a whole reference gives a whole image, as before).
+    DataWindow window = read_data_window(args.reference);
+    if (!args.crop.empty() && window.full_width > 0) {
+      window.x += args.crop[0];
+      window.y += args.crop[1];
+    }
     outputs.write(args.out_exr, [&](const std::string& tmp) {
       write_exr(tmp, rel,
                 {{"lamina:compare:reference", args.reference},
                  {"lamina:compare:test", args.test},
                  {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                  {"lamina:compare:guard_floor", std::to_string(m.guard_floor)},
-                 {"lamina:compare:smooth_sigma", string_printf("%g", args.smooth)}});
+                 {"lamina:compare:smooth_sigma", string_printf("%g", args.smooth)}},
+                {}, window);
     });
   }
   if (!args.out_png.empty()) {
@@ -123,6 +133,7 @@ int compare(const CompareArgs& args) {
     j["mse"] = m.mse;
     j["rmse"] = m.rmse;
     j["ssim"] = m.ssim;
+    cli::check_finite_numbers(j, "--json '" + args.out_json + "'");
     outputs.write(args.out_json, [&](const std::string& tmp) { write_file_atomically(tmp, j.dump(2) + "\n"); });
   }
   if (!args.out_plot.empty())

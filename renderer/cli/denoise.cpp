@@ -48,17 +48,24 @@ int run_denoise(int argc, char** argv) {
     return 2;
   }
   parse_tone_curve(tone_curve, &tone_map.curve);  // one of the two names (checked above)
+  if (png_path.empty())
+    for (const char* png_only : {"--exposure", "--tone-curve"})
+      if (app.count(png_only) > 0) {  // it would not act: refused rather than ignored
+        std::fprintf(stderr, "lamina denoise: %s is only meaningful with --png (the EXR stays linear)\n", png_only);
+        return 2;
+      }
 
   Image colour, albedo, normal;
   DenoiseInput input;
   Metadata metadata;
+  DataWindow window;
   try {
-    cli::check_output_paths({{"--out", out_path}, {"--png", png_path}});
-    std::error_code same_ec;
-    if (std::filesystem::equivalent(in_path, out_path, same_ec))
-      throw cli::UsageError("--out '" + out_path + "' is the input: the raw render is never replaced");
+    const std::vector<cli::OutputPath> outputs = {{"--out", out_path}, {"--png", png_path}};
+    cli::check_output_paths(outputs);
+    cli::check_outputs_not_inputs(outputs, {{"the input", in_path}});  // the raw render is never replaced
     const ChannelImage channels = read_channels(in_path);
     colour = channels.gather(in_path, "R", "G", "B");
+    window = channels.window;  // a crop's denoised pixels stay where they were
     for (float v : colour.rgb)
       if (!std::isfinite(v)) throw cli::UsageError("'" + in_path + "' has non-finite colour values");
     const bool has_albedo = channels.find("albedo.R") >= 0, has_normal = channels.find("N.X") >= 0;
@@ -89,7 +96,7 @@ int run_denoise(int argc, char** argv) {
                                                            r.version / 10000, r.version / 100 % 100, r.version % 100,
                                                            guides.c_str(), in_path.c_str()));
     cli::StagedOutputs outputs;
-    outputs.write(out_path, [&](const std::string& tmp) { write_exr(tmp, r.image, metadata); });
+    outputs.write(out_path, [&](const std::string& tmp) { write_exr(tmp, r.image, metadata, {}, window); });
     if (!png_path.empty()) outputs.write(png_path, [&](const std::string& tmp) { write_png(tmp, tone_mapped(r.image, tone_map)); });
     outputs.commit();
     std::printf("lamina denoise: %s -> %s: %dx%d, guided by %s, %.2f s (Open Image Denoise %d.%d.%d from %s)\n", in_path.c_str(),

@@ -27,6 +27,7 @@
 #include <tbb/global_control.h>
 
 #include "materials/stack/stack_file.h"
+#include "materials/stack/text_file.h"
 #include "materials/fit/stack_fit.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
@@ -113,6 +114,7 @@ std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::F
   }
   j["measurements"] = ms;
   j["warnings"] = r.warnings;
+  cli::check_finite_numbers(j, "the fit's report");  // a non-finite chi2 or residual is a failure, not a null
   return j.dump(2) + "\n";
 }
 
@@ -152,11 +154,13 @@ AlbedoOutputs check_albedo_usage(const AlbedoOptions& o) {
     throw cli::UsageError("--out-dir '" + o.out_dir + "': " + (fs::exists(o.out_dir, ec) ? "not a directory" : "does not exist"));
   const AlbedoOutputs out = albedo_outputs(o);
   try {
-    cli::check_output_paths({{"--out-dir", out.maps[0]},
-                             {"--out-dir", out.maps[1]},
-                             {"--out-dir", out.materials_map},
-                             {"--out-dir", out.fitted_albedo},
-                             {"--out-dir", out.report}});
+    const std::vector<cli::OutputPath> outputs = {{"--out-dir", out.maps[0]},
+                                                  {"--out-dir", out.maps[1]},
+                                                  {"--out-dir", out.materials_map},
+                                                  {"--out-dir", out.fitted_albedo},
+                                                  {"--out-dir", out.report}};
+    cli::check_output_paths(outputs);
+    cli::check_outputs_not_inputs(outputs, {{"the material file", o.stack}, {"--albedo-texture", o.texture}});
   } catch (const cli::OutputPathError& e) {
     throw cli::UsageError(e.what());
   }
@@ -256,7 +260,7 @@ int run_fit(int argc, char** argv) {
                  "(with or instead of --data)");
   app.add_option("--table-sigma", table_sigma,
                  "added in quadrature to each table bin's stderr (1/sr; needed where the stderr is 0)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(cli::real(0.0, lamina::kMaxFitSigma));
   app.add_option("--param", params, "PATH=LO:HI, a parameter to fit (a texture-binding path) and its bounds; repeat")
       ->required();
   app.add_option("--quadrature-points", quadrature_points, "adding-doubling Gauss nodes per cosine segment (default 16, 8 with --albedo-texture; 8 is ~5x faster); the fit warns if twice as many move a value by > 0.2 sigma")
@@ -332,22 +336,24 @@ int run_fit(int argc, char** argv) {
   if (albedo_out) return run_albedo_fit(albedo, *albedo_out);
 
   try {
-    std::ifstream in(stack_path, std::ios::binary);
-    if (!in) throw lamina::StackFileError(stack_path + ": cannot open");
-    std::stringstream text;
-    text << in.rdbuf();
-    const lamina::StackTemplate t = lamina::parse_stack_template_json(text.str(), stack_path);
+    std::string text;
+    if (const std::string why = lamina::read_text_file(stack_path, &text); !why.empty())
+      throw lamina::StackFileError(stack_path + ": cannot read the material file: " + why);
+    const lamina::StackTemplate t = lamina::parse_stack_template_json(text, stack_path);
     std::vector<lamina::FitMeasurement> data;
     if (!data_path.empty()) data = lamina::load_fit_measurements(data_path);
     for (const auto& [theta, path] : table_specs) {
-      std::ifstream tin(path, std::ios::binary);
-      if (!tin) throw lamina::FitError(path + ": cannot open");
-      std::stringstream ttext;
-      ttext << tin.rdbuf();
-      const std::vector<lamina::FitMeasurement> bins = lamina::parse_fit_table(ttext.str(), path, theta, table_sigma);
+      std::string ttext;
+      if (const std::string why = lamina::read_text_file(path, &ttext); !why.empty())
+        throw lamina::FitError(path + ": cannot read the table: " + why);
+      const std::vector<lamina::FitMeasurement> bins = lamina::parse_fit_table(ttext, path, theta, table_sigma);
       data.insert(data.end(), bins.begin(), bins.end());
     }
-    cli::check_output_paths({{"--out", out_path}, {"--summary", summary_path}});
+    const std::vector<cli::OutputPath> output_paths = {{"--out", out_path}, {"--summary", summary_path}};
+    cli::check_output_paths(output_paths);
+    std::vector<cli::InputPath> input_paths = {{"the material file", stack_path}, {"--data", data_path}};
+    for (const auto& spec : table_specs) input_paths.push_back({"--table", spec.second});
+    cli::check_outputs_not_inputs(output_paths, input_paths);
     lamina::FitSettings settings;
     settings.forward.quadrature_points = quadrature_points;
     settings.coarse_quadrature_points = coarse_points;
@@ -361,8 +367,9 @@ int run_fit(int argc, char** argv) {
     const std::string json = summary_json(r, data, quadrature_points);
     std::string fitted;
     if (!out_path.empty()) {
-      nlohmann::json j = nlohmann::json::parse(text.str());
+      nlohmann::json j = nlohmann::json::parse(text);  // parsed once already (parse_stack_template_json)
       lamina::write_fitted_values(j, t, specs, r);
+      cli::check_finite_numbers(j, "the fitted material file");
       fitted = j.dump(2) + "\n";
     }
     cli::StagedOutputs outputs;  // both files or neither

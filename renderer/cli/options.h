@@ -12,7 +12,7 @@
 //   - integers: optional sign, decimal digits, no leading zero (CLI11 would read "010" as
 //     octal), no overflow; seeds: digits only, no sign, at most 2^64 - 1;
 //   - reals: decimal notation only ([+-]digits[.digits][e[+-]digits]), finite: no "nan", no
-//     "inf", no hex, no overflow to infinity ("1e999").
+//     "inf", no hex, no overflow to infinity ("1e999"), no underflow to a subnormal or 0.
 // Header only: the lamina executable is the only user (renderer/cli/*.cpp).
 #pragma once
 
@@ -29,72 +29,17 @@
 
 #include <CLI/CLI.hpp>
 
+#include "materials/stack/decimal.h"
 #include "renderer/scene/scene_gltf.h"
 
 namespace lamina::cli {
 
 // ---------------------------------------------------------------------------------------------
-// Strict parsers. Each returns "" on success, else the reason (a phrase for "must be ..." lines).
-
-// Decimal digits only (no sign, no space, no leading zero unless the value is 0), overflow
-// checked: the whole range of std::uint64_t and nothing else.
-inline std::string parse_u64(const std::string& text, std::uint64_t* out) {
-  if (text.empty()) return "empty";
-  if (text[0] == '-' || text[0] == '+') return "a sign";
-  std::uint64_t v = 0;
-  for (char ch : text) {
-    if (ch < '0' || ch > '9') return "not decimal digits";
-    const std::uint64_t d = static_cast<std::uint64_t>(ch - '0');
-    if (v > (std::numeric_limits<std::uint64_t>::max() - d) / 10) return "above 18446744073709551615";
-    v = v * 10 + d;
-  }
-  if (text.size() > 1 && text[0] == '0') return "a leading zero";
-  *out = v;
-  return "";
-}
-
-// An optional sign, then as parse_u64; fits a long long.
-inline std::string parse_integer(const std::string& text, long long* out) {
-  const bool negative = !text.empty() && text[0] == '-';
-  const std::size_t start = !text.empty() && (text[0] == '-' || text[0] == '+') ? 1 : 0;
-  std::uint64_t magnitude = 0;
-  const std::string why = parse_u64(text.substr(start), &magnitude);
-  if (why == "empty" || why == "a sign") return "not decimal digits";
-  if (why.rfind("above", 0) == 0) return "too large";
-  if (!why.empty()) return why;
-  const std::uint64_t limit = static_cast<std::uint64_t>(std::numeric_limits<long long>::max()) + (negative ? 1 : 0);
-  if (magnitude > limit) return "too large";
-  *out = negative ? static_cast<long long>(0 - magnitude) : static_cast<long long>(magnitude);
-  return "";
-}
-
-// Decimal notation only, [+-](digits[.digits] | .digits)[(e|E)[+-]digits], and finite.
-inline std::string parse_real(const std::string& text, double* out) {
-  std::size_t i = 0, n = text.size();
-  auto digits = [&] {
-    const std::size_t from = i;
-    while (i < n && text[i] >= '0' && text[i] <= '9') ++i;
-    return i - from;
-  };
-  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
-  std::size_t mantissa = digits();
-  if (i < n && text[i] == '.') {
-    ++i;
-    mantissa += digits();
-  }
-  bool ok = mantissa > 0;
-  if (ok && i < n && (text[i] == 'e' || text[i] == 'E')) {
-    ++i;
-    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
-    ok = digits() > 0;
-  }
-  if (!ok || i != n) return "not a finite decimal number";
-  errno = 0;
-  const double v = std::strtod(text.c_str(), nullptr);
-  if (!std::isfinite(v)) return "not finite (too large)";
-  *out = v;
-  return "";
-}
+// The strict parsers, shared with the CSV and manifest readers (materials/stack/decimal.h). Each
+// returns "" on success, else the reason (a phrase for "must be ..." lines).
+using lamina::parse_integer;
+using lamina::parse_real;
+using lamina::parse_u64;
 
 // ---------------------------------------------------------------------------------------------
 // CLI11 validators built on the parsers. CLI11 prefixes the option's name: "--spp: must be ...".

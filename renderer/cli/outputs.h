@@ -3,6 +3,8 @@
 //   - check_output_paths(): each path's directory exists and is writable, the path is not a
 //     directory (nor a device or other non-regular file), and no two outputs are the same file.
 //     Run before anything is read or computed, so a long computation never ends in a failed write.
+//   - check_outputs_not_inputs(): no output is the same file as an input (links and relative paths
+//     resolved), so that no option of any command overwrites what the command reads.
 //   - StagedOutputs: each output is written to a temporary beside it (the one atomic writer,
 //     renderer/util/atomic_file.h), and only when every one is written are they renamed over
 //     their paths. A failed write removes every temporary, so the previous files stay as they
@@ -13,6 +15,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -22,6 +25,7 @@
 #include <vector>
 
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/paths.h"
 
 namespace lamina::cli {
 
@@ -65,6 +69,44 @@ inline void check_output_paths(const std::vector<OutputPath>& outputs) {
       if (other == canonical)
         throw OutputPathError(o.option + " '" + o.path + "' is the same file as " + by->option + " '" + by->path + "'");
     seen.emplace_back(canonical, &o);
+  }
+}
+
+// One input file of a command: how the message names it (e.g. "the input", "--materials") and its
+// path ("": none).
+struct InputPath {
+  std::string what, path;
+};
+
+// Throws OutputPathError when an output names an existing input file: the same path, a symbolic
+// or hard link to it, or another spelling of it (std::filesystem::equivalent compares the files
+// themselves, renderer/util/paths.h). An output that does not exist yet cannot be an input that the command reads.
+inline void check_outputs_not_inputs(const std::vector<OutputPath>& outputs, const std::vector<InputPath>& inputs) {
+  for (const OutputPath& o : outputs) {
+    if (o.path.empty()) continue;
+    for (const InputPath& in : inputs) {
+      if (in.path.empty()) continue;
+      if (same_file(o.path, in.path))
+        throw OutputPathError(o.option + " '" + o.path + "' is " + in.what + " '" + in.path +
+                              "': an input is never overwritten");
+    }
+  }
+}
+
+// Throws std::runtime_error("WHAT: JSON.PATH is not finite (VALUE)") at the first NaN or infinite
+// number in `j` (nlohmann would write it as null): every number a command writes is finite, or
+// the command fails (docs/contracts.md, "Outputs"). A null written on purpose (a fit's sigma that
+// the data do not determine) is JSON null, not a number, and passes.
+template <class Json>
+void check_finite_numbers(const Json& j, const std::string& what, const std::string& path = "") {
+  if (j.is_number_float()) {
+    const double v = j.template get<double>();
+    if (!std::isfinite(v))
+      throw std::runtime_error(what + ": " + (path.empty() ? "the value" : path) + " is not finite (" + std::to_string(v) + ")");
+  } else if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) check_finite_numbers(it.value(), what, path.empty() ? it.key() : path + "." + it.key());
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i) check_finite_numbers(j[i], what, path + "[" + std::to_string(i) + "]");
   }
 }
 

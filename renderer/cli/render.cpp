@@ -317,6 +317,15 @@ int run_render(int argc, char** argv) {
       throw UsageError("--subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
     choice.tolerance = choice.automatic ? tolerance : 0.0;
     const bool auto_mode = choice.automatic;
+    // Options that would not act are refused, not recorded in the header as if they had.
+    if (png_path.empty())
+      for (const char* png_only : {"--exposure", "--tone-curve"})
+        if (app.count(png_only) > 0) throw UsageError(std::string(png_only) + " is only meaningful with --png (the EXR stays linear)");
+    if (!auto_mode && choice.mode != SubsurfaceMode::RandomWalk)
+      for (const WalkOptionSpec& spec : kWalkOptionTable)
+        if (app.count(spec.flag) > 0)
+          throw UsageError(std::string(spec.flag) + " is only meaningful with --subsurface random-walk or auto (the " +
+                           subsurface_mode_name(choice.mode) + " mode runs no walk)");
     if (pilot_opt->count() > 0 && !(settings.noise_threshold > 0.0))
       throw UsageError("--pilot-spp is only meaningful with --noise-threshold");
     if (settings.noise_threshold > 0.0 && settings.pilot_spp > settings.spp)
@@ -336,8 +345,10 @@ int run_render(int argc, char** argv) {
       if (kv.find('=') == std::string::npos || kv.front() == '=')
         throw UsageError("--meta '" + kv + "': expected KEY=VALUE");
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
-    cli::check_output_paths({{"--out", out_path}, {"--png", png_path}});
+    const std::vector<cli::OutputPath> output_paths = {{"--out", out_path}, {"--png", png_path}};
+    cli::check_output_paths(output_paths);
     check_out_extension(out_path);
+    cli::check_outputs_not_inputs(output_paths, {{"the scene", scene_path}, {"--materials", materials_path}, {"--env", env_value}});
     if (!cache_dir.empty()) {
       try {
         WalkCache check(cache_dir);  // created and writable, or a usage error now

@@ -275,6 +275,7 @@ struct RawImage {
   std::vector<std::string> names;
   std::vector<float> values;  // width * height * names.size(), interleaved
   bool srgb_encoded = false;
+  DataWindow window;  // EXR: where the pixels sit in the display window
 };
 
 void check_samples(const std::string& path, double width, double height, double channels) {
@@ -306,6 +307,14 @@ RawImage read_exr(const std::string& path) {
     raw.width = static_cast<int>(width);
     raw.height = static_cast<int>(height);
     raw.names = names;
+    // A crop's data window inside a larger display window (write_exr's DataWindow).
+    const Imath::Box2i display = header.displayWindow();
+    raw.window.x = window.min.x;
+    raw.window.y = window.min.y;
+    if (display != window) {
+      raw.window.full_width = display.max.x + 1;
+      raw.window.full_height = display.max.y + 1;
+    }
     const std::size_t nc = names.size();
     raw.values.assign(static_cast<std::size_t>(raw.width) * raw.height * nc, 0.0f);
     Imf::FrameBuffer frame;
@@ -498,6 +507,7 @@ ChannelImage read_channels(const std::string& path) {
   out.height = raw.height;
   out.names = std::move(raw.names);
   out.values = std::move(raw.values);
+  out.window = raw.window;
   return out;
 }
 
@@ -536,6 +546,24 @@ Metadata read_metadata(const std::string& path) {
     throw ImageIoError("cannot read '" + path + "': " + e.what());
   }
   return metadata;
+}
+
+DataWindow read_data_window(const std::string& path) {
+  const ContainerCheck check = check_container(path);
+  if (!check.problem.empty()) throw ImageIoError("cannot read '" + path + "': " + check.problem);
+  if (check.kind != Container::kExr) return {};
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i data = file.header().dataWindow(), display = file.header().displayWindow();
+    DataWindow w{data.min.x, data.min.y, 0, 0};
+    if (display != data) {
+      w.full_width = display.max.x + 1;
+      w.full_height = display.max.y + 1;
+    }
+    return w;
+  } catch (const std::exception& e) {
+    throw ImageIoError("cannot read '" + path + "': " + e.what());
+  }
 }
 
 }  // namespace lamina

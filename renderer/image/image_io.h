@@ -37,9 +37,11 @@ struct DataWindow {
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
                const std::vector<ExtraChannel>& extra, const DataWindow& window = {});
 // Every channel of an image file by name (R, G, B, the AOVs' "albedo.R", "N.X", "Z", ...),
-// interleaved as stored; the size is the data window's.
+// interleaved as stored; the size is the data window's, and `window` says where it sits (an EXR
+// crop: write it with the same window to keep the crop in place; other formats: the whole).
 struct ChannelImage {
   int width = 0, height = 0;
+  DataWindow window;
   std::vector<std::string> names;
   std::vector<float> values;  // width * height * names.size()
   int find(const std::string& name) const;  // the channel's index, -1 if absent
@@ -70,6 +72,10 @@ constexpr std::size_t kMaxImageSamples = std::size_t(1) << 28;
 // maps NaN to 0.
 double srgb_encode(double linear);
 double srgb_decode(double encoded);
+
+// Where an EXR's pixels sit in its display window (a crop, as write_exr's DataWindow), from the
+// header alone; the whole image ({}) for other formats. Throws ImageIoError as read_metadata.
+DataWindow read_data_window(const std::string& path);
 
 // Reads the string attributes of an EXR header (e.g. a batch job's hash); none for other
 // formats (the file must still be a readable image).

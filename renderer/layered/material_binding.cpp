@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -15,6 +16,7 @@
 #include "renderer/util/paths.h"
 #include "materials/stack/json_keys.h"
 #include "materials/stack/json_limits.h"
+#include "materials/stack/text_file.h"
 
 namespace lamina {
 
@@ -23,6 +25,15 @@ namespace {
 // The keys of a stack binding, in a material map entry or a material's extras.lamina.
 constexpr std::initializer_list<const char*> kBindingKeys = {"stack", "bind", "freckles"};
 
+
+// The scene's material names for a message: 'a', 'b' in glTF order, each once; "none".
+std::string material_names(const SceneDesc& scene) {
+  std::string names;
+  std::set<std::string> seen;
+  for (const Material& m : scene.materials)
+    if (seen.insert(m.name).second) names += (names.empty() ? "'" : ", '") + m.name + "'";
+  return names.empty() ? "none" : names;
+}
 
 // `spec` (may be null) holds "bind" / "freckles" (renderer/layered/stack_bindings.h); `scene` resolves
 // glTF texture indices. Materials with the same stack and the same bindings share one object.
@@ -139,17 +150,15 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
   std::map<std::string, nlohmann::json> map_specs;  // entries given as objects (with bindings)
   if (!map_path.empty()) {
     std::ifstream in(map_path);
+    if (const std::string why = file_unreadable_reason(map_path); !why.empty())
+      throw SceneError(map_path + ": cannot read the material map: " + why);
     if (!in) throw SceneError(map_path + ": cannot read the material map");
     std::stringstream ss;
     ss << in.rdbuf();
-    // Bounded before parsing, like every JSON input (materials/stack/json_limits.h).
-    if (const auto at = json_nesting_exceeds(ss.str())) throw SceneError(map_path + ": " + json_nesting_message(*at));
+    // Bounded before parsing and parsed as every JSON input (materials/stack/json_limits.h).
     nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(ss.str());
-    } catch (const nlohmann::json::exception& e) {
-      throw SceneError(map_path + ": not valid JSON (" + std::string(e.what()) + ")");
-    }
+    const std::string why = parse_json_text(ss.str(), &j);
+    if (!why.empty()) throw SceneError(map_path + ": " + why);
     if (!j.is_object()) throw SceneError(map_path + ": expected an object {\"glTF material name\": \"stack.json\", ...}");
     for (auto it = j.begin(); it != j.end(); ++it) {
       if (it.value().is_object()) {
@@ -168,7 +177,9 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
     for (const auto& [name, path] : map) {
       bool found = false;
       for (const Material& m : scene.materials) found |= m.name == name;
-      if (!found) throw SceneError(map_path + ": " + name + ": no material of that name in " + scene.path);
+      if (!found)
+        throw SceneError(map_path + ": " + name + ": no material of that name in " + scene.path + " (materials: " +
+                         material_names(scene) + ")");
     }
   }
 
@@ -176,7 +187,9 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
   for (const InlineStack& st : inline_stacks) {
     bool found = false;
     for (const Material& m : scene.materials) found |= m.name == st.material;
-    if (!found) throw SceneError(st.source + ": " + st.material + ": no material of that name in " + scene.path);
+    if (!found)
+      throw SceneError(st.source + ": " + st.material + ": no material of that name in " + scene.path + " (materials: " +
+                       material_names(scene) + ")");
     inline_by_name[st.material] = &st;
   }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -21,6 +22,7 @@
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/paths.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
 
@@ -91,11 +93,23 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   adopt_meshes_without_material(request.stacks, &desc);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
   out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
+  // The command line checked the files it names; the stack files are known only now.
+  for (const auto& m : out->bindings.by_material)
+    for (const std::string& output : {request.out_path, request.png_path})
+      if (m && same_file(output, m->source()))
+        throw std::runtime_error("the output '" + output + "' is the stack file '" + m->source() +
+                                 "' of a material: an input is never overwritten");
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()
                          ? (desc.cameras.empty() ? framing_camera(desc, aspect) : desc.cameras.front())
                          : find_camera(desc, request.camera_name);
+  // The image's aspect is --width/--height (yfov spans the height); a camera's own aspectRatio
+  // that differs does not act, and the user is told once.
+  if (const double a = out->camera_desc.aspect_ratio; a > 0.0 && std::abs(a / aspect - 1.0) > 1e-3)
+    say(log.warning, string_printf("%s: camera '%s': aspectRatio %g is not used: the image's aspect is --width/--height = %g "
+                                   "(yfov spans the height; give a width and height in the ratio %g to match the file)",
+                                   request.scene_path.c_str(), out->camera_desc.name.c_str(), a, aspect, a));
   for (std::size_t i = 0; i < out->bindings.by_material.size(); ++i)
     out->material_names.push_back(desc.material(static_cast<int>(i)).name);
   out->scene = std::make_unique<Scene>(std::move(desc));
@@ -129,7 +143,7 @@ DataWindow data_window(const RenderSettings& settings) {
 // image so far written to the outputs (each atomically), marked as a preview in the header; the
 // final image replaces them in the end.
 Image render(const RenderRequest& request, const LoadedScene& loaded, const LayeredShading& layered, RenderResult* result,
-             RenderAovs* aovs) {
+             RenderAovs* aovs, bool* previews_written) {
   RenderSettings settings = request.settings;
   settings.layered = &layered;
   const std::uint64_t pixels = pixel_count(rendered_region(settings));
@@ -162,6 +176,7 @@ Image render(const RenderRequest& request, const LoadedScene& loaded, const Laye
     preview_meta.emplace_back("lamina:preview", string_printf("%.6g", static_cast<double>(samples) / static_cast<double>(pixels)));
     write_exr(request.out_path, so_far, preview_meta, {}, data_window(settings));
     if (!request.png_path.empty()) write_png(request.png_path, tone_mapped(so_far, request.tone_map));
+    *previews_written = true;
   };
   Image image = render_image(*loaded.scene, *loaded.lights, *loaded.camera, settings, &result->stats, on_progress, aovs);
   if (progress) {
@@ -248,6 +263,21 @@ void write_outputs(const RenderRequest& request, const Image& image, const Metad
   outputs.commit();
 }
 
+// A render that fails after writing previews removes them: the previous files are already
+// replaced, so the outputs hold nothing rather than an unfinished image (docs/contracts.md,
+// "Outputs"), and the message says so. Only regular files are removed.
+[[noreturn]] void fail_after_previews(const RenderRequest& request, const std::exception& e) {
+  std::string removed;
+  for (const std::string& path : {request.out_path, request.png_path}) {
+    std::error_code ec;
+    if (path.empty() || !std::filesystem::is_regular_file(path, ec)) continue;
+    std::filesystem::remove(path, ec);
+    removed += (removed.empty() ? "'" : " and '") + path + "'";
+  }
+  throw std::runtime_error(std::string(e.what()) + (removed.empty() ? std::string("")
+                                                                    : "; the previews written during the render were removed: nothing is left at " + removed));
+}
+
 }  // namespace
 
 RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
@@ -274,19 +304,25 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   result.camera = loaded.camera_desc.name;
   result.layered_materials = loaded.bindings.count();
   RenderAovs aovs;
-  Image image = render(request, loaded, shading.layered, &result, &aovs);
-  if (cache)
-    for (const auto& m : loaded.bindings.by_material)
-      if (m) store_lambert_albedo(*cache, *m);
+  bool previews_written = false;
+  try {
+    Image image = render(request, loaded, shading.layered, &result, &aovs, &previews_written);
+    if (cache)
+      for (const auto& m : loaded.bindings.by_material)
+        if (m) store_lambert_albedo(*cache, *m);
 
-  if (request.subsurface.automatic) result.auto_choices = mode_choices(loaded, shading.choices);
-  Metadata meta = render_metadata({request, result}, shading.similarity_bias, shading.ignored);
-  std::vector<ExtraChannel> channels = extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings)));
-  if (request.write_files) write_outputs(request, image, meta, channels);
-  result.metadata = std::move(meta);
-  result.image = std::move(image);
-  result.channels = std::move(channels);
-  result.window = data_window(request.settings);
+    if (request.subsurface.automatic) result.auto_choices = mode_choices(loaded, shading.choices);
+    Metadata meta = render_metadata({request, result}, shading.similarity_bias, shading.ignored);
+    std::vector<ExtraChannel> channels = extra_channels(result.stats, aovs, pixel_count(rendered_region(request.settings)));
+    if (request.write_files) write_outputs(request, image, meta, channels);
+    result.metadata = std::move(meta);
+    result.image = std::move(image);
+    result.channels = std::move(channels);
+    result.window = data_window(request.settings);
+  } catch (const std::exception& e) {
+    if (previews_written) fail_after_previews(request, e);
+    throw;
+  }
   return result;
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "materials/stack/json_limits.h"
+#include "materials/stack/text_file.h"
 
 namespace lamina {
 
@@ -25,7 +26,7 @@ GltfText read_gltf_text(const std::string& path, GltfFormat format) {
       throw GltfDocumentError(path + ": " + (fs::is_directory(st) ? "is a directory" : "is not a regular file") +
                               ", not a glTF file");
     std::ifstream in(path, std::ios::binary);
-    if (!in) throw GltfDocumentError(path + ": cannot read the file");
+    if (!in) throw GltfDocumentError(path + ": cannot read the file: " + file_unreadable_reason(path));
     std::ostringstream s;
     s << in.rdbuf();
     if (in.bad()) throw GltfDocumentError(path + ": read error");
@@ -55,14 +56,11 @@ json parse_gltf_json(const GltfText& text, const std::string& path) {
   // added in a GLB).
   if (const auto deep = json_nesting_exceeds(text.json()))
     throw GltfDocumentError(path + ": " + json_nesting_message(text.json_offset + *deep));
-  try {
-    const std::string_view v = text.json();
-    json j = json::parse(v.begin(), v.end());
-    if (!j.is_object()) throw GltfDocumentError(path + ": not a glTF file (the JSON is not an object)");
-    return j;
-  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
-    throw GltfDocumentError(path + ": not a glTF file: " + e.what());
-  }
+  json j;
+  const std::string why = parse_json_text(text.json(), &j);  // parse_error, and numbers like 1e999 with their path
+  if (!why.empty()) throw GltfDocumentError(path + ": not a glTF file: " + why);
+  if (!j.is_object()) throw GltfDocumentError(path + ": not a glTF file (the JSON is not an object)");
+  return j;
 }
 
 json read_gltf_json(const std::string& path) { return parse_gltf_json(read_gltf_text(path), path); }

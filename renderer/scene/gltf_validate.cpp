@@ -51,6 +51,8 @@ class Validator {
     cameras();
     lights();
     emission();
+    alpha_cutoffs();
+    morph_weights();
     nodes();
     forest();
     memory(file_bytes, max_bytes);
@@ -313,6 +315,42 @@ class Validator {
                                  : json();
       check_strength(ms[m]["emissiveFactor"], strength, "emissiveStrength", at("materials", m),
                      "emissiveFactor x emissiveStrength");
+    }
+  }
+
+  // alphaCutoff (section 5.19 "Material"): a number. tinygltf replaced any other type (a string
+  // "0.3") by the default 0.5 without a word.
+  void alpha_cutoffs() {
+    const json& ms = top("materials");
+    for (std::size_t m = 0; m < ms.size(); ++m) number(ms[m], "alphaCutoff", at("materials", m));
+  }
+
+  // Morph weights (section 3.7.2.2 "Morph Targets"): a mesh's or a node's `weights` hold one
+  // weight per morph target, and so its mesh's primitives MUST have that many targets. Weights
+  // on a mesh without targets were ignored without a word (with targets, the loader refuses a
+  // wrong count naming the primitive).
+  void morph_weights() {
+    const json& meshes = top("meshes");
+    auto has_targets = [&](std::size_t mesh) {
+      if (mesh >= meshes.size() || !meshes[mesh].is_object() || !meshes[mesh].contains("primitives")) return true;  // left to the loader
+      for (const json& p : meshes[mesh]["primitives"])
+        if (p.is_object() && p.contains("targets") && p["targets"].is_array() && !p["targets"].empty()) return true;
+      return false;
+    };
+    for (std::size_t m = 0; m < meshes.size(); ++m)
+      if (meshes[m].is_object() && meshes[m].contains("weights") && meshes[m]["weights"].is_array() &&
+          !meshes[m]["weights"].empty() && !has_targets(m))
+        fail(at("meshes", m) + ".weights", "the mesh has " + std::to_string(meshes[m]["weights"].size()) +
+                                                " morph weight(s) but no morph targets (one weight per target)");
+    const json& nodes = top("nodes");
+    for (std::size_t n = 0; n < nodes.size(); ++n) {
+      const json& node = nodes[n];
+      if (!node.is_object() || !node.contains("weights") || !node["weights"].is_array() || node["weights"].empty()) continue;
+      if (!node.contains("mesh") || !node["mesh"].is_number_unsigned())
+        fail(at("nodes", n) + ".weights", "morph weights on a node without a mesh (one weight per morph target of its mesh)");
+      if (!has_targets(node["mesh"].get<std::size_t>()))
+        fail(at("nodes", n) + ".weights", "the node has " + std::to_string(node["weights"].size()) + " morph weight(s) but mesh " +
+                                              std::to_string(node["mesh"].get<std::size_t>()) + " has no morph targets");
     }
   }
 

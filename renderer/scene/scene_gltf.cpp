@@ -688,6 +688,7 @@ void Loader::visit(int index, const glm::dmat4& parent, int depth) {
           fail(path_, "cameras[" + std::to_string(node.camera) + "].orthographic.ymag: is not a positive finite size");
       } else {
         cam.yfov = c.perspective.yfov;
+        cam.aspect_ratio = c.perspective.aspectRatio;
         // validate_gltf refused anything else (cameras[i].perspective.yfov, section 5.14).
         if (!(cam.yfov > 0.0 && cam.yfov < kPi))
           fail(path_, "cameras[" + std::to_string(node.camera) + "].perspective.yfov: is not in (0, pi)");

@@ -163,6 +163,9 @@ struct CameraDesc {
   glm::dvec3 forward{0.0, 0.0, -1.0};  // glTF cameras look down their local -Z
   glm::dvec3 up{0.0, 1.0, 0.0};
   double yfov = 0.0;  // radians (perspective)
+  // The file's aspectRatio (perspective; 0 if absent). The image's aspect is the output's
+  // width/height; lamina render warns when this one differs (docs/rendering.md).
+  double aspect_ratio = 0.0;
   // glTF "orthographic" (section 3.10.3): parallel rays along forward from the camera's plane
   // through its position, over a view ymag high (half-height, scene units) and ymag x the
   // image's aspect wide (like yfov, the output's width/height decides the width, not xmag).

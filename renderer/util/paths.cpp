@@ -11,4 +11,10 @@ std::string resolve_relative_to(const std::string& path, const std::string& nami
   return (fs::path(naming_file).parent_path() / p).lexically_normal().string();
 }
 
+bool same_file(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return false;
+  std::error_code ec;
+  return std::filesystem::equivalent(a, b, ec);
+}
+
 }  // namespace lamina

@@ -10,4 +10,8 @@ namespace lamina {
 // lexically (no file system access).
 std::string resolve_relative_to(const std::string& path, const std::string& naming_file);
 
+// Whether `a` and `b` name the same existing file: the same path, another spelling of it, or a
+// symbolic or hard link to it (the files themselves are compared). False if either is missing.
+bool same_file(const std::string& a, const std::string& b);
+
 }  // namespace lamina

@@ -441,7 +441,12 @@ TEST(StackFit, BadTablesAreOneLineErrors) {
   EXPECT_EQ(error(header + "reflect,r,60,180,0.1,0,0,0.1\n", 0.01), "no error");
   EXPECT_EQ(error(header + "up,r,60,180,0.1,0.01,0,0.1\n", 0.0), "t.csv: line 2: side 'up' is not reflect or transmit");
   EXPECT_EQ(error("side,channel,theta_o_deg,phi_o_deg,value\n", 0.0), "t.csv: line 1: missing column 'stderr' (a lamina brdf table)");
-  EXPECT_EQ(error(header + "reflect,r,60,180,nan,0.01,0,0.1\n", 0.0), "t.csv: line 2: value 'nan' is not finite");
+  EXPECT_EQ(error(header + "reflect,r,60,180,nan,0.01,0,0.1\n", 0.0), "t.csv: line 2: value 'nan' is not a finite decimal number");
+  // The one decimal parser and the ranges that keep chi^2 finite (materials/stack/decimal.h).
+  EXPECT_EQ(error(header + "reflect,r,60,180,0x10,0.01,0,0.1\n", 0.0), "t.csv: line 2: value '0x10' is not a finite decimal number");
+  EXPECT_EQ(error(header + "reflect,r,60,180,1e300,0.01,0,0.1\n", 0.0), "t.csv: line 2: value '1e300' is not in [-1e+06, 1e+06]");
+  EXPECT_EQ(error(header + "reflect,r,60,180,0.1,1e-320,0,0.1\n", 0.0).find("t.csv: line 2: stderr '1e-320' is too small"), 0u);
+  EXPECT_EQ(error(header + "reflect,r,60,180,0.1,1e-200,0,0.1\n", 0.0).find("t.csv: line 2: the bin's sigma"), 0u);
   EXPECT_EQ(error(header, 0.0), "t.csv: no bins after the header");
 }
 
@@ -502,9 +507,14 @@ TEST(StackFit, BadMeasurementFilesAreOneLineErrors) {
   const std::string h = "quantity,channel,theta_i_deg,value,sigma\n";
   EXPECT_EQ(error_of([&] { parse_fit_measurements("quantity,channel,value,sigma\nR,r,0.1,0.01\n", "m.csv"); }),
             "m.csv: line 1: missing column 'theta_i_deg' (expected quantity,channel,theta_i_deg,value,sigma)");
-  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,nan,0.01\n", "m.csv"); }), "m.csv: line 2: value 'nan' is not finite");
-  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2,inf\n", "m.csv"); }), "m.csv: line 2: sigma 'inf' is not finite");
-  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2,0\n", "m.csv"); }), "m.csv: line 2: sigma 0 must be > 0");
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,nan,0.01\n", "m.csv"); }), "m.csv: line 2: value 'nan' is not a finite decimal number");
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2,inf\n", "m.csv"); }), "m.csv: line 2: sigma 'inf' is not a finite decimal number");
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2,0\n", "m.csv"); }), "m.csv: line 2: sigma '0' is not in [1e-12, 1e+06]");
+  // A subnormal sigma (1/sigma^2 infinite) and a value whose squared residual overflows gave a
+  // null chi^2 with exit status 0.
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2,1e-320\n", "m.csv"); }).find("m.csv: line 2: sigma '1e-320' is too small"), 0u);
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,1e300,0.01\n", "m.csv"); }), "m.csv: line 2: value '1e300' is not in [-1e+06, 1e+06]");
+  EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0x1p3,0.2,0.01\n", "m.csv"); }), "m.csv: line 2: theta_i_deg '0x1p3' is not a finite decimal number");
   EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,r,0,0.2\n", "m.csv"); }), "m.csv: line 2: 4 fields, the header has 5");
   EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "A,r,0,0.2,0.1\n", "m.csv"); }).find("m.csv: line 2: quantity 'A'"), 0u);
   EXPECT_EQ(error_of([&] { parse_fit_measurements(h + "R,x,0,0.2,0.1\n", "m.csv"); }), "m.csv: line 2: channel 'x' is not r, g or b");

@@ -191,6 +191,32 @@ TEST(BatchCli, ResumesOnlyMissingOrStaleJobs) {
   EXPECT_NE(r.out.find("8 jobs: 8 rendered, 0 already complete"), std::string::npos) << r.out;
 }
 
+// Completion means a readable file: a job EXR whose header carries the hash but whose pixels
+// are cut off, or a preview of the job (lamina:preview), is rendered again on the next run.
+TEST(BatchCli, TruncatedOrPreviewJobIsRenderedAgain) {
+  BatchDir b("batch-truncated");
+  ASSERT_EQ(batch(b.dir, b.dir / "m.json --out " + b.out()).exit_code, 0);
+  const std::vector<BatchJob> jobs = b.jobs();
+  const std::string truncated = b.exr(jobs[2].id);
+  const std::uintmax_t size = fs::file_size(truncated);
+  fs::resize_file(truncated, size - size / 4);
+  ASSERT_NO_THROW(read_metadata(truncated));  // the header with its hash is intact
+  bool hash_kept = false;
+  for (const auto& [k, v] : read_metadata(truncated)) hash_kept = hash_kept || (k == "lamina:job_hash" && v == jobs[2].hash);
+  ASSERT_TRUE(hash_kept);
+  // A preview of job 4 carrying job 4's hash, as a killed --preview-every render would leave.
+  Metadata preview = read_metadata(b.exr(jobs[4].id));
+  preview.emplace_back("lamina:preview", "0.5");
+  write_exr(b.exr(jobs[4].id), read_image(b.exr(jobs[4].id)), preview);
+
+  Result r = batch(b.dir, b.dir / "m.json --out " + b.out());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("8 jobs: 2 rendered, 6 already complete"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(jobs[2].id + ": rendering"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(jobs[4].id + ": rendering"), std::string::npos) << r.out;
+  EXPECT_NO_THROW(read_channels(truncated));
+}
+
 // Every EXR in the output is complete: it carries its job's hash.
 void expect_only_complete_exrs(const BatchDir& b, std::size_t* complete) {
   std::map<std::string, std::string> hash_of;

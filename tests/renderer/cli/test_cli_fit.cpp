@@ -161,8 +161,8 @@ TEST_F(CliFit, BadInputIsOneLineError) {
   expect_one_line_error(fit + "--data " + dir_ + "/m.csv --param 'layers[0].sigma_a=0:nan'", "--param");
   expect_one_line_error(fit + "--data " + dir_ + "/nocol.csv --param 'layers[0].sigma_a=0:1'",
                         "nocol.csv: line 1: missing column 'theta_i_deg'");
-  expect_one_line_error(fit + "--data " + dir_ + "/nan.csv --param 'layers[0].sigma_a=0:1'", "nan.csv: line 2: value 'nan' is not finite");
-  expect_one_line_error(fit + "--data " + dir_ + "/absent.csv --param 'layers[0].sigma_a=0:1'", "absent.csv: cannot open");
+  expect_one_line_error(fit + "--data " + dir_ + "/nan.csv --param 'layers[0].sigma_a=0:1'", "nan.csv: line 2: value 'nan' is not a finite decimal number");
+  expect_one_line_error(fit + "--data " + dir_ + "/absent.csv --param 'layers[0].sigma_a=0:1'", "absent.csv: cannot read the measurements: does not exist");
   expect_one_line_error("fit " + dir_ + "/absent.json --data " + dir_ + "/m.csv --param 'layers[0].sigma_a=0:1'", "absent.json");
 }
 

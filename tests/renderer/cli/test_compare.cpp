@@ -136,6 +136,33 @@ TEST(CliCompare, CropRestrictsTheMetrics) {
   EXPECT_EQ(lamina("compare " + ref + " " + test + " --crop 1,2").exit_code, 2);
 }
 
+// The difference of two crops keeps the reference's windows (a derived image stays where its
+// input was), moved by --crop; a whole reference gives a whole image.
+TEST(CliCompare, TheDifferenceOfCropsKeepsTheirWindows) {
+  Image im(4, 3);
+  for (float& v : im.rgb) v = 1.0f;
+  const std::string ref = (dir() / "crop_ref.exr").string(), test = (dir() / "crop_test.exr").string();
+  write_exr(ref, im, {}, {}, DataWindow{5, 2, 20, 10});
+  write_exr(test, im, {}, {}, DataWindow{5, 2, 20, 10});
+  const std::string diff = (dir() / "d.exr").string();
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " -o " + diff).exit_code, 0);
+  test::ExrWindows w = test::read_exr_windows(diff);
+  EXPECT_EQ(w.x, 5);
+  EXPECT_EQ(w.y, 2);
+  EXPECT_EQ(w.full_width, 20);
+  EXPECT_EQ(w.full_height, 10);
+  ASSERT_EQ(lamina("compare " + ref + " " + test + " --crop 1,1,2,2 -o " + diff).exit_code, 0);
+  w = test::read_exr_windows(diff);
+  EXPECT_EQ(w.x, 6);
+  EXPECT_EQ(w.y, 3);
+  EXPECT_EQ(w.full_width, 20);
+  const std::string whole = grey_exr("whole.exr", 3, 1, {1, 1, 1});
+  ASSERT_EQ(lamina("compare " + whole + " " + whole + " --crop 1,0,2,1 -o " + diff).exit_code, 0);
+  w = test::read_exr_windows(diff);
+  EXPECT_EQ(w.x, 0);
+  EXPECT_EQ(w.full_width, 2);  // a whole image: the display window is the data window
+}
+
 TEST(CliCompare, BadInputGivesOneLineErrors) {
   const std::string ref = grey_exr("eref.exr", 2, 2, {1, 1, 1, 1});
   const std::string small = grey_exr("esmall.exr", 1, 1, {1});

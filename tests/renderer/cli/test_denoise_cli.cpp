@@ -98,5 +98,49 @@ TEST(DenoiseCli, BadInputIsOneLine) {
   EXPECT_FALSE(std::filesystem::exists(dir / "out2.exr"));
 }
 
+// No output may be the input, under any name: the same path, a symbolic link or a hard link to
+// it, for -o and for --png. The raw render stays byte for byte, and nothing is written.
+TEST(DenoiseCli, NoOutputIsTheInputUnderAnyName) {
+  TempDir dir("denoise-input");
+  Image im(4, 4);
+  write_exr(dir / "in.exr", im);
+  const std::string before = test::slurp(dir / "in.exr");
+  std::filesystem::create_symlink(dir / "in.exr", dir / "link.exr");
+  std::filesystem::create_hard_link(dir / "in.exr", dir / "hard.exr");
+  const std::string other_spelling = "./../" + std::filesystem::path(dir.path).filename().string() + "/in.exr";
+  for (const std::string& name : {std::string("in.exr"), std::string("link.exr"), std::string("hard.exr"), other_spelling}) {
+    for (const std::string option : {"--png", "-o"}) {
+      const std::string args = option == "--png" ? "-o " + dir / "out.exr --png " + dir / name : "-o " + dir / name;
+      const auto r = run(dir, "denoise " + dir / "in.exr " + args + " --no-aux");
+      EXPECT_EQ(r.exit_code, 2) << option << " " << name << ": " << r.err;
+      EXPECT_NE(r.err.find("is the input"), std::string::npos) << r.err;
+      EXPECT_EQ(test::slurp(dir / "in.exr"), before) << option << " " << name;
+      EXPECT_FALSE(std::filesystem::exists(dir / "out.exr"));
+    }
+  }
+}
+
+// A denoised crop keeps the crop's data and display windows: its pixels stay where the render
+// put them, consistent with the lamina:crop it keeps in its header.
+TEST(DenoiseCli, ACropKeepsItsWindows) {
+  TempDir dir("denoise-crop");
+  write_scene(dir / "s.gltf");
+  const auto r = run(dir, "render " + dir / "s.gltf -o " + dir / "crop.exr --width 32 --height 24 --spp 2 --env 1 --crop 5,3,21,15");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto d = run(dir, "denoise " + dir / "crop.exr -o " + dir / "dn.exr --no-aux");
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  const ChannelImage in = read_channels(dir / "crop.exr"), out = read_channels(dir / "dn.exr");
+  EXPECT_EQ(in.window.x, 5);
+  EXPECT_EQ(in.window.y, 3);
+  EXPECT_EQ(in.window.full_width, 32);
+  EXPECT_EQ(in.window.full_height, 24);
+  EXPECT_EQ(out.width, 16);
+  EXPECT_EQ(out.height, 12);
+  EXPECT_EQ(out.window.x, in.window.x);
+  EXPECT_EQ(out.window.y, in.window.y);
+  EXPECT_EQ(out.window.full_width, in.window.full_width);
+  EXPECT_EQ(out.window.full_height, in.window.full_height);
+}
+
 }  // namespace
 }  // namespace lamina

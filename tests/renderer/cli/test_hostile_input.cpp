@@ -111,6 +111,13 @@ fs::path generate(const json& spec, const fs::path& dir) {
     }
     s << "]}";
     text = s.str();
+  } else if (kind == "copy") {
+    // A copy of a corpus file (`from`, relative to the corpus) that the case may try to
+    // overwrite: the corpus itself is never at risk, and the test checks the copy is unchanged.
+    const fs::path from = fs::path(LAMINA_CORPUS_DIR) / spec.at("from").get<std::string>();
+    path = dir / ("input" + from.extension().string());
+    text = slurp(from);
+    if (text.empty()) ADD_FAILURE() << "copy: cannot read " << from;
   } else {
     ADD_FAILURE() << "unknown generator '" << kind << "'";
     return {};
@@ -133,8 +140,11 @@ TEST_P(HostileInput, IsRefusedCleanly) {
   const fs::path out = dir / "out", work = dir / "work";
   fs::create_directories(out);
   fs::create_directories(work);
-  std::string input;
-  if (c.spec.contains("generate")) input = generate(c.spec, work).string();
+  std::string input, input_bytes;
+  if (c.spec.contains("generate")) {
+    input = generate(c.spec, work).string();
+    input_bytes = slurp(input);
+  }
 
   std::string cmd = "timeout --signal=KILL " + std::to_string(c.spec.value("timeout", 60)) + " " + LAMINA_EXE;
   // Under scripts/test.sh --sanitize: whole allocation stacks, so that LeakSanitizer can match the
@@ -171,6 +181,8 @@ TEST_P(HostileInput, IsRefusedCleanly) {
   EXPECT_NE(lines.back().find(c.spec.at("stderr").get<std::string>()), std::string::npos) << "error line: " << lines.back();
   EXPECT_EQ(lines.back().find("warning:"), std::string::npos) << "the last line is a warning, not the error";
 
+  // An input is never changed, whatever the outputs name (a link to it included).
+  if (!input.empty()) EXPECT_TRUE(slurp(input) == input_bytes) << "the input " << input << " was changed";
   if (!c.spec.value("outputs_allowed", false)) {
     for (const auto& e : fs::recursive_directory_iterator(out)) ADD_FAILURE() << "output left behind: " << e.path();
   }

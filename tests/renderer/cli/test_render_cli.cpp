@@ -4,12 +4,14 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "tests/support/image_files.h"
 #include <gtest/gtest.h>
@@ -97,6 +99,24 @@ TEST(RenderCli, NamedCameraAndEnvironmentFile) {
   // From 50 units a 2-unit quad covers ~0.07 of the view: the corner pixel sees the sky (0.5).
   EXPECT_NEAR(im.pixel(0, 0)[0], 0.5, 1e-3);
   for (float v : im.rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+}
+
+// A camera's aspectRatio does not set the image's shape (--width/--height does): when they
+// differ, one warning says so, naming the camera; when they agree, nothing is said.
+TEST(RenderCli, ACameraAspectRatioThatDoesNotActIsAWarning) {
+  TempDir dir("cli-aspect");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.json()["cameras"] = {{{"name", "wide"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"aspectRatio", 2.0}, {"znear", 0.1}}}}};
+  b.add_node({{"camera", 0}, {"translation", {0, 0, 4}}});
+  b.write_gltf(dir / "wide.gltf");
+  const Result square = run(dir, dir / "wide.gltf -o " + dir / "a.exr --width 8 --height 8 --spp 1 --env 1");
+  ASSERT_EQ(square.exit_code, 0) << square.err;
+  EXPECT_NE(square.err.find("warning: " + dir / "wide.gltf" + ": camera 'wide': aspectRatio 2 is not used"), std::string::npos)
+      << square.err;
+  const Result matched = run(dir, dir / "wide.gltf -o " + dir / "b.exr --width 16 --height 8 --spp 1 --env 1");
+  ASSERT_EQ(matched.exit_code, 0) << matched.err;
+  EXPECT_EQ(matched.err.find("aspectRatio"), std::string::npos) << matched.err;
 }
 
 TEST(RenderCli, BadScenesFailCleanly) {
@@ -199,6 +219,22 @@ void write_layered_quad(const TempDir& dir, const std::string& gltf, const std::
   std::filesystem::create_directories((dir.path / stack_file).parent_path());
   std::ofstream(dir / stack_file) << stack_json;
   std::ofstream(dir / "map.json") << nlohmann::json{{material, stack_file}}.dump();
+}
+
+// An output that is a stack file the material map names (found only when the map is read) is
+// refused before anything is rendered, and the stack stays as it was.
+TEST(RenderCliLayered, AnOutputThatIsAStackFileIsRefused) {
+  TempDir dir("cli-stack-output");
+  const std::string stack =
+      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3}]})";
+  write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json", stack);
+  for (const std::string outputs : {"-o " + dir / "m/leaf.json", "-o " + dir / "x.exr --png " + dir / "m/../m/leaf.json"}) {
+    const Result r = run(dir, dir / "leaf.gltf --materials " + dir / "map.json " + outputs + " --width 4 --height 4 --spp 1");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("is the stack file"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(dir / "m/leaf.json"), stack);
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.exr"));
+  }
 }
 
 // A quad whose material "leaf" is bound to a stack by --materials (path relative to the map),
@@ -359,6 +395,47 @@ TEST(RenderJobOutputs, AFailedPngLeavesNoNewExr) {
   render_job(request);
   EXPECT_NO_THROW(read_image(out));
   EXPECT_NO_THROW(read_image(request.png_path));
+}
+
+// A render whose final write fails after it wrote previews leaves nothing at its outputs (the
+// previews replaced what was there; an unfinished image under the output's name would pass for
+// the render) and says so. The EXR's path becomes a directory while the render runs, after the
+// first preview: every later write to it fails.
+TEST(RenderJobOutputs, AFailureAfterPreviewsRemovesThemAndSaysSo) {
+  TempDir dir("job-previews");
+  write_quad(dir / "quad.gltf");
+  RenderRequest request;
+  request.scene_path = dir / "quad.gltf";
+  request.out_path = dir / "out.exr";
+  request.png_path = dir / "out.png";
+  request.env = "1";
+  request.settings.width = 16;
+  request.settings.height = 12;
+  request.settings.spp = 1 << 20;
+  request.settings.time_limit = 3.0;  // bounds the render should the swap below come late
+  request.settings.preview_every = 1e-6;
+  std::string error;
+  std::thread job([&] {
+    try {
+      render_job(request);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  });
+  for (int i = 0; i < 3000 && !std::filesystem::exists(request.png_path); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const bool previewed = std::filesystem::exists(request.png_path);
+  std::error_code ec;
+  std::filesystem::remove(request.out_path, ec);
+  std::filesystem::create_directory(request.out_path);
+  job.join();
+  ASSERT_TRUE(previewed) << "no preview was written";
+  EXPECT_NE(error.find("'" + request.out_path + "'"), std::string::npos) << error;
+  EXPECT_NE(error.find("the previews written during the render were removed: nothing is left at '" + request.png_path + "'"),
+            std::string::npos)
+      << error;
+  EXPECT_FALSE(std::filesystem::exists(request.png_path)) << "a preview was left at the output path";
+  EXPECT_TRUE(std::filesystem::is_directory(request.out_path)) << "only regular files are removed";
 }
 
 // Under a 1 GB address-space limit (ulimit -v), a 16384 x 16384 image (3 GiB of floats) cannot be
