@@ -33,6 +33,7 @@
 #include "materials/adding_doubling/adding_doubling.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/stack/stack_file.h"
+#include "renderer/cli/brdf_spectral.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/util/progress.h"
@@ -157,7 +158,7 @@ int run_brdf(int argc, char** argv) {
       "deterministic solution, all orders, with a discretisation error (the table costs one\n"
       "solution per azimuthal mode).",
       "lamina brdf"};
-  std::string stack_path, method = "monte-carlo", out_path, summary_path;
+  std::string stack_path, method = "monte-carlo", out_path, summary_path, wavelengths;
   double theta_i = std::nan(""), phi_i = 0.0;
   std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
@@ -186,11 +187,19 @@ int run_brdf(int argc, char** argv) {
       ->check(cli::integer(1000, 2000000000));
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
+  app.add_option("--wavelengths", wavelengths,
+                 "FIRST:LAST:STEP nm: the totals per wavelength (adding-doubling only, no --out); the material may "
+                 "give layers by chromophores (docs/spectral.md)");
 
   try {
     app.parse(argc, argv);
     if (static_cast<long long>(bins_theta) * bins_phi > kMaxBinsTotal)
       throw cli::UsageError("--bins-theta x --bins-phi must be at most " + std::to_string(kMaxBinsTotal));
+    if (!wavelengths.empty()) {
+      cli::check_wavelengths(wavelengths);
+      if (method != "adding-doubling" || !out_path.empty())
+        throw cli::UsageError("--wavelengths needs --method adding-doubling and no --out");
+    }
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -201,6 +210,8 @@ int run_brdf(int argc, char** argv) {
     return 2;
   }
 
+  if (!wavelengths.empty())
+    return cli::run_brdf_spectral({stack_path, summary_path, wavelengths, theta_i, phi_i, quadrature_points});
   try {
     if (method != "monte-carlo" && app.count("--samples") + app.count("--seed") > 0)
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method %s\n", method.c_str());
