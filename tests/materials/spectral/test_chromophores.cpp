@@ -1,7 +1,8 @@
 // materials/spectral/chromophores and the spectral stack: each chromophore's spectrum against the
 // published numbers it comes from, the layer's sums, the material file's chromophore layers
 // (values and one-line errors), and adding-doubling per wavelength (materials/adding_doubling/
-// spectral_totals) against the grey solver it is made of.
+// spectral_totals) against the grey solver it is made of; the spectral fit (materials/fit/
+// spectral_fit) recovering a synthetic spectrum's parameters.
 #include "materials/spectral/chromophores.h"
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "materials/adding_doubling/spectral_totals.h"
+#include "materials/fit/spectral_fit.h"
 #include "materials/stack/stack_file.h"
 
 namespace lamina {
@@ -165,6 +167,59 @@ TEST(SpectralTotals, AreTheGreySolverPerWavelength) {
     EXPECT_DOUBLE_EQ(e.totals.R_diffuse[0], rgb.R_diffuse[0]);
     EXPECT_DOUBLE_EQ(e.totals.T_diffuse[0], rgb.T_diffuse[0]);
   }
+}
+
+}  // namespace
+}  // namespace lamina
+
+namespace lamina {
+namespace {
+
+// A spectrum the model itself made is fitted back: the parameters are recovered from another
+// start and the residual vanishes (the optimiser's tolerance, 1e-4 of each range, bounds both).
+TEST(SpectralFit, RecoversTheParametersOfASyntheticSpectrum) {
+  SpectralStack truth = parse_spectral_stack_json(kSpectralSkin, "skin.json");
+  *chromophore_parameter(&truth, "layers[0].chromophores.melanin") = 0.12;
+  *chromophore_parameter(&truth, "layers[1].chromophores.blood") = 0.035;
+  *chromophore_parameter(&truth, "layers[1].chromophores.scattering.reduced_500") = 3.0;
+  std::vector<double> nm;
+  for (double w = 400.0; w <= 1000.0; w += 40.0) nm.push_back(w);
+  AddingDoublingSettings settings;
+  settings.quadrature_points = 8;
+  const double mu = std::cos(8.0 * 3.14159265358979323846 / 180.0);
+  const std::vector<double> measured = modelled_reflectance(truth, nm, mu, settings);
+  const SpectralStack start = parse_spectral_stack_json(kSpectralSkin, "skin.json");  // 0.05, 0.02, 4.6
+  const std::vector<FitParameterSpec> params = {{"layers[0].chromophores.melanin", 0.0, 0.4},
+                                                {"layers[1].chromophores.blood", 0.0, 0.1},
+                                                {"layers[1].chromophores.scattering.reduced_500", 0.5, 10.0}};
+  const SpectralFitResult fit = fit_spectrum(start, params, nm, measured, mu, settings);
+  EXPECT_NEAR(fit.values[0], 0.12, 0.004);
+  EXPECT_NEAR(fit.values[1], 0.035, 0.001);
+  EXPECT_NEAR(fit.values[2], 3.0, 0.03);
+  EXPECT_LT(fit.rmse, 1e-3);
+  EXPECT_EQ(fit.fitted.chromophores[0]->melanin, fit.values[0]);
+}
+
+TEST(SpectralFit, NamesBadParameters) {
+  SpectralStack s = parse_spectral_stack_json(kSpectralSkin, "skin.json");
+  auto message = [&](const std::string& path) {
+    try {
+      chromophore_parameter(&s, path);
+    } catch (const FitError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message("layers[0].sigma_a"), "layers[0].sigma_a: expected layers[i].chromophores.KEY");
+  EXPECT_EQ(message("layers[5].chromophores.melanin"), "layers[5].chromophores.melanin: layers[5] is not a layer given by chromophores");
+  EXPECT_EQ(message("layers[0].chromophores.scattering.g"),
+            "layers[0].chromophores.scattering.g: unknown scattering key (reduced_500, f_rayleigh, b_mie)");
+  EXPECT_EQ(message("layers[0].chromophores.bilirubin").rfind("layers[0].chromophores.bilirubin: unknown chromophore key", 0), 0u);
+  const std::vector<double> nm = {500.0}, r = {0.3};
+  const std::vector<FitParameterSpec> six(6, FitParameterSpec{"layers[0].chromophores.melanin", 0.0, 1.0});
+  EXPECT_THROW(fit_spectrum(s, six, nm, r, 1.0), FitError);
+  EXPECT_THROW(fit_spectrum(s, {{"layers[0].chromophores.melanin", 0.5, 0.5}}, nm, r, 1.0), FitError);
+  EXPECT_THROW(fit_spectrum(s, {{"layers[0].chromophores.melanin", 0.0, 0.5}}, nm, {}, 1.0), FitError);
 }
 
 }  // namespace
