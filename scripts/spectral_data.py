@@ -140,24 +140,33 @@ def chromophore_data():
 FILES = {'cie_data.cpp': cie_data, 'prospect_d_data.cpp': prospect_data, 'chromophore_data.cpp': chromophore_data}
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('--check', action='store_true', help='compare with the committed files instead of writing')
-    args = parser.parse_args()
+def write_or_check(files, folder, check, same=str.__eq__):
+    """Writes each generated file (name -> function giving its text) into folder or, with check,
+    compares it with the committed one by same(committed, fresh). Prints and returns the stale
+    paths (also used by scripts/spectral_reference.py)."""
     stale = []
-    for name, make in FILES.items():
-        path = os.path.join(OUT, name)
+    for name, make in files.items():
+        path = os.path.join(folder, name)
         text = make()
-        if args.check:
+        if check:
             with open(path, encoding='utf-8') as f:
-                if f.read() != text:
+                if not same(f.read(), text):
                     stale.append(path)
         else:
             with open(path, 'w', encoding='utf-8') as f:
                 f.write(text)
             print('wrote', os.path.relpath(path, ROOT))
-    if stale:
-        print('\n'.join(f'{p}:1: differs from what scripts/spectral_data.py writes' for p in stale))
+    script = os.path.relpath(os.path.abspath(sys.argv[0]), ROOT)
+    for path in stale:
+        print(f'{path}:1: differs from what {script} writes')
+    return stale
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--check', action='store_true', help='compare with the committed files instead of writing')
+    args = parser.parse_args()
+    if write_or_check(FILES, OUT, args.check):
         return 1
     if args.check:
         print(f'spectral_data: {len(FILES)} tables match the pinned sources')

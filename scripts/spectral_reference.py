@@ -25,6 +25,8 @@ import warnings
 
 import numpy as np
 
+from spectral_data import write_or_check
+
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
 DATA = os.path.join(ROOT, 'tests', 'data')
 PINS = {'prosail': '2.0.5', 'colour-science': '0.4.7'}
@@ -126,20 +128,7 @@ def main():
     parser.add_argument('--check', action='store_true', help='compare with the committed files instead of writing')
     args = parser.parse_args()
     check_pins()
-    stale = []
-    for name, make in FILES.items():
-        path = os.path.join(DATA, name)
-        text = make()
-        if args.check:
-            with open(path, encoding='utf-8') as f:
-                if not same(f.read(), text):
-                    stale.append(path)
-        else:
-            with open(path, 'w', encoding='utf-8') as f:
-                f.write(text)
-            print('wrote', os.path.relpath(path, ROOT))
-    if stale:
-        print('\n'.join(f'{p}:1: differs from what scripts/spectral_reference.py computes' for p in stale))
+    if write_or_check(FILES, DATA, args.check, same):
         return 1
     if args.check:
         print(f'spectral_reference: {len(FILES)} reference files match prosail and colour-science')

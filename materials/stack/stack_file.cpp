@@ -200,7 +200,7 @@ class Reader {
         fail(path, "give either chromophores, or sigma_a, sigma_s and g, or components, not two of them");
       if (spectral == nullptr)
         fail(join(path, "chromophores"), "a layer given by chromophores has spectral coefficients: only "
-                                         "`lamina brdf --wavelengths` evaluates such a stack so far");
+                                         "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
       *spectral = chromophores(j["chromophores"], join(path, "chromophores"));
       // Placeholders, the coefficients at 550 nm (so that validate_stack checks real values): the
       // coefficients come per wavelength (stack_at_wavelength).

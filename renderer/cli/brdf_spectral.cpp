@@ -17,11 +17,10 @@
 
 #include "materials/adding_doubling/spectral_totals.h"
 #include "materials/brdf/brdf_table.h"
-#include "materials/spectral/colour.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/cli/options.h"
 #include "renderer/cli/outputs.h"
-#include "renderer/util/atomic_file.h"
+#include "renderer/cli/spectral_report.h"
 
 namespace lamina::cli {
 namespace {
@@ -52,11 +51,6 @@ WavelengthGrid parse_grid(const std::string& text) {
   return WavelengthGrid::from_to(v[0], v[1], v[2]);
 }
 
-// The colour of a spectrum given on the grid (linear between its samples).
-nlohmann::ordered_json rec709(const std::vector<double>& nm, const std::vector<double>& values) {
-  const Spectrum rgb = reflectance_to_linear_rec709(TabulatedSpectrum(nm, values));
-  return {rgb[0], rgb[1], rgb[2]};
-}
 
 std::string spectral_json(const SpectralBrdfRequest& r, const SpectralTotals& s) {
   nlohmann::ordered_json j;
@@ -92,8 +86,8 @@ std::string spectral_json(const SpectralBrdfRequest& r, const SpectralTotals& s)
       reflected[i] += diffuse[i];
       transmitted[i] += t_diffuse[i];
     }
-    j["R_rec709"] = rec709(s.nm, reflected);
-    j["T_rec709"] = rec709(s.nm, transmitted);
+    j["R_rec709"] = rec709_json(s.nm, reflected);
+    j["T_rec709"] = rec709_json(s.nm, transmitted);
   }
   return j.dump(2) + "\n";
 }
@@ -115,13 +109,7 @@ int run_brdf_spectral(const SpectralBrdfRequest& r) {
     settings.quadrature_points = r.quadrature_points;
     const double cos_theta_i = incident_direction(r.theta_i_deg, r.phi_i_deg).z;  // as lamina brdf
     const std::string json = spectral_json(r, adding_doubling_spectrum(stack, parse_grid(r.wavelengths), cos_theta_i, settings));
-    if (r.summary_path.empty()) {
-      std::fputs(json.c_str(), stdout);
-    } else {
-      StagedOutputs outputs;
-      outputs.write(r.summary_path, [&](const std::string& tmp) { write_file_atomically(tmp, json); });
-      outputs.commit();
-    }
+    write_report(r.summary_path, json);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lamina brdf: %s\n", one_line(e.what()).c_str());

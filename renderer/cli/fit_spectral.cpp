@@ -17,11 +17,10 @@
 
 #include "materials/brdf/brdf_table.h"
 #include "materials/fit/spectral_fit.h"
-#include "materials/spectral/colour.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/cli/options.h"
 #include "renderer/cli/outputs.h"
-#include "renderer/util/atomic_file.h"
+#include "renderer/cli/spectral_report.h"
 
 namespace lamina::cli {
 namespace {
@@ -64,10 +63,6 @@ void read_spectrum(const std::string& path, const std::string& wanted, std::stri
   if (nm->empty()) throw FitError(path + ": no spectrum");
 }
 
-nlohmann::ordered_json rec709(const std::vector<double>& nm, const std::vector<double>& v) {
-  const Spectrum rgb = reflectance_to_linear_rec709(TabulatedSpectrum(nm, v));
-  return {rgb[0], rgb[1], rgb[2]};
-}
 
 }  // namespace
 
@@ -93,17 +88,11 @@ int run_fit_spectral(const SpectralFitRequest& r) {
     j["measured"] = fit.measured;
     j["modelled"] = fit.modelled;
     if (nm.front() <= 400.0 && nm.back() >= 700.0) {
-      j["measured_rec709"] = rec709(nm, fit.measured);
-      j["modelled_rec709"] = rec709(nm, fit.modelled);
+      j["measured_rec709"] = rec709_json(nm, fit.measured);
+      j["modelled_rec709"] = rec709_json(nm, fit.modelled);
     }
     const std::string json = j.dump(2) + "\n";
-    if (r.summary_path.empty()) {
-      std::fputs(json.c_str(), stdout);
-    } else {
-      StagedOutputs outputs;
-      outputs.write(r.summary_path, [&](const std::string& tmp) { write_file_atomically(tmp, json); });
-      outputs.commit();
-    }
+    write_report(r.summary_path, json);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lamina fit: %s\n", one_line(e.what()).c_str());

@@ -119,7 +119,8 @@ TEST(SpectralStack, OneLineErrorsNameTheValue) {
     FAIL() << "expected an error";
   } catch (const StackFileError& e) {
     EXPECT_EQ(std::string(e.what()), "skin.json: layers[0].chromophores: a layer given by chromophores has spectral "
-                                     "coefficients: only `lamina brdf --wavelengths` evaluates such a stack so far");
+                                     "coefficients: only `lamina brdf --wavelengths` and `lamina fit --spectrum` read "
+                                     "such a stack so far");
   }
   const std::string head = R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 1, )";
   EXPECT_EQ(spectral_error(head + R"("chromophores": {"melanin": 0.6, "baseline": 0.5}}]})"),
