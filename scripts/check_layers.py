@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Checks the floor plan of docs/architecture.md: each folder uses only the folders below it.
 
-Layers, bottom first: the concept folders of materials/ (pure physics: base, interfaces, phase,
-stack, analytic, walk, brdf, adding_doubling, tables, fit), then renderer/util, image, scene,
-surfaces, layered, render, batch, cli. Two independent checks:
+Layers, bottom first: the concept folders of materials/ (pure physics: base, spectral,
+interfaces, phase, stack, analytic, walk, brdf, adding_doubling, tables, fit), then
+renderer/util, image, scene, surfaces, layered, render, batch, cli. Two independent checks:
   1. includes: every `#include "materials/<folder>/..."` or `#include "renderer/<folder>/..."` in
      materials/ and renderer/ names its own folder or one below it (materials/ names nothing of
      renderer/, and no Embree, image-library or tinygltf header);
@@ -20,7 +20,7 @@ import subprocess
 import sys
 import tempfile
 
-MATERIALS = ["base", "interfaces", "phase", "stack", "analytic", "walk", "brdf", "adding_doubling", "tables", "fit"]
+MATERIALS = ["base", "spectral", "interfaces", "phase", "stack", "analytic", "walk", "brdf", "adding_doubling", "tables", "fit"]
 RENDERER = ["util", "image", "scene", "surfaces", "layered", "render", "batch", "cli"]
 LAYERS = ["materials/" + m for m in MATERIALS] + RENDERER
 RANK = {name: i for i, name in enumerate(LAYERS)}

@@ -39,25 +39,42 @@ done
 # Layered materials (random walk per shading point: slower per sample, so fewer samples).
 # LAMINA_DEMO_SPP, if set, overrides these too.
 LEAF_SPP=${LAMINA_DEMO_SPP:-32}
-# The head with skin_oily.json driven by maps fitted to its photographs (melanin, blood, sebum): front key + rim light,
-# 480x600. The exact walk with adaptive sampling, with the AOVs, then denoised (Open Image
-# Denoise; the raw render stays in out/head_skin.exr). Its time is what is left of the demo's
-# budget, LAMINA_DEMO_BUDGET seconds from the start (default 540: 9 of the 10 minutes), after
-# what came before (set-up, build, the renders above) and 60 s for the renders after it; at least
-# 60 s, at most 600 s. LAMINA_DEMO_HEAD_SECONDS sets it directly.
-DEMO_BUDGET=${LAMINA_DEMO_BUDGET:-540}
-HEAD_SECONDS=${LAMINA_DEMO_HEAD_SECONDS:-$(( DEMO_BUDGET - ($(date +%s) - DEMO_START) - 60 ))}
-HEAD_SECONDS=$(( HEAD_SECONDS < 60 ? 60 : HEAD_SECONDS > 600 ? 600 : HEAD_SECONDS ))
-echo "demo: the layered head renders for $HEAD_SECONDS s ($(( $(date +%s) - DEMO_START )) s into the demo; budget $DEMO_BUDGET s)"
-"$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin.exr --png out/head_skin.png \
-  --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-1024}" --noise-threshold 0.05 --time-limit "$HEAD_SECONDS" --env 0.05 \
-  --aovs albedo,normal
-"$LAMINA" denoise out/head_skin.exr -o out/head_skin_denoised.exr --png out/head_skin_denoised.png
-# The portrait: the textured glTF head (metallic-roughness, normal map) in the same camera and
-# lights, beside the layered head (denoised).
+# The portrait (480x600, front key + rim light): the textured glTF head (the asset's photograph as
+# its albedo, normal map) | the layered head (skin_oily.json, melanin, blood and sebum maps fitted
+# to the same photographs; --subsurface auto at tolerance 0.01: tables where they are within 1 %,
+# raw, no denoiser) | their difference, smoothed (Gaussian, sigma 1 px, stated in its legend): what
+# light scattering under the skin changes for the same person.
 "$LAMINA" render scenes/head_skin/head_textured.gltf -o out/head_textured.exr --png out/head_textured.png \
   --width 480 --height 600 --spp "$SPP" --env 0.05
-oiiotool out/head_textured.png out/head_skin_denoised.png --mosaic 2x1 -o out/portrait.png
+"$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin_auto.exr --png out/head_skin_auto.png \
+  --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-64}" --env 0.05 --subsurface auto --tolerance 0.01
+"$LAMINA" compare out/head_textured.exr out/head_skin_auto.exr --png out/head_difference.png --smooth 1 --range 0.5
+oiiotool out/head_textured.png out/head_skin_auto.png out/head_difference.png --mosaic 3x1 -o out/portrait.png
+# The unbiased walk, the reference the fast modes are measured against: two independent renders
+# (seeds 1 and 2), each for half of what is left of the demo's budget, LAMINA_DEMO_BUDGET seconds
+# from the start (default 540: 9 of the 10 minutes), after what came before and 45 s for the renders
+# after it; each half at least 30 s, at most 300 s (LAMINA_DEMO_HEAD_SECONDS sets a half directly).
+# Their difference measures the noise of one: RMSE(a - b) / sqrt(2) / mean, over the image. The first
+# is written raw with that figure on it (out/head_skin.png) and denoised beside it.
+DEMO_BUDGET=${LAMINA_DEMO_BUDGET:-540}
+HEAD_SECONDS=${LAMINA_DEMO_HEAD_SECONDS:-$(( (DEMO_BUDGET - ($(date +%s) - DEMO_START) - 45) / 2 ))}
+HEAD_SECONDS=$(( HEAD_SECONDS < 30 ? 30 : HEAD_SECONDS > 300 ? 300 : HEAD_SECONDS ))
+echo "demo: the walk renders the head twice for $HEAD_SECONDS s ($(( $(date +%s) - DEMO_START )) s into the demo; budget $DEMO_BUDGET s)"
+for seed in 1 2; do
+  "$LAMINA" render scenes/head_skin/head_skin.gltf -o out/head_skin_walk_$seed.exr --png out/head_skin_walk_$seed.png \
+    --width 480 --height 600 --spp "${LAMINA_DEMO_SPP:-4096}" --time-limit "$HEAD_SECONDS" --env 0.05 \
+    --seed $seed --aovs albedo,normal
+done
+"$LAMINA" compare out/head_skin_walk_1.exr out/head_skin_walk_2.exr --json out/head_skin_noise.json > /dev/null
+NOISE=$(python3 -c "import json, math; j = json.load(open('out/head_skin_noise.json'))
+print(f\"{100 * j['rmse'] / math.sqrt(2) / (j['guard_floor'] / j['guard_epsilon']):.1f}\")")
+SPP_TAKEN=$(oiiotool --info -v out/head_skin_walk_1.exr | sed -n 's/.*lamina:mean_spp: "\(.*\)"/\1/p')
+echo "demo: the walk's head: $SPP_TAKEN spp in $HEAD_SECONDS s, relative noise (RMSE / mean) $NOISE %"
+mv out/head_skin_walk_1.exr out/head_skin.exr
+"$LAMINA" denoise out/head_skin.exr -o out/head_skin_denoised.exr --png out/head_skin_denoised.png
+oiiotool out/head_skin_walk_1.png --text:x=12:y=30:size=18:color=1,1,1:font=/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf \
+  "walk, $SPP_TAKEN spp in $HEAD_SECONDS s: noise $NOISE %" -o out/head_skin.png
+rm -f out/head_skin_walk_1.png out/head_skin_walk_2.exr out/head_skin_walk_2.png
 # Leaves lit from the front and from behind, then side by side.
 for side in front back; do
   "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
@@ -72,4 +89,4 @@ for side in front back; do
     --width 240 --height 180 --spp "${LAMINA_DEMO_SPP:-64}" --env 0.03
 done
 oiiotool out/gltf_leaf_front.png out/gltf_leaf_back.png --mosaic 2x1 -o out/gltf_leaf.png
-echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin, out/leaves_front, out/leaves_back (.exr, .png; *_denoised beside the denoised ones), out/portrait.png, out/leaves.png and out/gltf_leaf.png"
+echo "demo: wrote out/cornell_box, out/head, out/metal_dielectric, out/spheres_{0,45}_*, out/head_skin (the walk), out/head_skin_auto, out/head_difference, out/leaves_front, out/leaves_back (.exr, .png; *_denoised beside the denoised ones), out/portrait.png, out/leaves.png and out/gltf_leaf.png"

@@ -9,6 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
+#include <optional>
+#include <utility>
+#include <vector>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -22,7 +26,10 @@ using nlohmann::json;
 // Reads one JSON document and throws StackFileError("SOURCE: PATH: reason") on any problem.
 class Reader {
  public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
+  // With `spectral`, layers may be given by chromophores (one entry per layer is written there);
+  // without it such a layer is an error.
+  explicit Reader(std::string source, std::vector<std::optional<SkinChromophores>>* spectral = nullptr)
+      : source_(std::move(source)), spectral_(spectral) {}
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
     throw StackFileError(source_ + ": " + (path.empty() ? std::string("(document)") : path) +
@@ -120,9 +127,59 @@ class Reader {
     return j.get<std::string>();
   }
 
-  Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc) const {
+  // A number in [lo, hi].
+  double bounded(const json& j, const std::string& path, double lo, double hi) const {
+    const double v = number(j, path);
+    if (v < lo || v > hi) fail(path, "must lie in [" + fmt(lo) + ", " + fmt(hi) + "] (got " + fmt(v) + ")");
+    return v;
+  }
+
+  // A layer's "chromophores" object (docs/spectral.md, "Skin chromophores"); every key optional.
+  SkinChromophores chromophores(const json& j, const std::string& path) const {
     require_object(j, path);
-    check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "sigma_a", "sigma_s", "g", "components"});
+    check_keys(j, path, {"melanin", "eumelanin", "blood", "oxygenation", "water", "fat", "carotene", "baseline",
+                         "scattering", "g"});
+    SkinChromophores c;
+    const double inf = std::numeric_limits<double>::infinity();
+    const std::pair<const char*, double*> fractions[] = {{"melanin", &c.melanin}, {"blood", &c.blood},
+                                                         {"water", &c.water},     {"fat", &c.fat},
+                                                         {"baseline", &c.baseline}};
+    double sum = 0.0;
+    for (const auto& [key, value] : fractions)
+      if (j.contains(key)) sum += *value = bounded(j[key], join(path, key), 0.0, 1.0);
+    if (sum > 1.0 + 1e-9)
+      fail(path, "volume fractions melanin + blood + water + fat + baseline must not exceed 1 (sum " + fmt(sum) + ")");
+    if (j.contains("eumelanin")) c.eumelanin = bounded(j["eumelanin"], join(path, "eumelanin"), 0.0, 1.0);
+    if (j.contains("oxygenation")) c.oxygenation = bounded(j["oxygenation"], join(path, "oxygenation"), 0.0, 1.0);
+    if (j.contains("carotene")) c.carotene = bounded(j["carotene"], join(path, "carotene"), 0.0, inf);
+    if (j.contains("g")) {
+      if (!j["g"].is_number()) fail(join(path, "g"), "expected a number (one g at every wavelength), got " + type_name(j["g"]));
+      c.g = asymmetry(j["g"], join(path, "g"))[0];
+    }
+    if (j.contains("scattering")) {
+      const json& sc = j["scattering"];
+      const std::string sp = join(path, "scattering");
+      require_object(sc, sp);
+      check_keys(sc, sp, {"reduced_500", "f_rayleigh", "b_mie"});
+      c.scattering.reduced_500 = bounded(member(sc, sp, "reduced_500"), join(sp, "reduced_500"), 0.0, inf);
+      if (sc.contains("f_rayleigh")) c.scattering.f_rayleigh = bounded(sc["f_rayleigh"], join(sp, "f_rayleigh"), 0.0, 1.0);
+      if (sc.contains("b_mie")) c.scattering.b_mie = bounded(sc["b_mie"], join(sp, "b_mie"), 0.0, 10.0);
+    }
+    return c;
+  }
+
+  static bool grey(const Layer& layer) {
+    if (!layer.sigma_a.is_grey()) return false;
+    for (const PhaseLobe& lobe : layer.lobes)
+      if (!lobe.sigma_s.is_grey() || !lobe.g.is_grey()) return false;
+    return true;
+  }
+
+  Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc,
+              std::optional<SkinChromophores>* spectral) const {
+    require_object(j, path);
+    check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "sigma_a", "sigma_s", "g", "components",
+                         "chromophores"});
     Layer layer;
     if (j.contains("name")) layer.name = string(j["name"], join(path, "name"));
     layer.ior = ior(member(j, path, "ior"), join(path, "ior"));
@@ -141,6 +198,21 @@ class Reader {
     }
 
     const bool direct = j.contains("sigma_a") || j.contains("sigma_s") || j.contains("g");
+    if (j.contains("chromophores")) {
+      if (direct || j.contains("components"))
+        fail(path, "give either chromophores, or sigma_a, sigma_s and g, or components, not two of them");
+      if (spectral == nullptr)
+        fail(join(path, "chromophores"), "a layer given by chromophores has spectral coefficients: only "
+                                         "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
+      *spectral = chromophores(j["chromophores"], join(path, "chromophores"));
+      // Placeholders, the coefficients at 550 nm (so that validate_stack checks real values): the
+      // coefficients come per wavelength (stack_at_wavelength).
+      const SkinChromophores& c = **spectral;
+      layer.sigma_a = Spectrum(c.absorption(550.0));
+      layer.lobes.push_back({Spectrum(c.scattering_coefficient(550.0)), Spectrum(c.g)});
+      desc->components.push_back({1.0, layer.sigma_a, layer.lobes.back().sigma_s, Spectrum(c.g)});
+      return layer;
+    }
     if (j.contains("components")) {
       if (direct)
         fail(path, "give either sigma_a, sigma_s and g, or components, not both");
@@ -228,9 +300,17 @@ class Reader {
     if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));
     if (layers.empty()) fail("layers", "a stack needs at least one layer");
     t.layers.resize(layers.size());
-    for (std::size_t i = 0; i < layers.size(); ++i)
-      s.layers.push_back(layer(layers[i], "layers[" + std::to_string(i) + "]", i + 1 == layers.size(), &t.layers[i]));
+    if (spectral_) spectral_->assign(layers.size(), std::nullopt);
+    for (std::size_t i = 0; i < layers.size(); ++i) {
+      const std::string path = "layers[" + std::to_string(i) + "]";
+      s.layers.push_back(layer(layers[i], path, i + 1 == layers.size(), &t.layers[i], spectral_ ? &(*spectral_)[i] : nullptr));
+      // A spectral stack's other layers must be the same at every wavelength.
+      if (spectral_ && !(*spectral_)[i] && !grey(s.layers.back()))
+        fail(path, "in a stack with chromophore layers every other layer must be grey (one number per coefficient)");
+    }
     if (root.contains("below")) s.below = below(root["below"], "below");
+    if (spectral_ && s.below.kind == Below::Kind::Lambert && !s.below.albedo.is_grey())
+      fail("below.lambert", "in a stack with chromophore layers the substrate's albedo must be grey (one number)");
 
     // The model's own invariants, in case the checks above and validate_stack() ever diverge.
     const std::string problem = validate_stack(s);
@@ -240,12 +320,16 @@ class Reader {
 
  private:
   std::string source_;
+  std::vector<std::optional<SkinChromophores>>* spectral_ = nullptr;
 };
 
 }  // namespace
 
-StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name) {
-  Reader reader(source_name);
+namespace {
+
+StackTemplate parse(const std::string& text, const std::string& source_name,
+                    std::vector<std::optional<SkinChromophores>>* spectral) {
+  Reader reader(source_name, spectral);
   // Before parsing: JSON nested deeper than any material file would overflow the stack of the
   // recursive walks over it (materials/stack/json_limits.h).
   if (const auto deep = json_nesting_exceeds(text)) throw StackFileError(source_name + ": " + json_nesting_message(*deep));
@@ -256,12 +340,28 @@ StackTemplate parse_stack_template_json(const std::string& text, const std::stri
   return reader.stack(root);
 }
 
-StackTemplate load_stack_template(const std::string& path) {
+std::string read_material_file(const std::string& path) {
   std::string text;
   const std::string why = read_text_file(path, &text);  // materials/stack/text_file.h: says why
   if (!why.empty()) throw StackFileError(path + ": cannot read the material file: " + why);
-  return parse_stack_template_json(text, path);
+  return text;
 }
+
+}  // namespace
+
+StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name) {
+  return parse(text, source_name, nullptr);
+}
+
+StackTemplate load_stack_template(const std::string& path) { return parse_stack_template_json(read_material_file(path), path); }
+
+SpectralStack parse_spectral_stack_json(const std::string& text, const std::string& source_name) {
+  SpectralStack s;
+  s.stack = parse(text, source_name, &s.chromophores).stack;
+  return s;
+}
+
+SpectralStack load_spectral_stack(const std::string& path) { return parse_spectral_stack_json(read_material_file(path), path); }
 
 LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {
   return parse_stack_template_json(text, source_name).stack;

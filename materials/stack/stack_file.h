@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/stack/spectral_stack.h"
 #include "materials/stack/stack.h"
 #include "materials/stack/stack_parameters.h"
 
@@ -34,5 +35,10 @@ LayerStack load_stack_file(const std::string& path);
 // their fractions), so that parameters can be changed per shading point (stack_parameters.h).
 StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name);
 StackTemplate load_stack_template(const std::string& path);
+
+// A material file whose layers may be given by "chromophores" (docs/spectral.md); the functions
+// above reject such a layer. The other layers and a Lambert substrate must be grey.
+SpectralStack parse_spectral_stack_json(const std::string& text, const std::string& source_name);
+SpectralStack load_spectral_stack(const std::string& path);
 
 }  // namespace lamina

@@ -37,6 +37,7 @@
 #include "materials/brdf/brdf_table.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/batch/brdf_job.h"
+#include "renderer/cli/brdf_spectral.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/util/progress.h"
@@ -183,7 +184,7 @@ int run_brdf(int argc, char** argv) {
       "deterministic solution, all orders, with a discretisation error (the table costs one\n"
       "solution per azimuthal mode).",
       "lamina brdf"};
-  std::string stack_path, method = "monte-carlo", out_path, summary_path;
+  std::string stack_path, method = "monte-carlo", out_path, summary_path, wavelengths;
   double theta_i = std::nan(""), phi_i = 0.0;
   std::uint64_t samples = 100000, seed = 1;
   int bins_theta = 18, bins_phi = 36;
@@ -216,11 +217,19 @@ int run_brdf(int argc, char** argv) {
   app.add_option("--plot", plot_path,
                  "draw the BRDF and BTDF (plane of incidence, hemisphere, Lambert for comparison) as a PNG here "
                  "(with the Python package's matplotlib, docs/python.md)");
+  app.add_option("--wavelengths", wavelengths,
+                 "FIRST:LAST:STEP nm: the totals per wavelength (adding-doubling only, no --out); the material may "
+                 "give layers by chromophores (docs/spectral.md)");
 
   try {
     app.parse(argc, argv);
     if (static_cast<long long>(bins_theta) * bins_phi > kMaxBinsTotal)
       throw cli::UsageError("--bins-theta x --bins-phi must be at most " + std::to_string(kMaxBinsTotal));
+    if (!wavelengths.empty()) {
+      cli::check_wavelengths(wavelengths);
+      if (method != "adding-doubling" || !out_path.empty())
+        throw cli::UsageError("--wavelengths needs --method adding-doubling and no --out");
+    }
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -231,6 +240,8 @@ int run_brdf(int argc, char** argv) {
     return 2;
   }
 
+  if (!wavelengths.empty())
+    return cli::run_brdf_spectral({stack_path, summary_path, wavelengths, theta_i, phi_i, quadrature_points});
   try {
     if (method != "monte-carlo" && app.count("--samples") + app.count("--seed") > 0)
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method %s\n", method.c_str());

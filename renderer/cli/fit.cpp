@@ -29,6 +29,7 @@
 #include "materials/stack/stack_file.h"
 #include "materials/stack/text_file.h"
 #include "materials/fit/stack_fit.h"
+#include "renderer/cli/fit_spectral.h"
 #include "renderer/cli/commands.h"
 #include "renderer/cli/options.h"
 #include "renderer/cli/outputs.h"
@@ -295,6 +296,13 @@ int run_fit(int argc, char** argv) {
       ->check(cli::positive());
   app.add_option("--threads", albedo.threads, "albedo-texture: threads (0: all cores); the maps do not depend on it")
       ->check(cli::integer(0, 4096));
+  cli::SpectralFitRequest spectral;
+  app.add_option("--spectrum", spectral.spectrum_path,
+                 "CSV nm,NAME,...: fit chromophore parameters (--param layers[i].chromophores.KEY=LO:HI, at most 5) to "
+                 "this reflectance spectrum (docs/spectral.md)");
+  app.add_option("--spectrum-column", spectral.column, "--spectrum: the column to fit (default the first after nm)");
+  app.add_option("--spectrum-theta-i", spectral.theta_i_deg, "--spectrum: incidence in degrees (default 8)")
+      ->check(cli::real(0.0, 90.0, false, true));
   std::vector<lamina::FitParameterSpec> specs;
   std::vector<std::pair<double, std::string>> table_specs;
   std::optional<AlbedoOutputs> albedo_out;  // set in the albedo-texture mode
@@ -323,7 +331,14 @@ int run_fit(int argc, char** argv) {
         throw cli::UsageError("--table " + cli::in_quotes(spec) + ": expected DEG:TABLE.csv" + (why.empty() ? "" : " (" + why + ")"));
       table_specs.push_back({theta, spec.substr(colon + 1)});
     }
-    if (!albedo_out && data_path.empty() && tables.empty()) throw cli::UsageError("no measurements: give --data and/or --table");
+    if (!spectral.spectrum_path.empty()) {
+      for (const char* other : {"--data", "--table", "--albedo-texture", "--out"})
+        if (app.count(other) > 0) throw cli::UsageError(std::string(other) + ": not with --spectrum");
+    } else if (app.count("--spectrum-column") + app.count("--spectrum-theta-i") > 0) {
+      throw cli::UsageError("--spectrum-column and --spectrum-theta-i need --spectrum");
+    }
+    if (!albedo_out && data_path.empty() && tables.empty() && spectral.spectrum_path.empty())
+      throw cli::UsageError("no measurements: give --data and/or --table");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -334,6 +349,13 @@ int run_fit(int argc, char** argv) {
     return 2;
   }
   if (albedo_out) return run_albedo_fit(albedo, *albedo_out);
+  if (!spectral.spectrum_path.empty()) {
+    spectral.stack_path = stack_path;
+    spectral.summary_path = summary_path;
+    spectral.parameters = specs;
+    spectral.quadrature_points = quadrature_points;
+    return cli::run_fit_spectral(spectral);
+  }
 
   try {
     std::string text;

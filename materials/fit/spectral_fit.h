@@ -1,0 +1,44 @@
+// Fitting a measured reflectance spectrum with a stack given by chromophores (`lamina fit
+// --spectrum`; docs/spectral.md, "Fitting a measured skin spectrum"): a few chromophore
+// parameters (at most kMaxSpectralParameters) chosen so that the adding-doubling total
+// reflectance R = R_specular + R_diffuse at each measured wavelength, for collimated light at
+// theta_i, is closest to the measurement in the least-squares sense. NLopt's BOBYQA on the
+// parameters scaled to [0, 1], as materials/fit/stack_fit does.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "materials/adding_doubling/adding_doubling.h"
+#include "materials/fit/stack_fit.h"
+#include "materials/stack/spectral_stack.h"
+
+namespace lamina {
+
+constexpr int kMaxSpectralParameters = 5;
+
+// PATH of a chromophore parameter: "layers[i].chromophores.KEY" with KEY one of melanin,
+// eumelanin, blood, oxygenation, water, fat, carotene, baseline, g, or
+// "layers[i].chromophores.scattering.KEY" with KEY reduced_500, f_rayleigh or b_mie. Returns the
+// number it names in *stack; throws FitError naming the path when it names nothing.
+double* chromophore_parameter(SpectralStack* stack, const std::string& path);
+
+struct SpectralFitResult {
+  std::vector<double> values;             // per parameter, in the order given
+  std::vector<double> nm, measured, modelled;
+  double rmse = 0.0;                      // sqrt(mean (modelled - measured)^2)
+  int evaluations = 0;                    // spectra solved
+  SpectralStack fitted;
+};
+
+// Throws FitError for a bad path, more than kMaxSpectralParameters parameters, lower >= upper,
+// or wavelengths and measurements of different lengths.
+SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<FitParameterSpec>& parameters,
+                               const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
+                               const AddingDoublingSettings& settings = {});
+
+// The modelled total reflectance R_specular + R_diffuse at each wavelength.
+std::vector<double> modelled_reflectance(const SpectralStack& stack, const std::vector<double>& nm, double cos_theta_i,
+                                         const AddingDoublingSettings& settings = {});
+
+}  // namespace lamina

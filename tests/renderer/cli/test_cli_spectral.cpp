@@ -1,0 +1,144 @@
+// `lamina brdf --wavelengths` and `lamina fit --spectrum` end to end.
+// brdf: the totals per wavelength of a material with chromophore layers (arrays of the grid's
+// length, energy summing to 1, a colour when the grid spans the visible), a grey material equal
+// to the RGB solution at every wavelength. fit: a spectrum made by `lamina brdf --wavelengths`
+// from a known melanin fraction fitted back from another start (the fitted value, a vanishing
+// RMSE, the JSON's arrays). Both: usage errors (exit 2) and input errors (exit 1), one line each.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/renderer/cli/cli_runner.h"
+
+namespace {
+
+using lamina::test::CliResult;
+
+// A two-layer skin by chromophores with the epidermis' melanin fraction given.
+std::string skin(double melanin) {
+  return R"({"lamina_material": 1, "layers": [
+      {"ior": 1.4, "thickness": 0.1, "chromophores": {"melanin": )" + std::to_string(melanin) + R"(, "baseline": 0.5,
+       "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}},
+      {"ior": 1.4, "thickness": "inf", "chromophores": {"blood": 0.02, "water": 0.6, "baseline": 0.38,
+       "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}}]})";
+}
+
+class CliSpectral : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/lamina_cli_spectral_XXXXXX";
+    dir_ = mkdtemp(tmpl);
+    skin_ = dir_ + "/skin.json";
+    std::ofstream(skin_) << skin(0.03);
+    std::ofstream(dir_ + "/truth.json") << skin(0.15);
+    std::ofstream(dir_ + "/start.json") << skin(0.05);
+    grey_ = dir_ + "/grey.json";
+    std::ofstream(grey_) << R"({"lamina_material": 1, "layers": [
+      {"ior": 1.4, "thickness": 0.3, "sigma_a": 0.4, "sigma_s": 6.0, "g": 0.6}]})";
+  }
+  void TearDown() override { std::system(("rm -rf '" + dir_ + "'").c_str()); }
+
+  CliResult run(const std::string& args) { return lamina::test::run_lamina(dir_, args); }
+  void expect_one_line_error(const std::string& args, int code, const std::string& must_contain) {
+    const CliResult r = run(args);
+    EXPECT_EQ(r.exit_code, code) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(must_contain), std::string::npos) << args << ": " << r.err;
+  }
+
+  std::string dir_, skin_, grey_;
+};
+
+TEST_F(CliSpectral, PrintsTotalsPerWavelength) {
+  const CliResult r = run("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 380:780:20");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["wavelength_nm"].size(), 21u);
+  EXPECT_EQ(j["wavelength_nm"][1].get<double>(), 400.0);
+  for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed", "R_hemispherical"})
+    ASSERT_EQ(j[key].size(), 21u) << key;
+  for (std::size_t i = 0; i < 21; ++i) {
+    const double sum = j["R_specular"][i].get<double>() + j["R_diffuse"][i].get<double>() +
+                       j["T_ballistic"][i].get<double>() + j["T_diffuse"][i].get<double>() + j["absorbed"][i].get<double>();
+    EXPECT_NEAR(sum, 1.0, 1e-9) << i;
+    EXPECT_EQ(j["T_diffuse"][i].get<double>(), 0.0);  // a semi-infinite dermis transmits nothing
+  }
+  // Skin's colour: red above green above blue.
+  ASSERT_EQ(j["R_rec709"].size(), 3u);
+  EXPECT_GT(j["R_rec709"][0].get<double>(), j["R_rec709"][1].get<double>());
+  EXPECT_GT(j["R_rec709"][1].get<double>(), j["R_rec709"][2].get<double>());
+}
+
+TEST_F(CliSpectral, GreyMaterialEqualsTheRgbSolutionAtEveryWavelength) {
+  const CliResult rgb = run("brdf " + grey_ + " --theta-i 30 --method adding-doubling");
+  const CliResult spectral = run("brdf " + grey_ + " --theta-i 30 --method adding-doubling --wavelengths 500:900:100");
+  ASSERT_EQ(rgb.exit_code, 0) << rgb.err;
+  ASSERT_EQ(spectral.exit_code, 0) << spectral.err;
+  const nlohmann::json a = nlohmann::json::parse(rgb.out), b = nlohmann::json::parse(spectral.out);
+  EXPECT_EQ(b.count("R_rec709"), 0u);  // 500-900 nm does not cover the visible
+  for (const char* key : {"R_diffuse", "T_diffuse", "T_ballistic", "absorbed"})
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(b[key][i].get<double>(), a[key][0].get<double>(), 1e-12) << key;
+}
+
+TEST_F(CliSpectral, BrdfErrorsAreOneLine) {
+  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 400:700", 2,
+                        "--wavelengths: expected FIRST:LAST:STEP");
+  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 700:400:10", 2,
+                        "250 <= FIRST <= LAST <= 2500");
+  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 400:700:0.01", 2,
+                        "at most 10000 wavelengths");
+  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --wavelengths 400:700:10", 2,
+                        "--wavelengths needs --method adding-doubling and no --out");
+  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling", 1,
+                        "layers[0].chromophores: a layer given by chromophores has spectral coefficients");
+  expect_one_line_error("brdf " + dir_ + "/missing.json --theta-i 8 --method adding-doubling --wavelengths 400:700:10", 1,
+                        "cannot open material file");
+}
+
+TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {
+  const CliResult brdf = run("brdf " + dir_ + "/truth.json --theta-i 8 --method adding-doubling --quadrature-points 8 "
+                             "--wavelengths 400:700:30");
+  ASSERT_EQ(brdf.exit_code, 0) << brdf.err;
+  const nlohmann::json b = nlohmann::json::parse(brdf.out);
+  {
+    std::ofstream csv(dir_ + "/spectrum.csv");
+    csv << "# made by lamina brdf\nnm,other,R\n";
+    for (std::size_t i = 0; i < b["wavelength_nm"].size(); ++i)
+      csv << b["wavelength_nm"][i].get<double>() << ",0," << b["R_specular"][i].get<double>() + b["R_diffuse"][i].get<double>()
+          << "\n";
+  }
+  const CliResult fit = run("fit " + dir_ + "/start.json --spectrum " + dir_ + "/spectrum.csv --spectrum-column R "
+                            "--param layers[0].chromophores.melanin=0:0.45 --quadrature-points 8");
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  const nlohmann::json j = nlohmann::json::parse(fit.out);
+  EXPECT_NEAR(j["parameters"]["layers[0].chromophores.melanin"].get<double>(), 0.15, 2e-3);
+  EXPECT_LT(j["rmse"].get<double>(), 1e-3);
+  EXPECT_EQ(j["column"], "R");
+  EXPECT_EQ(j["measured"].size(), 11u);
+  EXPECT_EQ(j["modelled"].size(), 11u);
+  EXPECT_EQ(j["measured_rec709"].size(), 3u);
+}
+
+TEST_F(CliSpectral, FitErrorsAreOneLine) {
+  std::ofstream(dir_ + "/bad.csv") << "nm,R\n400,0.2\n390,0.3\n";
+  const std::string fit = "fit " + dir_ + "/start.json --spectrum ";
+  expect_one_line_error(fit + dir_ + "/bad.csv --param layers[0].chromophores.melanin=0:1 --data x.csv", 2,
+                        "--data: not with --spectrum");
+  expect_one_line_error("fit " + dir_ + "/start.json --spectrum-column R --data x.csv --param layers[0].sigma_a=0:1", 2,
+                        "--spectrum-column and --spectrum-theta-i need --spectrum");
+  expect_one_line_error(fit + dir_ + "/bad.csv --param layers[0].chromophores.melanin=0:1", 1,
+                        "bad.csv: line 3: wavelengths must increase");
+  expect_one_line_error(fit + dir_ + "/bad.csv --spectrum-column Q --param layers[0].chromophores.melanin=0:1", 1,
+                        "bad.csv: line 1: no column 'Q'");
+  expect_one_line_error(fit + dir_ + "/missing.csv --param layers[0].chromophores.melanin=0:1", 1, "missing.csv: cannot open");
+  std::ofstream(dir_ + "/good.csv") << "nm,R\n400,0.2\n500,0.3\n";
+  expect_one_line_error(fit + dir_ + "/good.csv --param layers[0].sigma_a=0:1", 1,
+                        "layers[0].sigma_a: expected layers[i].chromophores.KEY");
+}
+
+}  // namespace
