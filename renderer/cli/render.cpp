@@ -347,8 +347,9 @@ int run_render(int argc, char** argv) {
     if (out_path.empty()) out_path = std::filesystem::path(scene_path).stem().string() + ".exr";
     const std::vector<cli::OutputPath> output_paths = {{"--out", out_path}, {"--png", png_path}};
     cli::check_output_paths(output_paths);
-    check_out_extension(out_path);
+    // An output that is an input is the graver mistake: said before the extension.
     cli::check_outputs_not_inputs(output_paths, {{"the scene", scene_path}, {"--materials", materials_path}, {"--env", env_value}});
+    check_out_extension(out_path);
     if (!cache_dir.empty()) {
       try {
         WalkCache check(cache_dir);  // created and writable, or a usage error now

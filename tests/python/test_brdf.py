@@ -66,14 +66,14 @@ def test_progress_callback_reaches_the_total(source):
     assert all(a[0] <= b[0] for a, b in zip(calls, calls[1:]))
 
 
-def test_rough_top_with_adding_doubling_raises_the_clis_message(cli, source, tmp_path):
+def test_rough_top_with_first_order_raises_the_clis_message(cli, source, tmp_path):
     d = json.loads((source / "scenes/materials/skin.json").read_text())  # does not transmit
     d["roughness"] = 0.3
     path = tmp_path / "rough.json"
     path.write_text(json.dumps(d))
-    p = cli("brdf", path, "--theta-i", "0", "--method", "adding-doubling", check=False)
+    p = cli("brdf", path, "--theta-i", "0", "--method", "first-order", check=False)
     with pytest.raises(RuntimeError) as e:
-        lamina.brdf(path, 0, method="adding-doubling")
+        lamina.brdf(path, 0, method="first-order")
     assert "lamina brdf: " + str(e.value) == p.stderr.strip().splitlines()[-1]
 
 

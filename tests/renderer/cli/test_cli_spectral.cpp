@@ -97,7 +97,7 @@ TEST_F(CliSpectral, BrdfErrorsAreOneLine) {
   expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling", 1,
                         "layers[0].chromophores: a layer given by chromophores has spectral coefficients");
   expect_one_line_error("brdf " + dir_ + "/missing.json --theta-i 8 --method adding-doubling --wavelengths 400:700:10", 1,
-                        "cannot open material file");
+                        "cannot read the material file: does not exist");
 }
 
 TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {
