@@ -2,7 +2,7 @@
 """The face benchmark: time to a clean image, and the bias of the fast modes, on the showcase.
 
     bench/face.py [--lamina build/renderer/lamina] [--out out/face] [--scenes head_skin,leaves_back]
-                  [--methods walk,auto] [--tolerance 0.01] [--ref-spp 1024] [--quick]
+                  [--methods walk,auto] [--tolerance 0.01] [--ref-spp 1024] [--scale 1] [--quick]
 
 For each scene it renders a long walk reference once (kept in OUT/, its file name carries its
 settings) and then each method at 1, 2, 4, ... spp until its relative RMSE over the subject (a crop
@@ -108,6 +108,7 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=1024)
     ap.add_argument("--max-spp", type=int, default=512)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--scale", type=float, default=1.0, help="image size as a fraction of 480x600 (head) and 320x240 (leaves)")
     ap.add_argument("--quick", action="store_true", help="pipeline check: 1/8 size, reference 16 spp, max 4 spp")
     args = ap.parse_args()
     args.lamina = os.path.abspath(args.lamina)
@@ -122,11 +123,11 @@ def main():
         if m not in ("walk", "auto"):
             fail(f"unknown method {m!r} (known: walk, auto)")
     if args.quick:
-        args.ref_spp, args.max_spp = 16, 4
+        args.ref_spp, args.max_spp, args.scale = 16, 4, 0.125
     os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
     results = []
     for scene in scenes:
-        size = SIZES[scene] if not args.quick else tuple(max(8, v // 8) for v in SIZES[scene])
+        size = tuple(max(8, round(v * args.scale)) for v in SIZES[scene])
         crop = crop_arguments(scene, size)
         ref = os.path.join(args.out, f"ref-{scene}-{size[0]}x{size[1]}-{args.ref_spp}spp.exr")
         if not os.path.exists(ref):

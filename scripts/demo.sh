@@ -75,9 +75,10 @@ mv out/head_skin_walk_1.exr out/head_skin.exr
 oiiotool out/head_skin_walk_1.png --text:x=12:y=30:size=18:color=1,1,1:font=/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf \
   "walk, $SPP_TAKEN spp in $HEAD_SECONDS s: noise $NOISE %" -o out/head_skin.png
 rm -f out/head_skin_walk_1.png out/head_skin_walk_2.exr out/head_skin_walk_2.png
-# Leaves lit from the front and from behind, then side by side.
+# Leaves lit from the front and from behind, then side by side: leaf_rough.json, rough cuticles on
+# both faces (energy-conserving rough interfaces, alpha 0.3).
 for side in front back; do
-  "$LAMINA" render scenes/leaves/leaves_$side.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
+  "$LAMINA" render scenes/leaves/leaves_${side}_rough.gltf -o out/leaves_$side.exr --png out/leaves_$side.png \
     --width 320 --height 240 --spp "$LEAF_SPP" --aovs albedo,normal
   "$LAMINA" denoise out/leaves_$side.exr -o out/leaves_${side}_denoised.exr --png out/leaves_${side}_denoised.png
 done

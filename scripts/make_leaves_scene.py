@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes scenes/leaves/: a fan of five procedural leaves with the layered leaf preset, twice:
 leaves_front.gltf (a point light on the camera's side) and leaves_back.gltf (the same light
-behind the leaves), sharing leaves.bin and leaf_pigment.png.
+behind the leaves), sharing leaves.bin and leaf_pigment.png; and leaves_{front,back}_rough.gltf,
+the same with leaf_rough.json (rough cuticles on both faces, the energy-conserving model).
 
 The leaves are made here (no alpha-masked cards: the renderer has no alpha masking): each is a
 triangle strip along its midrib, half-width w(x) = 0.22 sin(pi x)^0.7 for x in [0, 1] (a pointed
@@ -113,7 +114,7 @@ def main():
     mins = [min(p[k] for p in pos) for k in range(3)]
     maxs = [max(p[k] for p in pos) for k in range(3)]
 
-    def scene(light_pos, name):
+    def scene(light_pos, name, stack='leaf.json'):
         j = {
             'asset': {'version': '2.0', 'generator': 'scripts/make_leaves_scene.py'},
             'extensionsUsed': ['KHR_lights_punctual'],
@@ -132,7 +133,7 @@ def main():
                 'name': 'leaf', 'doubleSided': True,
                 'pbrMetallicRoughness': {'baseColorFactor': [0.08, 0.25, 0.05, 1.0], 'metallicFactor': 0.0},
                 'extras': {'lamina': {
-                    'stack': '../materials/leaf.json',
+                    'stack': '../materials/' + stack,
                     'bind': [{'parameter': 'layers[1].components[0].fraction', 'texture': 'leaf_pigment.png',
                               'channel': 'r', 'range': [0.18, 0.30]}]}}}],
             'meshes': [{'name': 'leaf', 'primitives': [{'attributes': {'POSITION': 0, 'NORMAL': 1, 'TEXCOORD_0': 2},
@@ -165,6 +166,8 @@ def main():
     # Front: the light beside the camera. Back: the same light mirrored behind the leaves.
     scene([0.8, 0.9, 2.5], 'leaves_front')
     scene([0.4, 0.6, -2.5], 'leaves_back')
+    scene([0.8, 0.9, 2.5], 'leaves_front_rough', 'leaf_rough.json')
+    scene([0.4, 0.6, -2.5], 'leaves_back_rough', 'leaf_rough.json')
 
 
 if __name__ == '__main__':
