@@ -68,7 +68,7 @@ done
 "$LAMINA" compare out/head_skin_walk_1.exr out/head_skin_walk_2.exr --json out/head_skin_noise.json > /dev/null
 NOISE=$(python3 -c "import json, math; j = json.load(open('out/head_skin_noise.json'))
 print(f\"{100 * j['rmse'] / math.sqrt(2) / (j['guard_floor'] / j['guard_epsilon']):.1f}\")")
-SPP_TAKEN=$(oiiotool --info -v out/head_skin_walk_1.exr | sed -n 's/.*lamina:mean_spp: "\(.*\)"/\1/p')
+SPP_TAKEN=$(printf '%.0f' "$(oiiotool --info -v out/head_skin_walk_1.exr | sed -n 's/.*lamina:mean_spp: "\(.*\)"/\1/p')")
 echo "demo: the walk's head: $SPP_TAKEN spp in $HEAD_SECONDS s, relative noise (RMSE / mean) $NOISE %"
 mv out/head_skin_walk_1.exr out/head_skin.exr
 "$LAMINA" denoise out/head_skin.exr -o out/head_skin_denoised.exr --png out/head_skin_denoised.png
