@@ -3,6 +3,7 @@
 // and the Monte Carlo walk's totals (within 3 of its standard errors) on stacks the published
 // cases do not cover (oblique incidence, several layers and indices, Lambert, composite lobes).
 #include "materials/adding_doubling/adding_doubling.h"
+#include "tests/materials/adding_doubling/walk_and_solver.h"
 
 #include <chrono>
 #include <cmath>
@@ -188,13 +189,9 @@ TEST(AddingDoubling, ConvergesInQuadratureOrder) {
 // two-sided 1.6e-5 each); a bias of the walk of a few per cent still fails it.
 constexpr double kWalkZ = 4.3;
 void expect_matches_walk(const LayerStack& s, double theta_deg, std::uint64_t samples) {
-  BrdfOptions o;
-  o.theta_i_deg = theta_deg;
-  o.samples = samples;
-  o.bins_theta = 1;
-  o.bins_phi = 1;
-  const BrdfTable mc = brdf_table_monte_carlo(s, o);
-  const AddingDoublingEstimate ad = adding_doubling_with_error(s, std::cos(theta_deg * 3.14159265358979323846 / 180.0));
+  const test::WalkAndSolver both = test::walk_and_solver(s, theta_deg, samples);
+  const BrdfTable& mc = both.walk;
+  const AddingDoublingEstimate& ad = both.solver;
   for (int c = 0; c < kChannels; ++c) {
     const EnergyTotals& m = mc.totals;
     const double unresolved = m.unresolved.value[c];

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "materials/adding_doubling/adding_doubling.h"
+#include "tests/materials/adding_doubling/walk_and_solver.h"
 #include "materials/adding_doubling/interface_fourier.h"
 #include "materials/analytic/first_order.h"  // gauss_legendre
 #include "materials/brdf/brdf_table.h"
@@ -114,13 +115,9 @@ TEST(RoughInterfaceProjection, ColumnSumsAreTheInterfaceAlbedo) {
 // x 3 totals plus the glossy part).
 constexpr double kWalkZ = 4.3;
 void expect_rough_totals_match_walk(const LayerStack& s, double theta_deg, std::uint64_t samples) {
-  BrdfOptions o;
-  o.theta_i_deg = theta_deg;
-  o.samples = samples;
-  o.bins_theta = 1;
-  o.bins_phi = 1;
-  const BrdfTable mc = brdf_table_monte_carlo(s, o);
-  const AddingDoublingEstimate ad = adding_doubling_with_error(s, std::cos(theta_deg * kPiD / 180.0));
+  const test::WalkAndSolver both = test::walk_and_solver(s, theta_deg, samples);
+  const BrdfTable& mc = both.walk;
+  const AddingDoublingEstimate& ad = both.solver;
   const EnergyTotals& m = mc.totals;
   for (int c = 0; c < kChannels; ++c) {
     const double unresolved = m.unresolved.value[c];
