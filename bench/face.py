@@ -35,6 +35,8 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from tradeoff import time_to  # noqa: E402 (the speed-accuracy report's log-log interpolation)
 
 # name -> (glTF, extra render arguments, crop as fractions x, y, w, h of the image)
 SCENES = {
@@ -84,18 +86,6 @@ def compare(args, ref, test, crop, smooth=None):
 def image_mean(j):
     """The mean of the reference image over the crop: compare's guard floor is epsilon * mean(REF)."""
     return j["guard_floor"] / j["guard_epsilon"]
-
-
-def time_to(rows, target):
-    """Seconds at which relative RMSE first reaches target, log-log between the runs around it."""
-    for a, b in zip([None] + rows[:-1], rows):
-        if b["rel_rmse"] <= target:
-            if a is None:
-                return b["seconds"]
-            la, lb = math.log(a["rel_rmse"]), math.log(b["rel_rmse"])
-            t = (math.log(target) - la) / (lb - la) if lb != la else 1.0
-            return math.exp(math.log(a["seconds"]) + t * (math.log(b["seconds"]) - math.log(a["seconds"])))
-    return None
 
 
 def main():
@@ -160,7 +150,7 @@ def main():
                     break
                 spp *= 2
             smooth = compare(args, ref, exr, crop, smooth=1)
-            t = time_to(rows, args.target)
+            t, _ = time_to([dict(rmse=r["rel_rmse"], seconds=r["seconds"]) for r in rows], args.target)
             results.append(dict(scene=scene, method=method, spp=rows[-1]["spp"], seconds=rows[-1]["seconds"],
                                 rel_rmse=rows[-1]["rel_rmse"], seconds_to_target=t,
                                 mean_bias=rows[-1]["mean_bias"], smoothed_pixel_bias=smooth["rms_relative"]))

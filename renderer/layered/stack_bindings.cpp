@@ -192,28 +192,27 @@ double Freckles::value(glm::dvec2 uv) const {
   return sum;
 }
 
-double StackBindings::Source::sample(glm::dvec2 uv, int c) const {
+template <class Get>
+double StackBindings::Source::driving_value(Get get, int c) const {
   double t;
   if (channel == kLuminance)
-    t = 0.2126 * map->lookup(uv, 0) + 0.7152 * map->lookup(uv, std::min(1, map->channels - 1)) +
-        0.0722 * map->lookup(uv, std::min(2, map->channels - 1));
+    t = 0.2126 * get(0) + 0.7152 * get(std::min(1, map->channels - 1)) + 0.0722 * get(std::min(2, map->channels - 1));
   else if (channel == kRgb)
-    t = map->lookup(uv, std::min(c, map->channels - 1));
+    t = get(std::min(c, map->channels - 1));
   else
-    t = map->lookup(uv, channel);
+    t = get(channel);
   return std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
+}
+
+double StackBindings::Source::sample(glm::dvec2 uv, int c) const {
+  return driving_value([&](int k) { return map->lookup(uv, k); }, c);
 }
 
 std::vector<double> StackBindings::Source::texel_values(int c) const {
   const std::size_t n = static_cast<std::size_t>(map->width) * map->height;
   std::vector<double> t(n);
-  auto at = [&](std::size_t p, int ch) { return static_cast<double>(map->values[p * map->channels + std::min(ch, map->channels - 1)]); };
-  for (std::size_t p = 0; p < n; ++p) {
-    double v;
-    if (channel == kLuminance) v = 0.2126 * at(p, 0) + 0.7152 * at(p, 1) + 0.0722 * at(p, 2);
-    else v = at(p, channel == kRgb ? c : channel);
-    t[p] = std::isfinite(v) ? std::clamp(v, 0.0, 1.0) : 0.0;
-  }
+  for (std::size_t p = 0; p < n; ++p)
+    t[p] = driving_value([&](int k) { return static_cast<double>(map->values[p * map->channels + k]); }, c);
   return t;
 }
 

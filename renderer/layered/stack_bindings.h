@@ -36,6 +36,9 @@
 // parameter's physical range (stack_parameters.h).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -171,6 +174,11 @@ class StackBindings {
     bool srgb_encoded = false;  // a glTF texture decoded by the loader: re-encode
     double sample(glm::dvec2 uv, int c) const;  // the value driving colour channel c
     std::vector<double> texel_values(int c) const;  // sample's value at every texel's centre
+    // The value driving colour channel c from the map's channels as `get` reads them (a
+    // bilinear lookup, or one texel): the bound channel, luminance or the matching RGB channel,
+    // clamped to [0, 1] (0 if not finite).
+    template <class Get>
+    double driving_value(Get get, int c) const;  // defined in stack_bindings.cpp, its one user
   };
   struct Binding {
     Source source;
