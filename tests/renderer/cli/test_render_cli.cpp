@@ -427,9 +427,13 @@ TEST(RenderJobOutputs, AFailureAfterPreviewsRemovesThemAndSaysSo) {
   for (int i = 0; i < 3000 && !std::filesystem::exists(request.png_path); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   const bool previewed = std::filesystem::exists(request.png_path);
+  // A preview may land at the EXR's path between the remove and the create: try again until the
+  // path is a directory. Nothing here throws, so the thread is always joined.
   std::error_code ec;
-  std::filesystem::remove(request.out_path, ec);
-  std::filesystem::create_directory(request.out_path);
+  for (int i = 0; i < 1000 && !std::filesystem::is_directory(request.out_path, ec); ++i) {
+    std::filesystem::remove(request.out_path, ec);
+    std::filesystem::create_directory(request.out_path, ec);
+  }
   job.join();
   ASSERT_TRUE(previewed) << "no preview was written";
   EXPECT_NE(error.find("'" + request.out_path + "'"), std::string::npos) << error;
