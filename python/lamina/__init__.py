@@ -245,42 +245,50 @@ class BrdfResult:
         return self.totals[key]["value"]
 
 
-def brdf(stack: Union[Stack, Mapping[str, Any], PathLike], theta_i: float, *, phi_i: float = 0.0,
-         method: str = "monte-carlo", samples: int = 100000, seed: int = 1, bins_theta: int = 18,
-         bins_phi: int = 36, roulette_cap: int = 1000000, quadrature_points: int = 16, table: bool = True,
-         progress: Progress = None) -> BrdfResult:
+def brdf(stack: Union[Stack, Mapping[str, Any], PathLike], theta_i: float, *, table: bool = True,
+         progress: Progress = None, **options: Any) -> BrdfResult:
     """The BRDF/BTDF table and energy totals of a stack for light from (theta_i, phi_i) degrees,
     as ``lamina brdf STACK --theta-i THETA_I --method METHOD --samples N --seed S --out T.csv``.
-    method: "monte-carlo" (all orders, with standard errors), "adding-doubling" (deterministic,
-    with a discretisation error) or "first-order" (single scattering). progress: None (a bar on a
-    terminal, nothing in a notebook), True, False or a callable(done, total)."""
+    The options are those of ``lamina brdf`` by keyword (the flag without dashes, ``-`` as
+    ``_``), with its defaults and ranges: one table declares both (renderer/batch/brdf_job.h).
+    table: adding-doubling's bins too (the other methods always have them). progress: None (a
+    bar on a terminal, nothing in a notebook), True, False or a callable(done, total)."""
     s = _stack(stack)
-    theta = _number(theta_i, "theta_i", 0.0, 90.0, hi_open=True)
-    phi = _number(phi_i, "phi_i")
-    if method not in ("monte-carlo", "adding-doubling", "first-order"):
-        raise ValueError(f"method: expected first-order, monte-carlo or adding-doubling (got {method!r})")
-    n = _integer(samples, "samples", 2, 10**12)
-    sd = _integer(seed, "seed", 0, 2**64 - 1)
-    kt = _integer(bins_theta, "bins_theta", 1, 10000)
-    kp = _integer(bins_phi, "bins_phi", 1, 10000)
-    if kt * kp > 1000000:
-        raise ValueError("bins_theta x bins_phi must be at most 1000000")
-    cap = _integer(roulette_cap, "roulette_cap", 1000, 2000000000)
-    q = _integer(quadrature_points, "quadrature_points", 4, 128)
-    with_table = bool(table) if method == "adding-doubling" else True
-    d = _run(lambda state: _lamina.brdf(s._native, theta, phi, method, n, sd, kt, kp, cap, q, with_table, state),
-             progress, "brdf")
+    # numpy scalars as Python numbers; the module checks types and ranges against the table.
+    given = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in {"theta_i": theta_i, **options}.items()}
+    d = _run(lambda state: _lamina.brdf(s._native, given, bool(table), state), progress, "brdf")
+    used = d["options"]
     totals = {k: {kk: np.asarray(vv) for kk, vv in v.items()} for k, v in d["totals"].items()}
-    r = BrdfResult(method=method, theta_i=theta, phi_i=phi, totals=totals, notes=list(d["notes"]))
+    r = BrdfResult(method=used["method"], theta_i=used["theta_i"], phi_i=used["phi_i"], totals=totals,
+                   notes=list(d["notes"]))
     for key in ("value", "stderr", "single", "multiple", "theta_o_deg", "phi_o_deg", "projected_solid_angle"):
         if key in d:
             setattr(r, key, d[key])
     for key in ("walk_ends", "unresolved_walks", "R_forward_peak", "T_forward_peak"):
         if key in d:
             r.extra[key] = d[key]
-    if method == "monte-carlo":
-        r.extra.update(samples=n, seed=sd)
+    if r.method == "monte-carlo":
+        r.extra.update(samples=used["samples"], seed=used["seed"])
     return r
+
+
+def _brdf_signature() -> None:
+    """brdf's signature and the list of its options in its docstring, from the module's table."""
+    import inspect
+    rows = _lamina.brdf_options()
+    kw = inspect.Parameter.KEYWORD_ONLY
+    params = [inspect.Parameter("stack", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation="Union[Stack, Mapping[str, Any], PathLike]"),
+              inspect.Parameter("theta_i", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=float)]
+    params += [inspect.Parameter(name, kw, default=default, annotation=type(default))
+               for name, default, _, required in rows if not required]
+    params += [inspect.Parameter("table", kw, default=True, annotation=bool),
+               inspect.Parameter("progress", kw, default=None, annotation="Progress")]
+    brdf.__signature__ = inspect.Signature(params, return_annotation="BrdfResult")  # type: ignore[attr-defined]
+    brdf.__doc__ = (brdf.__doc__ or "") + "\n\n    Options: " + "; ".join(
+        f"``{name}`` ({help})" for name, _, help, _ in rows) + "."
+
+
+_brdf_signature()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -434,15 +442,18 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
            subsurface: str = "random-walk", tolerance: Optional[float] = None, camera: str = "",
            materials: Union[None, PathLike, Mapping[str, Union[Stack, PathLike]]] = None, env: Union[str, float] = "",
            max_depth: int = 64, aovs: Union[str, Sequence[str]] = "none", cache: Optional[PathLike] = None,
-           table_method: str = "adding-doubling", noise_threshold: float = 0.0, pilot_spp: int = 16,
+           table_method: Optional[str] = None, noise_threshold: float = 0.0, pilot_spp: Optional[int] = None,
            clamp: float = 0.0, time_limit: float = 0.0, crop: Optional[Sequence[int]] = None,
            walk: Optional[Mapping[str, Any]] = None, out: Optional[PathLike] = None, png: Optional[PathLike] = None,
-           exposure: float = 0.0, tone_curve: str = "filmic", progress: Progress = None) -> Image:
+           exposure: Optional[float] = None, tone_curve: Optional[str] = None, progress: Progress = None) -> Image:
     """Renders a glTF scene, as ``lamina render SCENE --width W --height H --spp N --seed S ...``:
     the same image bit for bit. materials: a material map file, or {glTF material name: Stack or
     path}. aovs: "albedo,normal" or a list. walk: the walk's options by flag without dashes,
-    e.g. {"guiding": "on"}. out/png: also written (all or none, as the CLI). Ctrl-C stops the
-    render and raises KeyboardInterrupt; nothing is written."""
+    e.g. {"guiding": "on"}. out/png: also written (all or none, as the CLI). An option left at
+    None takes the command line's default; one given where it would not act (exposure without
+    png, walk options with a mode that runs no walk, ...) raises ValueError with the command
+    line's message. Ctrl-C stops the render within a path and raises KeyboardInterrupt; nothing
+    is written."""
     s = _path(scene, "scene")
     w = _integer(width, "width", 1, 16384)
     h = _integer(height, "height", 1, 16384)
@@ -454,11 +465,15 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     depth = _integer(max_depth, "max_depth", 0, 100000)
     tol = 0.0 if tolerance is None else _number(tolerance, "tolerance", 0.0, 1.0)
     nt = _number(noise_threshold, "noise_threshold", 0.0, 1.0, hi_open=True)
-    ps = _integer(pilot_spp, "pilot_spp", 1, 1 << 20)
+    ps = 16 if pilot_spp is None else _integer(pilot_spp, "pilot_spp", 1, 1 << 20)
     cl = _number(clamp, "clamp", 0.0, 1e30)
     tl = _number(time_limit, "time_limit", 0.0, 1e9)
-    ex = _number(exposure, "exposure", -20.0, 20.0)
+    ex = 0.0 if exposure is None else _number(exposure, "exposure", -20.0, 20.0)
     region = [] if crop is None else [_integer(v, "crop", 0, 16384) for v in crop]
+    # The options set, by their command-line flags: the library refuses those that would not act.
+    given = [flag for flag, value in (("--tolerance", tolerance), ("--pilot-spp", pilot_spp), ("--crop", crop),
+                                      ("--exposure", exposure), ("--tone-curve", tone_curve),
+                                      ("--table-method", table_method)) if value is not None]
     aov_list = aovs if isinstance(aovs, str) else ",".join(aovs)
     env_text = env if isinstance(env, str) else repr(_number(env, "env", 0.0))
     map_path, inline = "", []
@@ -469,6 +484,7 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     elif materials is not None:
         map_path = _path(materials, "materials")
     walk_options = [("--" + k.replace("_", "-"), str(v)) for k, v in (walk or {}).items()]
+    given += [flag for flag, _ in walk_options]
     out_path = "" if out is None else _path(out, "out")
     png_path = "" if png is None else _path(png, "png")
     if png_path and not out_path:
@@ -477,8 +493,9 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
                f"{', materials=...' if materials else ''})")
     cache_dir = "" if cache is None else _path(cache, "cache")
     d = _run(lambda state: _lamina.render(s, out_path, png_path, w, h, n, sd, th, subsurface, tol, camera, map_path,
-                                           env_text, depth, aov_list, cache_dir, table_method, nt, ps, cl,
-                                           tl, region, ex, tone_curve, walk_options, inline, command, state),
+                                           env_text, depth, aov_list, cache_dir, table_method or "adding-doubling",
+                                           nt, ps, cl, tl, region, ex, tone_curve or "filmic", walk_options, inline,
+                                           command, given, state),
              progress, "render")
     for line in d["warnings"]:
         import warnings

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -24,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "materials/fit/stack_fit.h"
+#include "materials/stack/decimal.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/batch/brdf_job.h"
 #include "renderer/image/denoise.h"
@@ -171,24 +173,94 @@ nb::dict brdf_totals(BrdfMethod method, const BrdfResult& r, nb::dict& d) {
   return totals;
 }
 
-nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::string& method, std::uint64_t samples,
-              std::uint64_t seed, int bins_theta, int bins_phi, int roulette_cap, int quadrature_points, bool table,
-              JobState* state) {
+// A bound of a range as the command line's messages write it: integers in full, others in %g.
+std::string bound_text(double v) {
+  if (v == std::floor(v) && std::abs(v) < 1e15) return std::to_string(static_cast<long long>(v));
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// One keyword argument of lamina.brdf, checked against its row of kBrdfOptionTable
+// (renderer/batch/brdf_job.h) as the command line's validators check the flag: TypeError for a
+// wrong type, ValueError in the command line's words for a value out of range.
+void set_brdf_option(const BrdfOptionSpec& spec, const std::string& key, nb::handle value, BrdfRequest* request) {
+  using Kind = BrdfOptionSpec::Kind;
+  const std::string type = nb::cast<std::string>(nb::handle(value.type()).attr("__name__"));
+  const bool is_int = nb::isinstance<nb::int_>(value) && !nb::isinstance<nb::bool_>(value);
+  if (spec.kind == Kind::Method) {
+    if (!nb::isinstance<nb::str>(value)) throw nb::type_error((key + ": expected a str, got " + type).c_str());
+    const std::string name = nb::cast<std::string>(value);
+    if (!parse_brdf_method(name, &request->method))
+      throw std::invalid_argument(key + ": expected first-order, monte-carlo or adding-doubling (got '" + name + "')");
+  } else if (spec.kind == Kind::Real) {
+    if (!is_int && !nb::isinstance<nb::float_>(value)) throw nb::type_error((key + ": expected a number, got " + type).c_str());
+    const double v = nb::cast<double>(value);
+    const bool inside = (spec.lo_open ? v > spec.lo : v >= spec.lo) && (spec.hi_open ? v < spec.hi : v <= spec.hi);
+    if (!std::isfinite(v) || !inside) {
+      const bool bounded = std::isfinite(spec.lo) || std::isfinite(spec.hi);
+      throw std::invalid_argument(key + ": must be a finite number" +
+                                  (bounded ? std::string(" in ") + (spec.lo_open ? "(" : "[") + bound_text(spec.lo) + ", " +
+                                                 bound_text(spec.hi) + (spec.hi_open ? ")" : "]")
+                                           : std::string()) +
+                                  " (got " + nb::cast<std::string>(nb::repr(value)) + ")");
+    }
+    *spec.real(request) = v;
+  } else {
+    if (!is_int) throw nb::type_error((key + ": expected an integer, got " + type).c_str());
+    // Read from its decimal text by the command line's parsers (materials/stack/decimal.h).
+    const std::string text = nb::cast<std::string>(nb::str(value));
+    const bool seed = spec.kind == Kind::Seed;
+    std::uint64_t u = 0;
+    long long v = 0;
+    const bool inside = seed ? parse_u64(text, &u).empty() : parse_integer(text, &v).empty() && v >= spec.lo && v <= spec.hi;
+    if (!inside)
+      throw std::invalid_argument(key + ": must be an integer " +
+                                  (seed ? std::string("from 0 to 18446744073709551615")
+                                        : "between " + bound_text(spec.lo) + " and " + bound_text(spec.hi)) +
+                                  " (got " + text + ")");
+    if (spec.kind == Kind::Integer) *spec.integer(request) = static_cast<int>(v);
+    else *spec.count(request) = seed ? u : static_cast<std::uint64_t>(v);
+  }
+}
+
+// The rows of kBrdfOptionTable as Python sees them: (keyword, default, help, required).
+nb::list brdf_option_table() {
+  nb::list rows;
+  const BrdfRequest defaults;
+  for (const BrdfOptionSpec& spec : kBrdfOptionTable) {
+    BrdfRequest r = defaults;
+    nb::object value;
+    switch (spec.kind) {
+      case BrdfOptionSpec::Kind::Real: value = nb::float_(*spec.real(&r)); break;
+      case BrdfOptionSpec::Kind::Integer: value = nb::int_(*spec.integer(&r)); break;
+      case BrdfOptionSpec::Kind::Count:
+      case BrdfOptionSpec::Kind::Seed: value = nb::int_(*spec.count(&r)); break;
+      case BrdfOptionSpec::Kind::Method: value = nb::str(brdf_method_name(r.method)); break;
+    }
+    rows.append(nb::make_tuple(brdf_option_keyword(spec), value, spec.help, spec.required));
+  }
+  return rows;
+}
+
+nb::dict brdf(const PyStack& stack, nb::dict options, bool table, JobState* state) {
   BrdfRequest request;
-  if (!parse_brdf_method(method, &request.method))
-    throw std::invalid_argument("method: expected first-order, monte-carlo or adding-doubling (got '" + method + "')");
+  for (auto [key, value] : options) {
+    const std::string k = nb::cast<std::string>(key);
+    const BrdfOptionSpec* spec = nullptr;
+    for (const BrdfOptionSpec& row : kBrdfOptionTable)
+      if (brdf_option_keyword(row) == k) spec = &row;
+    if (!spec) throw nb::type_error(("brdf() got an unexpected keyword argument '" + k + "'").c_str());
+    set_brdf_option(*spec, k, value, &request);
+  }
+  for (const BrdfOptionSpec& row : kBrdfOptionTable)
+    if (row.required && !options.contains(brdf_option_keyword(row).c_str()))
+      throw nb::type_error(("brdf() missing the argument '" + brdf_option_keyword(row) + "'").c_str());
+  check_brdf_request(request);  // the command line's message, as a ValueError
+  request.table = request.method == BrdfMethod::AddingDoubling ? table : true;
   BrdfOptions& o = request.options;
-  o.theta_i_deg = theta_i;
-  o.phi_i_deg = phi_i;
-  o.samples = samples;
-  o.seed = seed;
-  o.bins_theta = bins_theta;
-  o.bins_phi = bins_phi;
-  o.walk.forced_exponential_after = roulette_cap;
-  request.quadrature_points = quadrature_points;
-  request.table = table;
   if (state) {
-    state->total = request.method == BrdfMethod::MonteCarlo ? samples : 0;
+    state->total = request.method == BrdfMethod::MonteCarlo ? o.samples : 0;
     o.on_progress = [state](std::uint64_t n) { state->advance(n); };
   }
   BrdfResult r;
@@ -197,6 +269,14 @@ nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::str
     r = compute_brdf(stack.stack, stack.source, request);
   }
   nb::dict d;
+  nb::dict used;  // every option's value as computed, by keyword
+  for (const BrdfOptionSpec& row : kBrdfOptionTable) {
+    const std::string text = brdf_option_text(row, request);
+    if (row.kind == BrdfOptionSpec::Kind::Real) used[brdf_option_keyword(row).c_str()] = std::stod(text);
+    else if (row.kind == BrdfOptionSpec::Kind::Method) used[brdf_option_keyword(row).c_str()] = text;
+    else used[brdf_option_keyword(row).c_str()] = nb::int_(nb::str(text.c_str()));
+  }
+  d["options"] = used;
   d["method"] = brdf_method_name(request.method);
   d["notes"] = r.notes;
   d["totals"] = brdf_totals(request.method, r, d);
@@ -207,6 +287,7 @@ nb::dict brdf(const PyStack& stack, double theta_i, double phi_i, const std::str
     d["single"] = bins(t, t.single);
     d["multiple"] = bins(t, t.multiple);
     std::vector<double> theta, phi, psa;
+    const int bins_theta = o.bins_theta, bins_phi = o.bins_phi;
     for (int k = 0; k < bins_theta; ++k) {
       theta.push_back(t.theta_centre_deg(k));
       psa.push_back(t.projected_solid_angle(k));
@@ -323,7 +404,6 @@ void set_render_choices(const std::string& subsurface, double tolerance, const s
   if (!parse_subsurface_choice(subsurface, &choice))
     throw std::invalid_argument("subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
   choice.tolerance = choice.automatic ? tolerance : 0.0;
-  if (choice.automatic && !(tolerance > 0.0)) throw std::invalid_argument("subsurface auto needs tolerance E (e.g. 0.05)");
   request->subsurface = choice;
   if (table_method != "adding-doubling" && table_method != "walk")
     throw std::invalid_argument("table_method '" + table_method + "': expected adding-doubling or walk");
@@ -362,7 +442,7 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
                 double clamp, double time_limit, const std::vector<int>& crop, double exposure,
                 const std::string& tone_curve, const std::vector<std::pair<std::string, std::string>>& walk_options,
                 const std::vector<std::tuple<std::string, std::string, std::string>>& inline_stacks,
-                const std::string& command_line, JobState* state) {
+                const std::string& command_line, const std::vector<std::string>& given, JobState* state) {
   RenderRequest request;
   RenderSettings& s = request.settings;
   s.width = width;
@@ -376,9 +456,7 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
   s.clamp = clamp;
   s.time_limit = time_limit;
   if (!crop.empty()) {
-    if (crop.size() != 4 || !(crop[0] >= 0 && crop[1] >= 0 && crop[0] < crop[2] && crop[1] < crop[3] && crop[2] <= width &&
-                              crop[3] <= height))
-      throw std::invalid_argument("crop: expected (X0, Y0, X1, Y1) with 0 <= X0 < X1 <= width and 0 <= Y0 < Y1 <= height");
+    if (crop.size() != 4) throw std::invalid_argument("crop: expected (X0, Y0, X1, Y1)");
     s.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
   }
   request.tone_map.exposure = exposure;
@@ -394,6 +472,7 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
   request.env = env;
   request.cache_dir = cache;
   request.command_line = command_line;
+  request.given = given;  // the combinations are checked by render_job (renderer/render/render_request_check.h)
   std::vector<std::string> info, warnings;
   std::mutex lines;
   RenderLog log;
@@ -405,10 +484,15 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
     state->done = done;
     if (state->cancel) throw Cancelled();
   };
+  request.cancel = state ? &state->cancel : nullptr;  // stops within a path (renderer/render/film.h)
   RenderResult r;
   {
     nb::gil_scoped_release release;
-    r = render_job(request, log);
+    try {
+      r = render_job(request, log);
+    } catch (const RenderCancelled&) {
+      throw Cancelled();
+    }
   }
   return render_result_dict(std::move(r), info, warnings);
 }
@@ -546,14 +630,16 @@ NB_MODULE(_lamina, m) {
       .def_ro("json", &PyStack::text, "the material file's text")
       .def_ro("source", &PyStack::source, "the file (or name) it came from; errors name it");
 
-  m.def("brdf", &brdf, "lamina brdf: totals and bins (renderer/batch/brdf_job.h).", "stack"_a, "theta_i"_a, "phi_i"_a, "method"_a, "samples"_a, "seed"_a, "bins_theta"_a,
-        "bins_phi"_a, "roulette_cap"_a, "quadrature_points"_a, "table"_a, "state"_a.none());
+  m.def("brdf", &brdf, "lamina brdf: totals and bins (renderer/batch/brdf_job.h); options by keyword, as brdf_options() lists them.",
+        "stack"_a, "options"_a, "table"_a, "state"_a.none());
+  m.def("brdf_options", &brdf_option_table,
+        "The options of lamina brdf (kBrdfOptionTable): (keyword, default, help, required) per row.");
   m.def("fit", &fit, "lamina fit with measurements (materials/fit/stack_fit.h).", "stack"_a, "data_text"_a, "data_source"_a, "params"_a, "quadrature_points"_a,
         "coarse_quadrature_points"_a);
   m.def("render", &render, "lamina render without its argument parsing (renderer/render/render_job.h).", "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
         "subsurface"_a, "tolerance"_a, "camera"_a, "materials"_a, "env"_a, "max_depth"_a, "aovs"_a, "cache"_a,
         "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "time_limit"_a, "crop"_a, "exposure"_a, "tone_curve"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
-        "state"_a.none());
+        "given"_a, "state"_a.none());
   m.def("write_exr", &write_exr_file, "A float EXR with extra channels and header, atomically.", "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
   m.def("read_exr", &read_exr_file, "Every channel of an EXR and its header.", "path"_a);
   m.def("read_image", &read_image_file, "An image file as linear RGB, and its number of colour channels.", "path"_a);

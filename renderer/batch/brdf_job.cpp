@@ -1,5 +1,7 @@
 #include "renderer/batch/brdf_job.h"
 
+#include <algorithm>
+#include <limits>
 #include <stdexcept>
 
 #include "renderer/util/string_format.h"
@@ -22,6 +24,89 @@ const char* brdf_method_name(BrdfMethod method) {
     case BrdfMethod::AddingDoubling: return "adding-doubling";
   }
   return "?";
+}
+
+std::vector<std::string> brdf_method_names() {
+  std::vector<std::string> names;
+  for (BrdfMethod m : {BrdfMethod::FirstOrder, BrdfMethod::MonteCarlo, BrdfMethod::AddingDoubling}) names.push_back(brdf_method_name(m));
+  return names;
+}
+
+namespace {
+
+BrdfOptionSpec real_option(const char* flag, const char* help, double* (*member)(BrdfRequest*), double lo, double hi,
+                           bool lo_open = false, bool hi_open = false) {
+  BrdfOptionSpec s{flag, help, BrdfOptionSpec::Kind::Real, lo, hi, lo_open, hi_open};
+  s.real = member;
+  return s;
+}
+BrdfOptionSpec integer_option(const char* flag, const char* help, int* (*member)(BrdfRequest*), double lo, double hi) {
+  BrdfOptionSpec s{flag, help, BrdfOptionSpec::Kind::Integer, lo, hi};
+  s.integer = member;
+  return s;
+}
+BrdfOptionSpec count_option(const char* flag, const char* help, BrdfOptionSpec::Kind kind,
+                            std::uint64_t* (*member)(BrdfRequest*), double lo = 0.0, double hi = 0.0) {
+  BrdfOptionSpec s{flag, help, kind, lo, hi};
+  s.count = member;
+  return s;
+}
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Limits of the counts: photons (a typo catcher, as lamina render's 1e12 paths) and bins.
+constexpr double kMaxSamples = 1e12, kMaxBins = 10000;
+
+}  // namespace
+
+const std::vector<BrdfOptionSpec> kBrdfOptionTable = [] {
+  std::vector<BrdfOptionSpec> t;
+  BrdfOptionSpec theta = real_option("--theta-i", "incidence angle from the normal, degrees, in [0, 90)",
+                                     [](BrdfRequest* r) { return &r->options.theta_i_deg; }, 0.0, 90.0, false, true);
+  theta.required = true;
+  t.push_back(theta);
+  t.push_back(real_option("--phi-i", "azimuth of the light, degrees (default 0)",
+                          [](BrdfRequest* r) { return &r->options.phi_i_deg; }, -kInf, kInf));
+  t.push_back(BrdfOptionSpec{"--method", "first-order | monte-carlo | adding-doubling (default monte-carlo)",
+                             BrdfOptionSpec::Kind::Method});
+  t.push_back(integer_option("--quadrature-points",
+                             "adding-doubling: Gauss nodes per cosine segment (default 16); the error estimate uses half",
+                             [](BrdfRequest* r) { return &r->quadrature_points; }, 4, 128));
+  t.push_back(count_option("--samples", "Monte Carlo photons (default 100000)", BrdfOptionSpec::Kind::Count,
+                           [](BrdfRequest* r) { return &r->options.samples; }, 2, kMaxSamples));
+  t.push_back(integer_option("--bins-theta", "K bins uniform in cos(theta_o) per hemisphere (default 18)",
+                             [](BrdfRequest* r) { return &r->options.bins_theta; }, 1, kMaxBins));
+  t.push_back(integer_option("--bins-phi", "M bins uniform in phi_o (default 36)",
+                             [](BrdfRequest* r) { return &r->options.bins_phi; }, 1, kMaxBins));
+  t.push_back(count_option("--seed", "random seed, 0 to 2^64-1 (default 1); results do not depend on threads",
+                           BrdfOptionSpec::Kind::Seed, [](BrdfRequest* r) { return &r->options.seed; }));
+  t.push_back(integer_option("--roulette-cap",
+                             "interactions after which a walk survives each further one with probability 0.99 (default "
+                             "1000000); raise it when 'unresolved' is not small against the errors",
+                             [](BrdfRequest* r) { return &r->options.walk.forced_exponential_after; }, 1000, 2000000000));
+  return t;
+}();
+
+std::string brdf_option_keyword(const BrdfOptionSpec& spec) {
+  std::string k = std::string(spec.flag).substr(2);
+  std::replace(k.begin(), k.end(), '-', '_');
+  return k;
+}
+
+std::string brdf_option_text(const BrdfOptionSpec& spec, const BrdfRequest& request) {
+  BrdfRequest r = request;
+  switch (spec.kind) {
+    case BrdfOptionSpec::Kind::Real: return string_printf("%.17g", *spec.real(&r));
+    case BrdfOptionSpec::Kind::Integer: return std::to_string(*spec.integer(&r));
+    case BrdfOptionSpec::Kind::Count:
+    case BrdfOptionSpec::Kind::Seed: return std::to_string(*spec.count(&r));
+    case BrdfOptionSpec::Kind::Method: return brdf_method_name(r.method);
+  }
+  return "";
+}
+
+void check_brdf_request(const BrdfRequest& request) {
+  if (static_cast<long long>(request.options.bins_theta) * request.options.bins_phi > kMaxBrdfBinsTotal)
+    throw std::invalid_argument("--bins-theta x --bins-phi must be at most " + std::to_string(kMaxBrdfBinsTotal));
 }
 
 namespace {
@@ -67,6 +152,7 @@ void check_brdf_method(const LayerStack& stack, const std::string& source, BrdfM
 }
 
 BrdfResult compute_brdf(const LayerStack& stack, const std::string& source, const BrdfRequest& request) {
+  check_brdf_request(request);
   check_brdf_method(stack, source, request.method);
   if (request.method == BrdfMethod::AddingDoubling) return adding_doubling(stack, request);
   BrdfOptions options = request.options;

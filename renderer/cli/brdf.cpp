@@ -53,9 +53,32 @@ using lamina::BrdfTable;
 using lamina::Estimate;
 using lamina::kChannels;
 
-// Limits of the counts: photons (a typo catcher, as lamina render's 1e12 paths) and bins.
-constexpr long long kMaxSamples = 1000000000000LL;
-constexpr long long kMaxBins = 10000, kMaxBinsTotal = 1000000;
+// The request's options, one CLI11 option per row of lamina::kBrdfOptionTable, bound to the
+// member it sets and checked by the command line's validators (renderer/cli/options.h) on the
+// row's range; --method into *method (its name).
+void add_request_options(CLI::App& app, lamina::BrdfRequest* request, std::string* method) {
+  namespace cli = lamina::cli;
+  using Kind = lamina::BrdfOptionSpec::Kind;
+  for (const lamina::BrdfOptionSpec& spec : lamina::kBrdfOptionTable) {
+    CLI::Option* o = nullptr;
+    switch (spec.kind) {
+      case Kind::Real:
+        o = app.add_option(spec.flag, *spec.real(request), spec.help)->check(cli::real(spec.lo, spec.hi, spec.lo_open, spec.hi_open));
+        break;
+      case Kind::Integer:
+        o = app.add_option(spec.flag, *spec.integer(request), spec.help)
+                ->check(cli::integer(static_cast<long long>(spec.lo), static_cast<long long>(spec.hi)));
+        break;
+      case Kind::Count:
+        o = app.add_option(spec.flag, *spec.count(request), spec.help)
+                ->check(cli::integer(static_cast<long long>(spec.lo), static_cast<long long>(spec.hi)));
+        break;
+      case Kind::Seed: o = app.add_option(spec.flag, *spec.count(request), spec.help)->check(cli::seed()); break;
+      case Kind::Method: o = app.add_option(spec.flag, *method, spec.help)->check(CLI::IsMember(lamina::brdf_method_names())); break;
+    }
+    if (spec.required) o->required();
+  }
+}
 
 // %.9g of a finite number; a non-finite one fails the command (docs/contracts.md, "Outputs").
 std::string format_number(double v) {
@@ -184,33 +207,11 @@ int run_brdf(int argc, char** argv) {
       "deterministic solution, all orders, with a discretisation error (the table costs one\n"
       "solution per azimuthal mode).",
       "lamina brdf"};
-  std::string stack_path, method = "monte-carlo", out_path, summary_path, wavelengths;
-  double theta_i = std::nan(""), phi_i = 0.0;
-  std::uint64_t samples = 100000, seed = 1;
-  int bins_theta = 18, bins_phi = 36;
-  int roulette_cap = lamina::WalkOptions{}.forced_exponential_after;
-  int quadrature_points = lamina::AddingDoublingSettings{}.quadrature_points;
+  std::string stack_path, method = lamina::brdf_method_name(lamina::BrdfRequest{}.method), out_path, summary_path, wavelengths;
+  lamina::BrdfRequest request;  // the table's options (renderer/batch/brdf_job.h) are parsed into it
   namespace cli = lamina::cli;
   app.add_option("STACK.json", stack_path, "material file (JSON, docs/contracts.md)")->required();
-  app.add_option("--theta-i", theta_i, "incidence angle from the normal, degrees, in [0, 90)")
-      ->required()
-      ->check(cli::real(0.0, 90.0, false, true));
-  app.add_option("--phi-i", phi_i, "azimuth of the light, degrees (default 0)")->check(cli::finite());
-  app.add_option("--method", method, "first-order | monte-carlo | adding-doubling (default monte-carlo)")
-      ->check(CLI::IsMember({"first-order", "monte-carlo", "adding-doubling"}));
-  app.add_option("--quadrature-points", quadrature_points,
-                 "adding-doubling: Gauss nodes per cosine segment (default 16); the error estimate uses half")
-      ->check(cli::integer(4, 128));
-  app.add_option("--samples", samples, "Monte Carlo photons (default 100000)")->check(cli::integer(2, kMaxSamples));
-  app.add_option("--bins-theta", bins_theta, "K bins uniform in cos(theta_o) per hemisphere (default 18)")
-      ->check(cli::integer(1, kMaxBins));
-  app.add_option("--bins-phi", bins_phi, "M bins uniform in phi_o (default 36)")->check(cli::integer(1, kMaxBins));
-  app.add_option("--seed", seed, "random seed, 0 to 2^64-1 (default 1); results do not depend on threads")
-      ->check(cli::seed());
-  app.add_option("--roulette-cap", roulette_cap,
-                 "interactions after which a walk survives each further one with probability 0.99 (default 1000000); "
-                 "raise it when 'unresolved' is not small against the errors")
-      ->check(cli::integer(1000, 2000000000));
+  add_request_options(app, &request, &method);
   app.add_option("--out", out_path, "write the table as CSV here");
   app.add_option("--summary", summary_path, "write the totals as JSON here (default: stdout)");
   std::string plot_path;
@@ -223,8 +224,12 @@ int run_brdf(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
-    if (static_cast<long long>(bins_theta) * bins_phi > kMaxBinsTotal)
-      throw cli::UsageError("--bins-theta x --bins-phi must be at most " + std::to_string(kMaxBinsTotal));
+    lamina::parse_brdf_method(method, &request.method);  // one of the three names (checked by CLI11)
+    try {
+      lamina::check_brdf_request(request);
+    } catch (const std::invalid_argument& e) {
+      throw cli::UsageError(e.what());
+    }
     if (!wavelengths.empty()) {
       cli::check_wavelengths(wavelengths);
       if (method != "adding-doubling" || !out_path.empty())
@@ -240,8 +245,10 @@ int run_brdf(int argc, char** argv) {
     return 2;
   }
 
+  BrdfOptions& options = request.options;
   if (!wavelengths.empty())
-    return cli::run_brdf_spectral({stack_path, summary_path, wavelengths, theta_i, phi_i, quadrature_points});
+    return cli::run_brdf_spectral(
+        {stack_path, summary_path, wavelengths, options.theta_i_deg, options.phi_i_deg, request.quadrature_points});
   try {
     if (method != "monte-carlo" && app.count("--samples") + app.count("--seed") > 0)
       std::fprintf(stderr, "lamina brdf: note: --samples and --seed are ignored by --method %s\n", method.c_str());
@@ -249,26 +256,15 @@ int run_brdf(int argc, char** argv) {
       std::fprintf(stderr, "lamina brdf: note: --quadrature-points is only used by --method adding-doubling\n");
 
     const lamina::LayerStack stack = lamina::load_stack_file(stack_path);
-    lamina::BrdfRequest request;
-    lamina::parse_brdf_method(method, &request.method);  // one of the three names (checked above)
     lamina::check_brdf_method(stack, stack_path, request.method);
     // Fail before a long computation if an output cannot be written.
     const std::vector<cli::OutputPath> output_paths = {{"--out", out_path}, {"--summary", summary_path}, {"--plot", plot_path}};
     cli::check_output_paths(output_paths);
     cli::check_outputs_not_inputs(output_paths, {{"the material file", stack_path}});
-    BrdfOptions& options = request.options;
-    options.theta_i_deg = theta_i;
-    options.phi_i_deg = phi_i;
-    options.samples = samples;
-    options.bins_theta = bins_theta;
-    options.bins_phi = bins_phi;
-    options.seed = seed;
-    options.walk.forced_exponential_after = roulette_cap;
-    request.quadrature_points = quadrature_points;
     request.table = !out_path.empty() || !plot_path.empty();
     std::optional<lamina::Progress> progress;
     if (request.method == lamina::BrdfMethod::MonteCarlo) {
-      progress.emplace("brdf", samples);
+      progress.emplace("brdf", options.samples);
       options.on_progress = [&](std::uint64_t n) { progress->advance(n); };
     }
     const lamina::BrdfResult result = lamina::compute_brdf(stack, stack_path, request);
@@ -277,7 +273,7 @@ int run_brdf(int argc, char** argv) {
     const BrdfTable& table = result.table;
     if (request.method == lamina::BrdfMethod::AddingDoubling) {
       const std::string csv = out_path.empty() ? "" : table_csv(table);
-      const std::string json = adding_doubling_json(result.adding_doubling, options, quadrature_points, !out_path.empty());
+      const std::string json = adding_doubling_json(result.adding_doubling, options, request.quadrature_points, !out_path.empty());
       if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
       cli::StagedOutputs outputs;  // both files or neither
       if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });

@@ -19,6 +19,7 @@
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/layered/walk_cache.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/render_request_check.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
@@ -29,7 +30,6 @@ namespace {
 // Limits that catch typos (an extra zero or three), not real renders.
 constexpr int kMaxResolution = 16384;
 constexpr int kMaxSpp = 1 << 20;
-constexpr double kMaxPathSamples = 1e12;  // width x height x spp
 constexpr int kMaxDepth = 100000;
 constexpr int kMaxThreads = 4096;
 
@@ -225,10 +225,9 @@ int run_render(int argc, char** argv) {
   app.add_option("--subsurface", subsurface,
                  "shading of layered materials: " + subsurface_mode_names("|") + "|" + kAutoSubsurfaceName)
       ->capture_default_str();
-  CLI::Option* tolerance_opt =
-      app.add_option("--tolerance", tolerance,
-                     "with --subsurface auto: largest predicted relative error per material, in (0, 1]")
-          ->check(cli::real(0.0, 1.0, true, false));
+  app.add_option("--tolerance", tolerance,
+                 "with --subsurface auto: largest predicted relative error per material, in (0, 1]")
+      ->check(cli::real(0.0, 1.0, true, false));
   app.add_option("--env", env_value, "environment: a number, R,G,B, or an equirectangular EXR/HDR (default black)")
       ->check(cli::environment());
   app.add_option("--max-depth", settings.max_depth, "maximum bounces")->capture_default_str()->check(cli::integer(0, kMaxDepth));
@@ -250,21 +249,19 @@ int run_render(int argc, char** argv) {
                  "adaptive sampling: target relative standard error of each pixel's luminance, in (0, 1) "
                  "(--spp is then the most samples a pixel gets)")
       ->check(cli::real(0.0, 1.0, true, true));
-  CLI::Option* pilot_opt =
-      app.add_option("--pilot-spp", settings.pilot_spp,
-                     "with --noise-threshold: samples per pixel of the pilot pass from which each pixel's neighbours are planned")
-          ->capture_default_str()
-          ->check(cli::integer(1, kMaxSpp));
+  app.add_option("--pilot-spp", settings.pilot_spp,
+                 "with --noise-threshold: samples per pixel of the pilot pass from which each pixel's neighbours are planned")
+      ->capture_default_str()
+      ->check(cli::integer(1, kMaxSpp));
   app.add_option("--time-limit", settings.time_limit,
                  "stop the render loop after this many seconds (rounds of 8 samples per pixel; the first always completes)")
       ->check(cli::real(0.0, 1e9, true, false));
   std::string table_method = "adding-doubling";
-  CLI::Option* table_method_opt =
-      app.add_option("--table-method", table_method,
-                     "with --subsurface table or auto: build the tables by adding-doubling (noise-free; the walk where it "
-                     "cannot resolve a lobe) or by the walk")
-          ->capture_default_str()
-          ->check(CLI::IsMember({"adding-doubling", "walk"}));
+  app.add_option("--table-method", table_method,
+                 "with --subsurface table or auto: build the tables by adding-doubling (noise-free; the walk where it "
+                 "cannot resolve a lobe) or by the walk")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"adding-doubling", "walk"}));
   std::string cache_dir;
   app.add_option("--cache", cache_dir,
                  "directory of walk results (tables, auto predictions, lambert albedos), reused when the stack, settings and lamina build match");
@@ -299,42 +296,24 @@ int run_render(int argc, char** argv) {
     return 2;
   }
 
+  RenderRequest request;
   try {
-    // Each number is in its range (the validators above); what remains are combinations.
-    if (static_cast<double>(settings.width) * settings.height * settings.spp > kMaxPathSamples)
-      throw UsageError("--width x --height x --spp exceeds 1e12 paths");
+    // Each number is in its range (the validators above); the combinations are the library's
+    // (renderer/render/render_request_check.h), checked on the request below.
     std::string bad_aov;
     if (!parse_aov_names(aov_list, &settings.aovs, &bad_aov))
       throw UsageError("--aovs '" + aov_list + "': unknown AOV '" + bad_aov + "' (expected albedo, normal, depth, variance, all or none)");
-    if (!crop.empty()) {
-      settings.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
-      if (!(crop[0] < crop[2] && crop[1] < crop[3] && crop[2] <= settings.width && crop[3] <= settings.height))
-        throw UsageError(string_printf("--crop %d,%d,%d,%d: expected X0 < X1 <= --width (%d) and Y0 < Y1 <= --height (%d)", crop[0],
-                                       crop[1], crop[2], crop[3], settings.width, settings.height));
-    }
-    check_image_memory(settings, !png_path.empty());
+    if (!crop.empty()) settings.crop = PixelRegion{crop[0], crop[1], crop[2], crop[3]};
     if (!parse_subsurface_choice(subsurface, &choice))
       throw UsageError("--subsurface '" + subsurface + "': expected " + subsurface_choice_expected());
     choice.tolerance = choice.automatic ? tolerance : 0.0;
-    const bool auto_mode = choice.automatic;
-    // Options that would not act are refused, not recorded in the header as if they had.
-    if (png_path.empty())
-      for (const char* png_only : {"--exposure", "--tone-curve"})
-        if (app.count(png_only) > 0) throw UsageError(std::string(png_only) + " is only meaningful with --png (the EXR stays linear)");
-    if (!auto_mode && choice.mode != SubsurfaceMode::RandomWalk)
-      for (const WalkOptionSpec& spec : kWalkOptionTable)
-        if (app.count(spec.flag) > 0)
-          throw UsageError(std::string(spec.flag) + " is only meaningful with --subsurface random-walk or auto (the " +
-                           subsurface_mode_name(choice.mode) + " mode runs no walk)");
-    if (pilot_opt->count() > 0 && !(settings.noise_threshold > 0.0))
-      throw UsageError("--pilot-spp is only meaningful with --noise-threshold");
-    if (settings.noise_threshold > 0.0 && settings.pilot_spp > settings.spp)
-      throw UsageError("--pilot-spp " + std::to_string(settings.pilot_spp) + " exceeds --spp " + std::to_string(settings.spp));
-    if (tolerance_opt->count() > 0 && !auto_mode)
-      throw UsageError("--tolerance is only meaningful with --subsurface auto");
-    if (auto_mode && tolerance_opt->count() == 0) throw UsageError("--subsurface auto needs --tolerance E (e.g. 0.05)");
-    if (table_method_opt->count() > 0 && !auto_mode && choice.mode != SubsurfaceMode::Table)
-      throw UsageError("--table-method is only meaningful with --subsurface table or auto");
+    for (const CLI::Option* option : app.get_options())
+      if (option->count() > 0) request.given.push_back(option->get_name());
+    request.png_path = png_path;
+    request.subsurface = choice;
+    request.settings = settings;
+    check_render_request(request);
+    check_image_memory(settings, !png_path.empty());
     for (const std::string& text : stack_args) {
       StackAssignment a;
       std::string why;
@@ -360,25 +339,24 @@ int run_render(int argc, char** argv) {
   } catch (const std::runtime_error& e) {  // UsageError, cli::OutputPathError
     std::fprintf(stderr, "lamina render: %s\n", cli::one_line(e.what()).c_str());
     return 2;
+  } catch (const RenderRequestError& e) {
+    std::fprintf(stderr, "lamina render: %s\n", e.what());
+    return 2;
   }
 
-  RenderRequest request;
   request.scene_path = scene_path;
   request.out_path = out_path;
-  request.png_path = png_path;
   parse_tone_curve(tone_curve, &tone_map.curve);  // one of the two names (checked above)
   request.tone_map = tone_map;
   request.camera_name = camera_name;
   request.materials_map_path = materials_path;
   request.stacks = stacks;
   request.env = env_value;
-  request.subsurface = choice;
   request.cache_dir = cache_dir;
   request.table_method = table_method == "walk" ? TableSettings::Method::MonteCarlo : TableSettings::Method::AddingDoubling;
   for (std::size_t i = 0; i < kWalkOptionTable.size(); ++i)
     if (kWalkOptionTable[i].kind == WalkOptionSpec::Kind::Switch) set_walk_switch(kWalkOptionTable[i], walk_switches[i], &walk);
   request.walk = walk;
-  request.settings = settings;
   request.command_line = join_command_line(argc, argv);
   for (const std::string& kv : extra_meta) {
     const std::size_t eq = kv.find('=');

@@ -182,6 +182,7 @@ void Film::sample_pixel(int x, int y, int first, int count, PixelSums* acc, RayC
                         bool luminance) const {
   const std::uint64_t pixel = static_cast<std::uint64_t>(y) * s_.width + x;
   for (int i = first; i < first + count; ++i) {
+    if (progress_.cancel && progress_.cancel->load(std::memory_order_relaxed)) throw RenderCancelled();
     const std::uint64_t index = static_cast<std::uint64_t>(i);
     Rng rng(s_.seed, pixel, index);
     const glm::dvec2 d = sample_tent_filter({rng.uniform(), rng.uniform()});

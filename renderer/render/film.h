@@ -3,8 +3,10 @@
 // (renderer/render/integrator.h).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -100,6 +102,14 @@ struct RenderProgress {
   // With RenderSettings::preview_every: the image so far (each pixel the mean of its samples so
   // far) and the samples in it, called between rounds from the rendering thread.
   std::function<void(const Image& image, std::uint64_t samples)> preview;
+  // Set from any thread to stop the render: it is read before each sample (never changing one),
+  // so the render stops within one path of each worker, and render_image throws RenderCancelled.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+// What render_image throws when RenderProgress::cancel stopped it.
+struct RenderCancelled : std::runtime_error {
+  RenderCancelled() : std::runtime_error("render cancelled") {}
 };
 
 // Renders the image; on_progress (optional, thread-safe) receives the samples done per tile.

@@ -17,6 +17,7 @@
 #include "renderer/render/environment.h"
 #include "renderer/render/lights.h"
 #include "renderer/render/render_metadata.h"
+#include "renderer/render/render_request_check.h"
 #include "renderer/render/shading_preparation.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"
@@ -160,6 +161,7 @@ Image render(const RenderRequest& request, const LoadedScene& loaded, const Laye
   std::atomic<std::uint64_t> done{0}, total{planned};
   const auto start = std::chrono::steady_clock::now();
   RenderProgress on_progress;
+  on_progress.cancel = request.cancel;
   on_progress.advance = [&](std::uint64_t n) {
     if (progress) progress->advance(n);
     else request.on_progress(done += n, total.load());
@@ -281,6 +283,7 @@ void write_outputs(const RenderRequest& request, const Image& image, const Metad
 }  // namespace
 
 RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
+  check_render_request(request);
   std::optional<WalkCache> cache;
   if (!request.cache_dir.empty()) cache.emplace(request.cache_dir);
   LoadedScene loaded;

@@ -5,6 +5,7 @@
 // PNG) with the metadata of docs/contracts.md ("lamina render").
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -51,7 +52,13 @@ struct RenderRequest {
   // done and planned, from the rendering threads, instead of the terminal's progress bar. It may
   // throw to stop the render; the exception leaves render_job and nothing is written.
   std::function<void(std::uint64_t done, std::uint64_t total)> on_progress;
+  // Set from any thread to stop the render within a path (RenderProgress::cancel): render_job
+  // then throws RenderCancelled (renderer/render/film.h) and writes nothing.
+  const std::atomic<bool>* cancel = nullptr;
   bool write_files = true;  // false: out_path and png_path are not written (the result holds the image)
+  // The options the caller set, by their `lamina render` flags ("--exposure", "--guiding", ...):
+  // those that would not act with the others are refused (renderer/render/render_request_check.h).
+  std::vector<std::string> given;
 };
 
 // What auto chose for one layered material: a mode name, or "lambert-hidden" (not seen by camera

@@ -86,3 +86,35 @@ def test_rough_top_with_first_order_raises_the_clis_message(cli, source, tmp_pat
 def test_bad_arguments_raise(source, kwargs, error):
     with pytest.raises(error):
         lamina.brdf(source / "docs/examples/slab_truth.json", progress=False, **kwargs)
+
+
+# The options and their ranges are declared once (renderer/batch/brdf_job.h): a value out of
+# range is refused by the command line and the package in the same words, the flag's name
+# written as the keyword.
+@pytest.mark.parametrize("flag,value", [
+    ("--theta-i", 95), ("--samples", 1), ("--quadrature-points", 3), ("--bins-phi", 0), ("--roulette-cap", 999),
+])
+def test_out_of_range_gives_the_clis_message(cli, source, flag, value):
+    stack = source / "docs/examples/slab_truth.json"
+    extra = [] if flag == "--theta-i" else ["--theta-i", "0"]
+    p = cli("brdf", stack, *extra, flag, str(value), check=False)
+    assert p.returncode == 2
+    line = p.stderr.strip().splitlines()[-1].replace(" (try 'lamina brdf --help')", "")
+    keyword = flag[2:].replace("-", "_")
+    kwargs = {"theta_i": 0, keyword: value}
+    with pytest.raises(ValueError) as e:
+        lamina.brdf(stack, progress=False, **kwargs)
+    assert line == "lamina brdf: " + str(e.value).replace(keyword + ":", flag + ":", 1)
+
+
+def test_every_option_of_the_table_is_a_flag_and_a_keyword(cli):
+    import inspect
+    help_text = cli("brdf", "--help").stdout
+    params = inspect.signature(lamina.brdf).parameters
+    for name, *_ in lamina._lamina.brdf_options():
+        assert "--" + name.replace("_", "-") in help_text and name in params, name
+
+
+def test_unknown_option_is_a_type_error(source):
+    with pytest.raises(TypeError, match="unexpected keyword argument 'smaples'"):
+        lamina.brdf(source / "docs/examples/slab_truth.json", 0, smaples=10, progress=False)

@@ -86,16 +86,19 @@ def test_progress_and_gil(source):
     assert ticks[0] > 10
 
 
-def test_ctrl_c_stops_and_writes_nothing(source, tmp_path):
+# 640x480 at 256 spp takes a minute or more on 2 cores; 4x4 at 2^20 spp is one tile of minutes,
+# which Ctrl-C stops inside the tile (the render checks before each path sample).
+@pytest.mark.parametrize("width,height,spp,seconds", [(640, 480, 256, 30), (4, 4, 1 << 20, 10)])
+def test_ctrl_c_stops_and_writes_nothing(source, tmp_path, width, height, spp, seconds):
     out = tmp_path / "never.exr"
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
     start = time.monotonic()
     with pytest.raises(KeyboardInterrupt):
-        lamina.render(source / SCENE, width=640, height=480, spp=256, out=out, png=tmp_path / "never.png",
+        lamina.render(source / SCENE, width=width, height=height, spp=spp, out=out, png=tmp_path / "never.png",
                       progress=False)
     timer.cancel()
-    assert time.monotonic() - start < 30  # stopped, not finished (a minute or more on 2 cores)
+    assert time.monotonic() - start < seconds  # stopped, not finished
     assert os.listdir(tmp_path) == []  # no image, no temporary
     cpu = time.process_time()  # and the render does not go on in the background
     time.sleep(0.5)
@@ -152,3 +155,29 @@ def test_crop_and_png_options_equal_the_command_line(cli, source, tmp_path):
     assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
     with pytest.raises(ValueError, match="crop"):
         lamina.render(source / SCENE, width=40, height=30, spp=1, crop=(10, 5, 50, 25), progress=False)
+
+
+# Combinations the library refuses (renderer/render/render_request_check.h): the command line
+# and the package name the same rule in the same words, before anything is loaded.
+@pytest.mark.parametrize("args,kwargs", [
+    (["--exposure", "1"], {"exposure": 1.0}),
+    (["--tone-curve", "clamp"], {"tone_curve": "clamp"}),
+    (["--subsurface", "lambert", "--guiding", "0.5"], {"subsurface": "lambert", "walk": {"guiding": 0.5}}),
+    (["--pilot-spp", "2"], {"pilot_spp": 2}),
+    (["--noise-threshold", "0.1", "--pilot-spp", "8"], {"noise_threshold": 0.1, "pilot_spp": 8}),
+    (["--tolerance", "0.1"], {"tolerance": 0.1}),
+    (["--subsurface", "auto"], {"subsurface": "auto"}),
+    (["--table-method", "walk"], {"table_method": "walk"}),
+    (["--crop", "10,5,50,25"], {"crop": (10, 5, 50, 25)}),
+    (["--crop", "0,0,0,0"], {"crop": (0, 0, 0, 0)}),
+])
+def test_bad_combinations_give_the_clis_message(cli, source, tmp_path, args, kwargs):
+    p = cli("render", source / SCENE, "--width", "40", "--height", "30", "--spp", "4", "-o", tmp_path / "x.exr", *args,
+            check=False)
+    assert p.returncode == 2, p.stderr
+    message = p.stderr.strip().splitlines()[-1]
+    assert message.startswith("lamina render: --"), message
+    with pytest.raises(ValueError) as e:
+        lamina.render(source / SCENE, width=40, height=30, spp=4, out=tmp_path / "x.exr", progress=False, **kwargs)
+    assert "lamina render: " + str(e.value) == message
+    assert os.listdir(tmp_path) == []

@@ -1,13 +1,17 @@
-// The tables that declare the subsurface choice and the walk options once
-// (renderer/layered/subsurface_mode.h, renderer/render/walk_option_table.h): every name and
-// value reads back, and what the batch passes to `lamina render` is what the table declares.
+// The tables that declare the subsurface choice, the walk options and lamina brdf's options
+// once (renderer/layered/subsurface_mode.h, renderer/render/walk_option_table.h,
+// renderer/batch/brdf_job.h): every name and value reads back, and what the batch passes to
+// `lamina render` is what the table declares. And the rules that combine a render's options
+// (renderer/render/render_request_check.h), which every caller of render_job shares.
 #include <set>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "renderer/batch/brdf_job.h"
 #include "renderer/layered/subsurface_mode.h"
+#include "renderer/render/render_request_check.h"
 #include "renderer/render/walk_option_table.h"
 
 namespace lamina {
@@ -92,6 +96,108 @@ TEST(WalkOptionTable, ChangedOptionsBecomeArguments) {
   EXPECT_FALSE(read.next_flight);
   EXPECT_FALSE(read.per_event_pool_samples);
   EXPECT_EQ(std::stod(walk_option_text(kWalkOptionTable[2], walk)), walk.guiding);
+}
+
+// Each row sets its own member (and no other's), its keyword is its flag without dashes, and the
+// defaults are BrdfRequest's.
+TEST(BrdfOptionTable, EveryRowSetsItsOwnMember) {
+  std::set<std::string> flags, keywords;
+  const BrdfRequest defaults;
+  for (const BrdfOptionSpec& spec : kBrdfOptionTable) {
+    flags.insert(spec.flag);
+    keywords.insert(brdf_option_keyword(spec));
+    std::string flag = "--" + brdf_option_keyword(spec);
+    for (char& c : flag) c = c == '_' ? '-' : c;
+    EXPECT_EQ(flag, spec.flag);
+    EXPECT_EQ(brdf_option_keyword(spec).find('-'), std::string::npos);
+    BrdfRequest r;
+    switch (spec.kind) {
+      case BrdfOptionSpec::Kind::Real: *spec.real(&r) = 12.5; break;
+      case BrdfOptionSpec::Kind::Integer: *spec.integer(&r) = 1234; break;
+      case BrdfOptionSpec::Kind::Count:
+      case BrdfOptionSpec::Kind::Seed: *spec.count(&r) = 98765; break;
+      case BrdfOptionSpec::Kind::Method: r.method = BrdfMethod::AddingDoubling; break;
+    }
+    for (const BrdfOptionSpec& other : kBrdfOptionTable) {
+      const std::string text = brdf_option_text(other, r);
+      if (&other == &spec)
+        EXPECT_NE(text, brdf_option_text(other, defaults)) << spec.flag;
+      else
+        EXPECT_EQ(text, brdf_option_text(other, defaults)) << spec.flag << " changed " << other.flag;
+    }
+  }
+  EXPECT_EQ(flags.size(), kBrdfOptionTable.size());
+  EXPECT_EQ(keywords.size(), kBrdfOptionTable.size());
+  EXPECT_EQ(brdf_option_text(kBrdfOptionTable[0], defaults), "0");  // --theta-i: required, listed first
+  EXPECT_TRUE(kBrdfOptionTable[0].required);
+}
+
+TEST(BrdfOptionTable, TheBinsProductIsChecked) {
+  BrdfRequest r;
+  r.options.bins_theta = 1000;
+  r.options.bins_phi = 1000;
+  EXPECT_NO_THROW(check_brdf_request(r));
+  r.options.bins_phi = 1001;
+  EXPECT_THROW(check_brdf_request(r), std::invalid_argument);
+}
+
+std::string refusal(const RenderRequest& r) {
+  try {
+    check_render_request(r);
+  } catch (const RenderRequestError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Each rule refuses an option given where it would not act, and lets the same option pass with
+// what it needs; an option left at its default (not given) never trips a rule.
+TEST(RenderRequestCheck, OptionsThatWouldNotActAreRefused) {
+  RenderRequest r;
+  r.settings.width = 40;
+  r.settings.height = 30;
+  EXPECT_EQ(refusal(r), "");
+  r.given = {"--exposure"};
+  EXPECT_EQ(refusal(r), "--exposure is only meaningful with --png (the EXR stays linear)");
+  r.png_path = "x.png";
+  EXPECT_EQ(refusal(r), "");
+  r.given = {"--guiding"};
+  r.subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::Lambert);
+  EXPECT_EQ(refusal(r), "--guiding is only meaningful with --subsurface random-walk or auto (the lambert mode runs no walk)");
+  r.subsurface = SubsurfaceChoice::automatic_within(0.05);
+  EXPECT_EQ(refusal(r), "");
+  r.given = {};
+  r.subsurface = SubsurfaceChoice::automatic_within(0.0);
+  EXPECT_EQ(refusal(r), "--subsurface auto needs --tolerance E (e.g. 0.05)");
+  r.subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::RandomWalk);
+  r.given = {"--tolerance"};
+  EXPECT_EQ(refusal(r), "--tolerance is only meaningful with --subsurface auto");
+  r.given = {"--table-method"};
+  EXPECT_EQ(refusal(r), "--table-method is only meaningful with --subsurface table or auto");
+  r.subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::Table);
+  EXPECT_EQ(refusal(r), "");
+  r.given = {"--pilot-spp"};
+  EXPECT_EQ(refusal(r), "--pilot-spp is only meaningful with --noise-threshold");
+  r.settings.noise_threshold = 0.1;
+  r.settings.pilot_spp = 32;
+  EXPECT_EQ(refusal(r), "--pilot-spp 32 exceeds --spp 16");
+}
+
+TEST(RenderRequestCheck, SizeAndCrop) {
+  RenderRequest r;
+  r.settings.width = 40;
+  r.settings.height = 30;
+  r.given = {"--crop"};  // a given crop of nothing is refused, not read as the whole image
+  EXPECT_EQ(refusal(r), "--crop 0,0,0,0: expected X0 < X1 <= --width (40) and Y0 < Y1 <= --height (30)");
+  r.settings.crop = PixelRegion{10, 5, 40, 30};
+  EXPECT_EQ(refusal(r), "");
+  r.given = {};
+  r.settings.crop = PixelRegion{10, 5, 41, 30};  // set without being "given" (another caller): still checked
+  EXPECT_NE(refusal(r), "");
+  r.settings.crop = {};
+  r.settings.width = r.settings.height = 16384;
+  r.settings.spp = 1 << 20;
+  EXPECT_EQ(refusal(r), "--width x --height x --spp exceeds 1e12 paths");
 }
 
 }  // namespace

@@ -3,8 +3,11 @@
 // estimate of the same expected radiance, has standard error s/sqrt(N) with s the sample
 // standard deviation of the pixels; we allow 4 standard errors (two-sided false alarm 6e-5).
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
@@ -500,6 +503,37 @@ TEST(IntegratorPreview, PreviewsDoNotChangeTheImage) {
   EXPECT_TRUE(st.pixel_samples.empty());  // previews alone add no sample-count channel
   // Rounds of 8 samples: previews after 8, 16, 24 and 32 (not after the last round, 40).
   EXPECT_EQ(samples, (std::vector<std::uint64_t>{400 * 8, 400 * 16, 400 * 24, 400 * 32}));
+}
+
+// Cancelling: a render of one 4x4 tile at 2^20 spp (minutes) stops within a path of each
+// worker once the flag is set, and throws; a flag that stays clear changes no bit of the image.
+TEST(IntegratorCancel, StopsWithinATileAndChangesNothingOtherwise) {
+  Material mat;
+  mat.base_color = Spectrum(0.5);
+  const SceneDesc d = make_scene({cube(0)}, {mat});
+  const CameraDesc cam = camera_at({0.0, 0.0, 3.0}, {0.0, 0.0, -1.0}, 30.0);
+  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
+  RenderAovs none;
+  std::atomic<bool> cancel{false};
+  RenderProgress progress;
+  progress.cancel = &cancel;
+  RenderSettings small = settings_of(20, 20, 16);
+  const Image plain = render_full(d, env, cam, small, &none);
+  const Image watched = render_full(d, env, cam, small, &none, nullptr, progress);
+  EXPECT_EQ(0, std::memcmp(plain.rgb.data(), watched.rgb.data(), plain.rgb.size() * sizeof(float)));
+
+  std::atomic<std::uint64_t> tiles_done{0};
+  progress.advance = [&](std::uint64_t) { ++tiles_done; };
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    cancel = true;
+  });
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_THROW(render_full(d, env, cam, settings_of(4, 4, 1 << 20), &none, nullptr, progress), RenderCancelled);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stopper.join();
+  EXPECT_EQ(tiles_done.load(), 0u);  // stopped inside its only tile
+  EXPECT_LT(seconds, 10.0);          // 0.2 s and one path per worker, not minutes
 }
 
 // --clamp (biased): a clamp above every sample changes no bit; a clamp below them scales each
