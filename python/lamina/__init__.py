@@ -458,8 +458,6 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     w = _integer(width, "width", 1, 16384)
     h = _integer(height, "height", 1, 16384)
     n = _integer(spp, "spp", 1, 1 << 20)
-    if float(w) * h * n > 1e12:
-        raise ValueError("width x height x spp exceeds 1e12 paths")
     sd = _integer(seed, "seed", 0, 2**64 - 1)
     th = _integer(threads, "threads", 0, 4096)
     depth = _integer(max_depth, "max_depth", 0, 100000)

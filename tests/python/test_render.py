@@ -170,14 +170,16 @@ def test_crop_and_png_options_equal_the_command_line(cli, source, tmp_path):
     (["--table-method", "walk"], {"table_method": "walk"}),
     (["--crop", "10,5,50,25"], {"crop": (10, 5, 50, 25)}),
     (["--crop", "0,0,0,0"], {"crop": (0, 0, 0, 0)}),
+    (["--width", "16384", "--height", "16384", "--spp", "1048576"], {"width": 16384, "height": 16384, "spp": 1 << 20}),
 ])
 def test_bad_combinations_give_the_clis_message(cli, source, tmp_path, args, kwargs):
-    p = cli("render", source / SCENE, "--width", "40", "--height", "30", "--spp", "4", "-o", tmp_path / "x.exr", *args,
-            check=False)
+    size = [] if "--width" in args else ["--width", "40", "--height", "30", "--spp", "4"]
+    p = cli("render", source / SCENE, *size, "-o", tmp_path / "x.exr", *args, check=False)
     assert p.returncode == 2, p.stderr
     message = p.stderr.strip().splitlines()[-1]
     assert message.startswith("lamina render: --"), message
     with pytest.raises(ValueError) as e:
-        lamina.render(source / SCENE, width=40, height=30, spp=4, out=tmp_path / "x.exr", progress=False, **kwargs)
+        lamina.render(source / SCENE, **{"width": 40, "height": 30, "spp": 4, **kwargs}, out=tmp_path / "x.exr",
+                      progress=False)
     assert "lamina render: " + str(e.value) == message
     assert os.listdir(tmp_path) == []
