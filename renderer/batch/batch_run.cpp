@@ -248,14 +248,28 @@ std::string short_mode(const std::string& name) {
   return parse_subsurface_mode(name, &mode) ? subsurface_mode_short_name(mode) : name;
 }
 
-// Display colours of a signed relative difference, as linear values for write_png.
-Image diff_thumbnail(const std::vector<float>& relative, int width, int height, double range) {
-  Image image(width, height);
-  for (std::size_t i = 0; i < relative.size(); ++i) {
-    const std::array<float, 3> c = diverging_colour(relative[i] / range);
-    for (int k = 0; k < 3; ++k) image.rgb[i * 3 + k] = static_cast<float>(srgb_decode(c[k]));
-  }
-  return image;
+// A job's axes as labels show them, in job-id order (scene, variant, lighting, mode, spp), and
+// those of `shown` joined as a job cell's label is: "head / base / default, random-walk, 16 spp".
+constexpr std::size_t kJobAxes = 5;
+std::string axes_text(const BatchJob& job, const std::array<bool, kJobAxes>& shown) {
+  const std::array<std::string, kJobAxes> axes = {job.scene, job.variant, job.lighting, job.mode, std::to_string(job.spp) + " spp"};
+  std::string s;
+  for (std::size_t k = 0; k < kJobAxes; ++k)
+    if (shown[k]) s += (s.empty() ? "" : k < 3 ? " / " : ", ") + axes[k];
+  return s;
+}
+
+// The labels of a difference: which job is REF and which TEST, by the axes they differ in, and
+// the axes they share.
+struct DiffLabels {
+  std::string reference, test, shared;
+};
+DiffLabels diff_labels(const BatchJob& ref, const BatchJob& test) {
+  const std::array<bool, kJobAxes> differ = {ref.scene != test.scene, ref.variant != test.variant, ref.lighting != test.lighting,
+                                             ref.mode != test.mode, ref.spp != test.spp};
+  std::array<bool, kJobAxes> same;
+  for (std::size_t k = 0; k < kJobAxes; ++k) same[k] = !differ[k];
+  return {"REF " + axes_text(ref, differ), "TEST " + axes_text(test, differ), axes_text(test, same)};
 }
 
 // Shortest text that reads back as the same double (nlohmann::json prints numbers so).
@@ -308,15 +322,24 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
                {"lamina:compare:test", jobs[p.test].id},
                {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                {"lamina:compare:guard_floor", number(c.guard_floor)}});
-    const std::vector<float> rel = relative_luminance_difference(ref, test);
-    write_png(stem + ".png", false_colour_with_legend(rel, ref.width, ref.height, m.contact_sheet.diff_range));
+    // The pictures show the difference's pattern, not the renders' noise: both images smoothed as
+    // `lamina compare --smooth` does (the metrics and the EXR above stay per pixel).
+    const double range = m.contact_sheet.diff_range, sigma = m.contact_sheet.diff_smooth;
+    const ImagePair shown = smoothed_pair(ref, test, sigma);
+    const std::vector<float> rel = relative_luminance_difference(shown.reference, shown.test);
+    const std::array<bool, kJobAxes> all = {true, true, true, true, true};
+    write_png(stem + ".png", false_colour_with_legend(rel, ref.width, ref.height, range, difference_caption(sigma),
+                                                      {"REF: " + axes_text(jobs[p.reference], all),
+                                                       "TEST: " + axes_text(jobs[p.test], all)}));
     cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << csv_number(c.mean_relative) << ","
             << csv_number(c.rms_relative) << "," << csv_number(c.max_abs_relative) << "," << csv_number(c.rmse) << ","
             << csv_number(c.ssim) << "\n";
-    char range[32];
-    std::snprintf(range, sizeof range, "+-%g%%", 100.0 * m.contact_sheet.diff_range);
-    diff_cells.push_back({diff_thumbnail(rel, ref.width, ref.height, m.contact_sheet.diff_range),
-                          {"diff " + p.name + " " + range, jobs[p.test].id}});
+    const DiffLabels names = diff_labels(jobs[p.reference], jobs[p.test]);
+    std::vector<std::string> label = {"diff " + p.name,
+                                      string_printf("+-%g%%, ", 100.0 * range) + (sigma > 0.0 ? string_printf("sigma %g px", sigma) : "per pixel")};
+    if (!names.shared.empty()) label.push_back(names.shared);
+    label.insert(label.end(), {names.reference, names.test});
+    diff_cells.push_back({false_colour_map(rel, ref.width, ref.height, range), std::move(label)});
   }
   write_text_if_changed((fs::path(out) / "comparisons.csv").string(), cmp_csv.str());
 
