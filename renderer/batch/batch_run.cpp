@@ -259,17 +259,29 @@ std::string axes_text(const BatchJob& job, const std::array<bool, kJobAxes>& sho
   return s;
 }
 
-// The labels of a difference: which job is REF and which TEST, by the axes they differ in, and
-// the axes they share.
-struct DiffLabels {
-  std::string reference, test, shared;
-};
-DiffLabels diff_labels(const BatchJob& ref, const BatchJob& test) {
-  const std::array<bool, kJobAxes> differ = {ref.scene != test.scene, ref.variant != test.variant, ref.lighting != test.lighting,
-                                             ref.mode != test.mode, ref.spp != test.spp};
+// The picture of a comparison, written to `png`, and its contact-sheet cell. They show the
+// difference's pattern, not the renders' noise: both images smoothed as `lamina compare --smooth`
+// does (the metrics and the EXR stay per pixel). The legend names both jobs; the cell names the
+// comparison, range and smoothing, the axes both jobs share, and REF and TEST by the axes they
+// differ in.
+ContactCell write_difference_picture(const std::string& png, const ContactSheetSpec& sheet, const std::string& name,
+                                     const BatchJob& ref_job, const BatchJob& test_job, const Image& ref, const Image& test) {
+  const double range = sheet.diff_range, sigma = sheet.diff_smooth;
+  const ImagePair shown = smoothed_pair(ref, test, sigma);
+  const std::vector<float> rel = relative_luminance_difference(shown.reference, shown.test);
+  const std::array<bool, kJobAxes> all = {true, true, true, true, true};
+  write_png(png, false_colour_with_legend(rel, ref.width, ref.height, range, difference_caption(sigma),
+                                          {"REF: " + axes_text(ref_job, all), "TEST: " + axes_text(test_job, all)}));
+  const std::array<bool, kJobAxes> differ = {ref_job.scene != test_job.scene, ref_job.variant != test_job.variant,
+                                       ref_job.lighting != test_job.lighting, ref_job.mode != test_job.mode,
+                                       ref_job.spp != test_job.spp};
   std::array<bool, kJobAxes> same;
   for (std::size_t k = 0; k < kJobAxes; ++k) same[k] = !differ[k];
-  return {"REF " + axes_text(ref, differ), "TEST " + axes_text(test, differ), axes_text(test, same)};
+  std::vector<std::string> label = {
+      "diff " + name, string_printf("+-%g%%, ", 100.0 * range) + (sigma > 0.0 ? string_printf("sigma %g px", sigma) : "per pixel")};
+  if (const std::string shared = axes_text(test_job, same); !shared.empty()) label.push_back(shared);
+  label.insert(label.end(), {"REF " + axes_text(ref_job, differ), "TEST " + axes_text(test_job, differ)});
+  return {false_colour_map(rel, ref.width, ref.height, range), std::move(label)};
 }
 
 // Shortest text that reads back as the same double (nlohmann::json prints numbers so).
@@ -322,24 +334,10 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
                {"lamina:compare:test", jobs[p.test].id},
                {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                {"lamina:compare:guard_floor", number(c.guard_floor)}});
-    // The pictures show the difference's pattern, not the renders' noise: both images smoothed as
-    // `lamina compare --smooth` does (the metrics and the EXR above stay per pixel).
-    const double range = m.contact_sheet.diff_range, sigma = m.contact_sheet.diff_smooth;
-    const ImagePair shown = smoothed_pair(ref, test, sigma);
-    const std::vector<float> rel = relative_luminance_difference(shown.reference, shown.test);
-    const std::array<bool, kJobAxes> all = {true, true, true, true, true};
-    write_png(stem + ".png", false_colour_with_legend(rel, ref.width, ref.height, range, difference_caption(sigma),
-                                                      {"REF: " + axes_text(jobs[p.reference], all),
-                                                       "TEST: " + axes_text(jobs[p.test], all)}));
+    diff_cells.push_back(write_difference_picture(stem + ".png", m.contact_sheet, p.name, jobs[p.reference], jobs[p.test], ref, test));
     cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << csv_number(c.mean_relative) << ","
             << csv_number(c.rms_relative) << "," << csv_number(c.max_abs_relative) << "," << csv_number(c.rmse) << ","
             << csv_number(c.ssim) << "\n";
-    const DiffLabels names = diff_labels(jobs[p.reference], jobs[p.test]);
-    std::vector<std::string> label = {"diff " + p.name,
-                                      string_printf("+-%g%%, ", 100.0 * range) + (sigma > 0.0 ? string_printf("sigma %g px", sigma) : "per pixel")};
-    if (!names.shared.empty()) label.push_back(names.shared);
-    label.insert(label.end(), {names.reference, names.test});
-    diff_cells.push_back({false_colour_map(rel, ref.width, ref.height, range), std::move(label)});
   }
   write_text_if_changed((fs::path(out) / "comparisons.csv").string(), cmp_csv.str());
 
