@@ -248,14 +248,40 @@ std::string short_mode(const std::string& name) {
   return parse_subsurface_mode(name, &mode) ? subsurface_mode_short_name(mode) : name;
 }
 
-// Display colours of a signed relative difference, as linear values for write_png.
-Image diff_thumbnail(const std::vector<float>& relative, int width, int height, double range) {
-  Image image(width, height);
-  for (std::size_t i = 0; i < relative.size(); ++i) {
-    const std::array<float, 3> c = diverging_colour(relative[i] / range);
-    for (int k = 0; k < 3; ++k) image.rgb[i * 3 + k] = static_cast<float>(srgb_decode(c[k]));
-  }
-  return image;
+// A job's axes as labels show them, in job-id order (scene, variant, lighting, mode, spp), and
+// those of `shown` joined as a job cell's label is: "head / base / default, random-walk, 16 spp".
+constexpr std::size_t kJobAxes = 5;
+std::string axes_text(const BatchJob& job, const std::array<bool, kJobAxes>& shown) {
+  const std::array<std::string, kJobAxes> axes = {job.scene, job.variant, job.lighting, job.mode, std::to_string(job.spp) + " spp"};
+  std::string s;
+  for (std::size_t k = 0; k < kJobAxes; ++k)
+    if (shown[k]) s += (s.empty() ? "" : k < 3 ? " / " : ", ") + axes[k];
+  return s;
+}
+
+// The picture of a comparison, written to `png`, and its contact-sheet cell. They show the
+// difference's pattern, not the renders' noise: both images smoothed as `lamina compare --smooth`
+// does (the metrics and the EXR stay per pixel). The legend names both jobs; the cell names the
+// comparison, range and smoothing, the axes both jobs share, and REF and TEST by the axes they
+// differ in.
+ContactCell write_difference_picture(const std::string& png, const ContactSheetSpec& sheet, const std::string& name,
+                                     const BatchJob& ref_job, const BatchJob& test_job, const Image& ref, const Image& test) {
+  const double range = sheet.diff_range, sigma = sheet.diff_smooth;
+  const ImagePair shown = smoothed_pair(ref, test, sigma);
+  const std::vector<float> rel = relative_luminance_difference(shown.reference, shown.test);
+  const std::array<bool, kJobAxes> all = {true, true, true, true, true};
+  write_png(png, false_colour_with_legend(rel, ref.width, ref.height, range, difference_caption(sigma),
+                                          {"REF: " + axes_text(ref_job, all), "TEST: " + axes_text(test_job, all)}));
+  const std::array<bool, kJobAxes> differ = {ref_job.scene != test_job.scene, ref_job.variant != test_job.variant,
+                                       ref_job.lighting != test_job.lighting, ref_job.mode != test_job.mode,
+                                       ref_job.spp != test_job.spp};
+  std::array<bool, kJobAxes> same;
+  for (std::size_t k = 0; k < kJobAxes; ++k) same[k] = !differ[k];
+  std::vector<std::string> label = {
+      "diff " + name, string_printf("+-%g%%, ", 100.0 * range) + (sigma > 0.0 ? string_printf("sigma %g px", sigma) : "per pixel")};
+  if (const std::string shared = axes_text(test_job, same); !shared.empty()) label.push_back(shared);
+  label.insert(label.end(), {"REF " + axes_text(ref_job, differ), "TEST " + axes_text(test_job, differ)});
+  return {false_colour_map(rel, ref.width, ref.height, range), std::move(label)};
 }
 
 // Shortest text that reads back as the same double (nlohmann::json prints numbers so).
@@ -308,15 +334,10 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
                {"lamina:compare:test", jobs[p.test].id},
                {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                {"lamina:compare:guard_floor", number(c.guard_floor)}});
-    const std::vector<float> rel = relative_luminance_difference(ref, test);
-    write_png(stem + ".png", false_colour_with_legend(rel, ref.width, ref.height, m.contact_sheet.diff_range));
+    diff_cells.push_back(write_difference_picture(stem + ".png", m.contact_sheet, p.name, jobs[p.reference], jobs[p.test], ref, test));
     cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << csv_number(c.mean_relative) << ","
             << csv_number(c.rms_relative) << "," << csv_number(c.max_abs_relative) << "," << csv_number(c.rmse) << ","
             << csv_number(c.ssim) << "\n";
-    char range[32];
-    std::snprintf(range, sizeof range, "+-%g%%", 100.0 * m.contact_sheet.diff_range);
-    diff_cells.push_back({diff_thumbnail(rel, ref.width, ref.height, m.contact_sheet.diff_range),
-                          {"diff " + p.name + " " + range, jobs[p.test].id}});
   }
   write_text_if_changed((fs::path(out) / "comparisons.csv").string(), cmp_csv.str());
 

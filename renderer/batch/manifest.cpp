@@ -12,6 +12,7 @@
 
 #include "materials/stack/stack_parameters.h"
 #include "renderer/batch/manifest_where.h"
+#include "renderer/image/image_compare.h"
 #include "renderer/scene/gltf_document.h"
 #include "materials/stack/json_keys.h"
 #include "materials/stack/decimal.h"
@@ -397,7 +398,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   if (j.contains("contact_sheet")) {
     const Where w = root.key("contact_sheet");
     const json& c = j["contact_sheet"];
-    check_keys(c, w, {"columns", "thumbnail_width", "diff_range", "exposure", "tone_curve"});
+    check_keys(c, w, {"columns", "thumbnail_width", "diff_range", "diff_smooth", "exposure", "tone_curve"});
     if (c.contains("columns")) m.contact_sheet.columns = static_cast<int>(get_integer(c["columns"], w.key("columns"), 1, 64));
     if (c.contains("thumbnail_width"))
       m.contact_sheet.thumbnail_width = static_cast<int>(get_integer(c["thumbnail_width"], w.key("thumbnail_width"), 16, 2048));
@@ -406,6 +407,13 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
       if (!r.is_number() || !(r.get<double>() > 0.0) || !std::isfinite(r.get<double>()))
         w.key("diff_range").fail("expected a positive number, got " + r.dump());
       m.contact_sheet.diff_range = r.get<double>();
+    }
+    if (c.contains("diff_smooth")) {
+      const json& r = c["diff_smooth"];
+      if (!r.is_number() || !(r.get<double>() >= 0.0 && r.get<double>() <= kMaxSmoothSigma))
+        w.key("diff_smooth").fail("expected a Gaussian sigma in pixels in [0, " + std::to_string(static_cast<int>(kMaxSmoothSigma)) +
+                                   "], got " + r.dump());
+      m.contact_sheet.diff_smooth = r.get<double>();
     }
     if (c.contains("exposure")) {
       const json& e = c["exposure"];

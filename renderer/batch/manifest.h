@@ -88,6 +88,7 @@ struct ContactSheetSpec {
   int columns = 4;
   int thumbnail_width = 160;
   double diff_range = 0.25;  // relative difference shown at full red/blue in diff thumbnails
+  double diff_smooth = 2.0;  // Gaussian sigma in pixels the difference pictures smooth both images by (0: none)
   ToneMap tone_map;          // of the jobs' PNGs and thumbnails (the differences are false colour)
 };
 

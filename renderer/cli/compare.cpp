@@ -11,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -71,10 +72,9 @@ int compare(const CompareArgs& args) {
   }
 
   if (args.smooth > 0.0) {
-    // Both smoothed over the reference's non-black pixels (the reference's mask for both).
-    const Image mask = ref;
-    ref = smooth_over_mask(ref, mask, args.smooth);
-    test = smooth_over_mask(test, mask, args.smooth);
+    ImagePair smoothed = smoothed_pair(ref, test, args.smooth);
+    ref = std::move(smoothed.reference);
+    test = std::move(smoothed.test);
     std::printf("both images smoothed by a Gaussian of sigma %g px over the reference's non-black pixels\n", args.smooth);
   }
   const CompareMetrics m = compare_images(ref, test, args.epsilon);
@@ -110,9 +110,7 @@ int compare(const CompareArgs& args) {
   if (!args.out_png.empty()) {
     const std::vector<float> rel = relative_luminance_difference(ref, test, args.epsilon);
     outputs.write(args.out_png, [&](const std::string& tmp) {
-      const std::string caption =
-          args.smooth > 0.0 ? string_printf("sigma %g px: blue TEST<REF, red TEST>REF", args.smooth) : "";
-      write_png(tmp, false_colour_with_legend(rel, ref.width, ref.height, args.range, caption));
+      write_png(tmp, false_colour_with_legend(rel, ref.width, ref.height, args.range, difference_caption(args.smooth)));
     });
   }
   if (!args.out_json.empty()) {
@@ -181,7 +179,7 @@ int run_compare(int argc, char** argv) {
   app.add_option("--smooth", args.smooth,
                  "Smooth both images by a Gaussian of this sigma in pixels over the reference's non-black pixels first "
                  "(shows the pattern of a difference of noisy renders; the legend says so)")
-      ->check(lamina::cli::real(0.0, 64.0, true, false));
+      ->check(lamina::cli::real(0.0, lamina::kMaxSmoothSigma, true, false));
   app.add_option("--fail-above", args.fail_above, "Exit with status 1 if the RMS relative difference exceeds X")
       ->check(lamina::cli::non_negative());
   try {

@@ -21,18 +21,6 @@ int thumbnail_height(const Image& image, int thumbnail_width) {
   return std::max(1, static_cast<int>(std::lround(static_cast<double>(thumbnail_width) * image.height / image.width)));
 }
 
-// `text` shortened with ".." until it is at most `width` pixels wide in the sheet's font.
-std::string fit_text(const std::string& text, int width) {
-  std::string t = text;
-  while (!t.empty()) {
-    const std::string shown = t.size() == text.size() ? t : t + "..";
-    const int shown_width = text_width(shown, kSheetFontSize, kFont);
-    if (shown_width < 0 || shown_width <= width) return shown;
-    t.pop_back();
-  }
-  return t;
-}
-
 // Per destination pixel along one axis, the source pixels its footprint [i s, (i + 1) s)
 // overlaps (s = source / destination size) and their shares of it.
 struct AxisWeights {
@@ -81,6 +69,16 @@ Image resize_by_area(const Image& source, int width, int height) {
 
 }  // namespace
 
+std::vector<std::string> contact_label_lines(const ContactCell& cell, int width) {
+  std::vector<std::string> lines;
+  for (const std::string& text : cell.label) {
+    std::vector<std::string> wrapped = wrap_text(text, width, kSheetFontSize, kFont);
+    if (wrapped.empty()) wrapped.push_back("");  // an empty line keeps its place
+    for (std::string& line : wrapped) lines.push_back(std::move(line));
+  }
+  return lines;
+}
+
 ContactSheetLayout contact_sheet_layout(const std::vector<ContactCell>& cells, int columns, int thumbnail_width) {
   if (cells.empty()) throw std::invalid_argument("contact sheet: no images");
   if (columns < 1 || thumbnail_width < 1) throw std::invalid_argument("contact sheet: columns and thumbnail width must be positive");
@@ -88,9 +86,13 @@ ContactSheetLayout contact_sheet_layout(const std::vector<ContactCell>& cells, i
   l.columns = std::min<int>(columns, static_cast<int>(cells.size()));
   l.rows = (static_cast<int>(cells.size()) + l.columns - 1) / l.columns;
   int tallest = 0;
-  for (const ContactCell& c : cells) tallest = std::max(tallest, thumbnail_height(c.image, thumbnail_width));
+  l.label_lines = kSheetLabelLines;
+  for (const ContactCell& c : cells) {
+    tallest = std::max(tallest, thumbnail_height(c.image, thumbnail_width));
+    l.label_lines = std::max(l.label_lines, static_cast<int>(contact_label_lines(c, thumbnail_width).size()));
+  }
   l.cell_width = thumbnail_width;
-  l.cell_height = tallest + kSheetLabelLines * kSheetLineHeight;
+  l.cell_height = tallest + l.label_lines * kSheetLineHeight;
   l.width = kSheetPadding + l.columns * (l.cell_width + kSheetPadding);
   l.height = kSheetPadding + l.rows * (l.cell_height + kSheetPadding);
   return l;
@@ -115,10 +117,10 @@ Image make_contact_sheet(const std::vector<ContactCell>& cells, int columns, int
     for (int y = 0; y < th; ++y)
       for (int x = 0; x < thumbnail_width; ++x) std::copy_n(thumb.pixel(x, y), 3, sheet.pixel(x0 + x, y0 + y));
     if (!have_font) continue;
-    for (std::size_t line = 0; line < cell.label.size() && line < static_cast<std::size_t>(kSheetLabelLines); ++line) {
+    const std::vector<std::string> lines = contact_label_lines(cell, l.cell_width);
+    for (std::size_t line = 0; line < lines.size(); ++line) {
       const int baseline = y0 + th + static_cast<int>(line + 1) * kSheetLineHeight - 3;
-      draw_text(sheet.rgb.data(), l.width, l.height, x0, baseline, fit_text(cell.label[line], l.cell_width),
-                kSheetFontSize, kFont, kTextColour);
+      draw_text(sheet.rgb.data(), l.width, l.height, x0, baseline, lines[line], kSheetFontSize, kFont, kTextColour);
     }
   }
   return sheet;

@@ -28,6 +28,7 @@ constexpr Glyph kGlyphs[] = {
     {'8', {7, 5, 7, 5, 7}}, {'9', {7, 5, 7, 1, 7}}, {'+', {0, 2, 7, 2, 0}}, {'-', {0, 0, 7, 0, 0}},
     {'.', {0, 0, 0, 0, 2}}, {'%', {5, 1, 2, 4, 5}}, {'e', {0, 7, 7, 4, 7}}};
 constexpr int kGlyphScale = 2, kGlyphAdvance = 4 * kGlyphScale;
+constexpr int kNoteIndent = 6;  // notes' left (and right) margin
 
 struct Canvas {  // display-referred RGB floats
   int w, h;
@@ -56,6 +57,13 @@ void draw_bitmap_text(Canvas& canvas, int x_centre, int y_top, const std::string
   }
 }
 
+// The first of kFonts that loads, or nullptr.
+const char* legend_font() {
+  for (const char* font : kFonts)
+    if (text_width("Ag", 12, font) >= 0) return font;
+  return nullptr;
+}
+
 // Draws `text` centred on x with its baseline at y in a TrueType font; false if none loads.
 bool draw_truetype_text(Canvas& canvas, int x_centre, int baseline, const std::string& text) {
   for (const char* font : kFonts)
@@ -81,9 +89,38 @@ std::array<float, 3> diverging_colour(double t) {
   return {1.0f - a, 1.0f - a, 1.0f};
 }
 
+Image false_colour_map(const std::vector<float>& relative, int width, int height, double range) {
+  Image image(width, height);
+  for (std::size_t i = 0; i < relative.size() && i < image.rgb.size() / 3; ++i) {
+    const std::array<float, 3> c = diverging_colour(relative[i] / range);
+    for (int k = 0; k < 3; ++k) image.rgb[i * 3 + k] = static_cast<float>(srgb_decode(c[k]));
+  }
+  return image;
+}
+
+std::string difference_caption(double sigma) {
+  if (!(sigma > 0.0)) return "";
+  char buffer[96];
+  std::snprintf(buffer, sizeof buffer, "sigma %g px: blue TEST<REF, red TEST>REF", sigma);
+  return buffer;
+}
+
+std::vector<std::string> legend_note_lines(const std::vector<std::string>& notes, int canvas_width) {
+  const char* font = legend_font();
+  std::vector<std::string> lines;
+  if (!font) return lines;
+  for (const std::string& note : notes)
+    for (std::string& line : wrap_text(note, canvas_width - 2 * kNoteIndent, 12, font)) lines.push_back(std::move(line));
+  return lines;
+}
+
 Image false_colour_with_legend(const std::vector<float>& relative, int width, int height, double range,
-                               const std::string& caption) {
-  Canvas canvas{std::max(width, kMinLegendWidth), height + kLegendHeight, {}};
+                               const std::string& caption, const std::vector<std::string>& notes) {
+  const int canvas_width = std::max(width, kMinLegendWidth);
+  const std::vector<std::string> note_lines = legend_note_lines(notes, canvas_width);
+  const int notes_height =
+      note_lines.empty() ? 0 : static_cast<int>(note_lines.size()) * kLegendNoteLineHeight + kLegendNotesMargin;
+  Canvas canvas{canvas_width, height + kLegendHeight + notes_height, {}};
   canvas.px.assign(static_cast<std::size_t>(canvas.w) * canvas.h * 3, 0.85f);  // light grey
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x)
@@ -113,6 +150,10 @@ Image false_colour_with_legend(const std::vector<float>& relative, int width, in
       draw_bitmap_text(canvas, x, height + 39, label);
     }
   }
+  for (std::size_t i = 0; i < note_lines.size(); ++i)
+    draw_text(canvas.px.data(), canvas.w, canvas.h, kNoteIndent,
+              height + kLegendHeight + static_cast<int>(i + 1) * kLegendNoteLineHeight - 3, note_lines[i], 12,
+              legend_font(), {0.0f, 0.0f, 0.0f});
 
   // Display values to linear, so write_png's sRGB encoding restores them.
   Image image(canvas.w, canvas.h);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "renderer/image/image_io.h"
@@ -176,6 +177,15 @@ Image smooth_over_mask(const Image& image, const Image& mask, double sigma) {
       for (int c = 0; c < 3; ++c) o[c] = static_cast<float>(sum[c] / weight);
     }
   return out;
+}
+
+ImagePair smoothed_pair(const Image& reference, const Image& test, double sigma) {
+  if (!(sigma >= 0.0 && sigma <= kMaxSmoothSigma))
+    throw std::invalid_argument("smoothed_pair: sigma " + std::to_string(sigma) + " is not in [0, " +
+                                std::to_string(static_cast<int>(kMaxSmoothSigma)) + "]");
+  if (sigma == 0.0) return {reference, test};
+  // Both over the reference's non-black pixels: the reference's mask for both.
+  return {smooth_over_mask(reference, reference, sigma), smooth_over_mask(test, reference, sigma)};
 }
 
 }  // namespace lamina

@@ -60,6 +60,15 @@ double ssim_luminance(const Image& reference, const Image& test);
 // renders shows its pattern, not its noise (the legend says so). Sizes must match.
 Image smooth_over_mask(const Image& image, const Image& mask, double sigma);
 
+// What `lamina compare --smooth SIGMA` and `lamina batch`'s difference pictures compare: both
+// images smoothed by smooth_over_mask with the reference as the mask; sigma 0 leaves them as they
+// are. Sigma is in [0, kMaxSmoothSigma] (std::invalid_argument otherwise).
+constexpr double kMaxSmoothSigma = 64.0;
+struct ImagePair {
+  Image reference, test;
+};
+ImagePair smoothed_pair(const Image& reference, const Image& test, double sigma);
+
 // The w x h region at (x, y); throws std::invalid_argument if it is not inside the image.
 Image crop(const Image& image, int x, int y, int w, int h);
 

@@ -97,4 +97,85 @@ bool draw_text(float* rgb, int width, int height, int x, int baseline, const std
   return true;
 }
 
+namespace {
+
+// The longest prefix of `word` (at least one character) that fits in `max_width`, ending on a
+// UTF-8 character boundary.
+std::size_t fitting_prefix(FT_Face face, const std::string& word, int max_width) {
+  std::size_t best = 0;
+  for (std::size_t n = 1; n <= word.size(); ++n) {
+    if (n < word.size() && (static_cast<unsigned char>(word[n]) & 0xC0) == 0x80) continue;  // inside a character
+    if (best > 0 && advance_width(face, word.substr(0, n)) > max_width) break;
+    best = n;
+  }
+  return best;
+}
+
+}  // namespace
+
+namespace {
+
+// `text` cut at its spaces: at every space (`any`), or only at those after a ',' or '/' (the
+// breaks between the parts of a label, "head / base / default, 16 spp"). Runs of spaces at a
+// cut are dropped.
+std::vector<std::string> pieces_of(const std::string& text, bool any) {
+  std::vector<std::string> pieces;
+  std::string piece;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const bool cut = text[i] == ' ' && (any || piece.empty() || piece.back() == ',' || piece.back() == '/');
+    if (!cut) {
+      piece += text[i];
+    } else if (!piece.empty()) {
+      pieces.push_back(piece);
+      piece.clear();
+    }
+  }
+  if (!piece.empty()) pieces.push_back(piece);
+  return pieces;
+}
+
+// Appends `text` to the lines, `line` being the one being filled: level 0 places whole parts of a
+// label, a part wider than a line goes by words (level 1), a word wider than a line by
+// characters (level 2).
+void wrap_into(FT_Face face, const std::string& text, int max_width, int level, std::vector<std::string>& lines,
+               std::string& line) {
+  if (level == 2) {  // `line` is empty here
+    std::string word = text;
+    while (advance_width(face, word) > max_width) {
+      const std::size_t n = fitting_prefix(face, word, max_width);
+      lines.push_back(word.substr(0, n));
+      word.erase(0, n);
+    }
+    line = word;
+    return;
+  }
+  for (const std::string& piece : pieces_of(text, level == 1)) {
+    const std::string joined = line.empty() ? piece : line + " " + piece;
+    if (advance_width(face, joined) <= max_width) {
+      line = joined;
+      continue;
+    }
+    if (!line.empty()) lines.push_back(line);
+    line.clear();
+    if (advance_width(face, piece) <= max_width)
+      line = piece;
+    else
+      wrap_into(face, piece, max_width, level + 1, lines, line);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> wrap_text(const std::string& text, int max_width, int pixel_size, const std::string& font_path) {
+  Fonts& f = fonts();
+  const std::lock_guard<std::mutex> lock(f.mutex);
+  FT_Face face = f.face(font_path, pixel_size);
+  if (!face) return text.empty() ? std::vector<std::string>{} : std::vector<std::string>{text};
+  std::vector<std::string> lines;
+  std::string line;
+  wrap_into(face, text, max_width, 0, lines, line);
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
 }  // namespace lamina

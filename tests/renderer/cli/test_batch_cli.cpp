@@ -7,7 +7,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -21,6 +23,8 @@
 
 #include "renderer/batch/batch_manifest.h"
 #include "renderer/image/contact_sheet.h"
+#include "renderer/image/false_colour.h"
+#include "renderer/image/image_compare.h"
 #include "renderer/image/image_io.h"
 #include "tests/renderer/cli/cli_runner.h"
 #include "tests/renderer/batch_fixture.h"
@@ -142,11 +146,85 @@ TEST(BatchCli, WritesImagesDiffsSheetAndSummary) {
       EXPECT_TRUE(fs::exists(b.dir / ("out/diffs/noise__" + job.id + ".png"))) << job.id;
     }
 
-  // Contact sheet: 8 images + 4 diffs in 4 columns of 48 px thumbnails (24 x 18 -> 48 x 36).
+  // Contact sheet: 8 images + 4 diffs in 4 columns of 48 px thumbnails (24 x 18 -> 48 x 36),
+  // the label band as tall as the longest label wrapped to 48 px: a difference names its
+  // comparison, range and smoothing, the axes its jobs share, and REF and TEST by the axis they
+  // differ in (spp here).
+  int label_lines = kSheetLabelLines;
+  for (const BatchJob& job : jobs) {
+    const std::string mode_spp = job.mode + ", " + std::to_string(job.spp) + " spp";
+    std::vector<std::vector<std::string>> labels = {{"quad / base / " + job.lighting, mode_spp}};
+    if (job.spp == 4)
+      labels.push_back({"diff noise", "+-25%, sigma 2 px", "quad / base / " + job.lighting + ", " + job.mode, "REF 16 spp", "TEST 4 spp"});
+    for (const std::vector<std::string>& label : labels)
+      label_lines = std::max(label_lines, static_cast<int>(contact_label_lines(ContactCell{Image(1, 1), label}, 48).size()));
+  }
+  EXPECT_GT(label_lines, 5);  // the differences' labels wrap on 48 px
   const Image sheet = read_image(b.dir / "out/contact_sheet.png");
-  const int cell_h = 36 + kSheetLabelLines * kSheetLineHeight;
+  const int cell_h = 36 + label_lines * kSheetLineHeight;
   EXPECT_EQ(sheet.width, kSheetPadding + 4 * (48 + kSheetPadding));
   EXPECT_EQ(sheet.height, kSheetPadding + 3 * (cell_h + kSheetPadding));
+}
+
+// A difference picture is `lamina compare --smooth`'s: both renders smoothed by the manifest's
+// contact_sheet.diff_smooth (default 2 px, 0 for none) over the reference's non-black pixels,
+// in false colour at +-diff_range, the legend naming the smoothing, and REF and TEST named in
+// notes under it. The metrics and the EXR stay per pixel.
+TEST(BatchCli, DifferencePicturesAreSmoothedAndNameRefAndTest) {
+  BatchDir b("batch-diff-pictures");
+  ASSERT_EQ(batch(b.dir, b.dir / "m.json --out " + b.out()).exit_code, 0);
+  const std::string ref_id = "quad__base__grey__random-walk__spp16", test_id = "quad__base__grey__random-walk__spp4";
+  const Image ref = read_image(b.exr(ref_id)), test = read_image(b.exr(test_id));
+  const std::string png = b.dir / ("out/diffs/noise__" + test_id + ".png");
+  const std::string exr = b.dir / ("out/diffs/noise__" + test_id + ".exr");
+  const std::vector<std::string> notes = {"REF: quad / base / grey, random-walk, 16 spp",
+                                          "TEST: quad / base / grey, random-walk, 4 spp"};
+  // The expected picture through the same PNG encoding.
+  auto expected_png = [&](double sigma) {
+    const ImagePair shown = smoothed_pair(ref, test, sigma);
+    const std::vector<float> rel = relative_luminance_difference(shown.reference, shown.test);
+    const std::string path = b.dir / ("expected-" + std::to_string(sigma) + ".png");
+    write_png(path, false_colour_with_legend(rel, ref.width, ref.height, 0.25, difference_caption(sigma), notes));
+    return read_image(path);
+  };
+  // Mean square of the map's red minus blue: the picture's visible difference.
+  auto contrast = [&](const Image& picture) {
+    double sum = 0.0;
+    for (int y = 0; y < ref.height; ++y)
+      for (int x = 0; x < ref.width; ++x) sum += std::pow(picture.pixel(x, y)[0] - picture.pixel(x, y)[2], 2);
+    return sum;
+  };
+  const Image smoothed = read_image(png);
+  EXPECT_EQ(smoothed.rgb, expected_png(2.0).rgb);
+  EXPECT_EQ(smoothed.height, ref.height + kLegendHeight + kLegendNotesMargin +
+                                 static_cast<int>(legend_note_lines(notes, smoothed.width).size()) * kLegendNoteLineHeight);
+  const Image raw_exr = read_image(exr);
+  EXPECT_EQ(raw_exr.rgb, relative_difference(ref, test, relative_guard_floor(ref)).rgb);  // per pixel
+
+  json m = small_manifest();
+  m["contact_sheet"]["diff_smooth"] = 0;
+  testing::write_json(b.dir / "raw.json", m);
+  ASSERT_EQ(batch(b.dir, b.dir / "raw.json --finalize --out " + b.out()).exit_code, 0);
+  const Image raw = read_image(png);
+  EXPECT_EQ(raw.rgb, expected_png(0.0).rgb);
+  EXPECT_LT(contrast(smoothed), 0.5 * contrast(raw));  // the noise is averaged away
+  EXPECT_EQ(read_image(exr).rgb, raw_exr.rgb);          // the EXR does not depend on the smoothing
+
+  // The option: a Gaussian sigma in pixels in [0, 64], 2 when not given.
+  EXPECT_EQ(load_manifest(b.dir / "m.json").contact_sheet.diff_smooth, 2.0);
+  EXPECT_EQ(load_manifest(b.dir / "raw.json").contact_sheet.diff_smooth, 0.0);
+  for (const json& bad : {json(-1), json(64.5), json("2"), json(true)}) {
+    m["contact_sheet"]["diff_smooth"] = bad;
+    testing::write_json(b.dir / "bad.json", m);
+    try {
+      load_manifest(b.dir / "bad.json");
+      ADD_FAILURE() << bad.dump() << " accepted";
+    } catch (const ManifestError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.json: contact_sheet.diff_smooth: expected a Gaussian sigma in pixels in [0, 64]"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(BatchCli, ResumesOnlyMissingOrStaleJobs) {

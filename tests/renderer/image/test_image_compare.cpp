@@ -153,5 +153,26 @@ TEST(ImageCompare, SmoothOverMaskKeepsEdgesAndAveragesNoise) {
   EXPECT_THROW(smooth_over_mask(noisy, Image(3, 3), sigma), std::invalid_argument);
 }
 
+// The pair `lamina compare --smooth` and `lamina batch`'s difference pictures compare: both
+// smoothed with the reference (not the test) as the mask; sigma 0 leaves them as they are.
+TEST(ImageCompare, SmoothedPairMasksBothByTheReference) {
+  Image ref(8, 8), test(8, 8);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) {
+        ref.pixel(x, y)[c] = x < 4 ? 0.0f : 1.0f + 0.1f * ((x + y) % 3);
+        test.pixel(x, y)[c] = 0.5f + 0.2f * ((x * 3 + y) % 5);  // non-black everywhere
+      }
+  const ImagePair same = smoothed_pair(ref, test, 0.0);
+  EXPECT_EQ(same.reference.rgb, ref.rgb);
+  EXPECT_EQ(same.test.rgb, test.rgb);
+  const ImagePair s = smoothed_pair(ref, test, 1.5);
+  EXPECT_EQ(s.reference.rgb, smooth_over_mask(ref, ref, 1.5).rgb);
+  EXPECT_EQ(s.test.rgb, smooth_over_mask(test, ref, 1.5).rgb);
+  EXPECT_NE(s.test.rgb, smooth_over_mask(test, test, 1.5).rgb);  // the test's own mask would differ
+  EXPECT_NO_THROW(smoothed_pair(ref, test, kMaxSmoothSigma));
+  for (double bad : {-1.0, kMaxSmoothSigma * 1.01, std::nan("")}) EXPECT_THROW(smoothed_pair(ref, test, bad), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace lamina
