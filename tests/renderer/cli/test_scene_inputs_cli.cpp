@@ -1,6 +1,7 @@
 // The files a scene pulls in are inputs like the ones named on the command line (docs/contracts.md,
 // "Outputs"): no output of `lamina render` or `lamina batch` may be a glTF's buffer or image, under
-// any name; and a batch manifest's "stack" (docs/batch.md) assigns stacks as `--stack` does.
+// any name; a batch manifest's "stack" (docs/batch.md) assigns stacks as `--stack` does; and -o
+// names an EXR.
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -194,6 +195,18 @@ TEST(SceneInputsCli, BatchStackRefusesAsTheCommandLineDoes) {
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.err << "\nexpected: " << c.expected;
   }
+}
+
+// -o x.png is refused (the render, its previews and lamina batch write the EXR at -o), and the
+// message gives the command that writes the display PNG there.
+TEST(SceneInputsCli, OutPngSaysToUsePng) {
+  TempDir dir("scene-inputs-out-png");
+  write_textured_quad(dir, "q.gltf", "q.bin", "t.png");
+  const Result r = run(dir, "render " + dir / "q.gltf" + " -o " + dir / "view.png" + kSmall);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("use --png '" + dir / "view.png" + "' for the display PNG"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("-o '" + dir / "view.exr" + "' --png '" + dir / "view.png" + "'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "view.png"));
 }
 
 }  // namespace
