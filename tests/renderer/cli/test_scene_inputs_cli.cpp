@@ -5,7 +5,14 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 #include <gtest/gtest.h>
 
 #include "renderer/image/image_io.h"
@@ -195,6 +202,55 @@ TEST(SceneInputsCli, BatchStackRefusesAsTheCommandLineDoes) {
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.err << "\nexpected: " << c.expected;
   }
+}
+
+// A job EXR whose header holds a timing that is not finite (written by another program: Lamina's
+// own writer refuses it) makes the summary fail, naming the file, the job and the column, and
+// summary.csv is not written; before, the column was left empty without a word.
+TEST(SceneInputsCli, BatchSummaryRefusesANonFiniteNumber) {
+  TempDir dir("scene-inputs-csv");
+  GltfBuilder b;
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3})}});
+  b.write_gltf(dir / "q.gltf");
+  std::ofstream(dir / "m.json") << json{{"lamina_batch", 1},
+                                        {"settings", {{"width", 4}, {"height", 4}}},
+                                        {"scenes", {{{"name", "q"}, {"file", "q.gltf"}}}},
+                                        {"lighting", {{{"name", "lit"}, {"env", 1}}}},
+                                        {"spp", 1}}
+                                       .dump();
+  const Result first = run(dir, "batch " + dir / "m.json" + " --out " + dir / "out");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const std::string exr = dir / "out/jobs/q__base__lit__random-walk__spp1.exr";
+  {
+    Imf::InputFile in(exr.c_str());
+    Imf::Header header = in.header();
+    header.insert("lamina:seconds", Imf::StringAttribute("inf"));
+    const Imath::Box2i dw = header.dataWindow();
+    const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+    std::vector<float> pixels(static_cast<std::size_t>(w) * h * 3);
+    Imf::FrameBuffer frame;
+    for (int c = 0; c < 3; ++c)
+      frame.insert(c == 0 ? "R" : c == 1 ? "G" : "B",
+                   Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(pixels.data() + c), 3 * sizeof(float), 3 * sizeof(float) * w));
+    in.setFrameBuffer(frame);
+    in.readPixels(dw.min.y, dw.max.y);
+    Imf::Header out_header(header);
+    out_header.channels() = Imf::ChannelList();
+    for (const char* c : {"R", "G", "B"}) out_header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    const std::string tmp = dir / "tmp.exr";
+    {
+      Imf::OutputFile out(tmp.c_str(), out_header);
+      out.setFrameBuffer(frame);
+      out.writePixels(h);
+    }
+    fs::rename(tmp, exr);
+  }
+  fs::remove(dir / "out/summary.csv");
+  const Result r = run(dir, "batch " + dir / "m.json" + " --out " + dir / "out" + " --finalize");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find(dir / "out/summary.csv" + ": q__base__lit__random-walk__spp1 seconds is not finite (inf)"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out/summary.csv"));
 }
 
 // -o x.png is refused (the render, its previews and lamina batch write the EXR at -o), and the
