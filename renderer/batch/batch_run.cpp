@@ -99,17 +99,35 @@ bool job_complete(const std::string& out, const BatchJob& job, Metadata* metadat
 // The material map of a job (glTF material name -> stack file, relative to the map), with the
 // stacks written beside it: out/materials/<scene>/<variant>/. `stacks` receives the same stacks
 // in memory, named by their files.
-std::string write_material_map(const std::string& out, const BatchJob& job, std::vector<InlineStack>* stacks) {
+// Where they go: the map, and each material's stack file (job.materials' order).
+struct MaterialRecord {
+  std::string map;
+  std::vector<std::string> stems;  // "<stem>.json" beside the map
+  std::vector<std::string> stacks;
+};
+MaterialRecord material_record(const std::string& out, const BatchJob& job) {
   const fs::path dir = fs::path(out) / "materials" / job.scene / job.variant;
-  fs::create_directories(dir);
-  const std::string map_path = (dir / "map.json").string();
-  json map = json::object();
+  MaterialRecord r{(dir / "map.json").string(), {}, {}};
   std::set<std::string> stems;
   for (const MaterialBinding& b : job.materials) {
     std::string stem = file_stem_for(b.material);
     for (int k = 2; stems.count(stem); ++k) stem = file_stem_for(b.material) + "-" + std::to_string(k);
     stems.insert(stem);
-    const std::string stack_path = (dir / (stem + ".json")).string();
+    r.stems.push_back(stem);
+    r.stacks.push_back((dir / (stem + ".json")).string());
+  }
+  return r;
+}
+
+std::string write_material_map(const std::string& out, const BatchJob& job, std::vector<InlineStack>* stacks) {
+  const MaterialRecord record = material_record(out, job);
+  fs::create_directories(fs::path(record.map).parent_path());
+  const std::string& map_path = record.map;
+  json map = json::object();
+  for (std::size_t i = 0; i < job.materials.size(); ++i) {
+    const MaterialBinding& b = job.materials[i];
+    const std::string& stem = record.stems[i];
+    const std::string& stack_path = record.stacks[i];
     const std::string text = b.stack.dump(2) + "\n";
     write_text_if_changed(stack_path, text);
     // Named as `lamina render --materials` names it: relative to the map.
@@ -406,6 +424,10 @@ void check_outputs_not_inputs(const std::string& out, const std::string& manifes
   for (const BatchJob& job : jobs) {
     outputs.push_back(job_exr(out, job));
     outputs.push_back((fs::path(out) / "jobs" / (job.id + ".png")).string());
+    if (job.materials.empty()) continue;
+    const MaterialRecord record = material_record(out, job);  // the variant's stacks, written before the job renders
+    outputs.push_back(record.map);
+    outputs.insert(outputs.end(), record.stacks.begin(), record.stacks.end());
   }
   for (const std::string& o : outputs)
     for (const auto& [what, path] : inputs)

@@ -106,6 +106,31 @@ TEST(SceneInputsCli, BatchOutputsThatAreTheScenesFilesAreRefused) {
   EXPECT_FALSE(fs::exists(dir / "out/jobs/q__base__default__random-walk__spp1.exr"));
 }
 
+// The variant stacks a batch writes as its record (DIR/materials/SCENE/VARIANT/) are outputs too:
+// a manifest stack file there is refused, not overwritten by the variant's version.
+TEST(SceneInputsCli, BatchMaterialRecordThatIsAStackFileIsRefused) {
+  TempDir dir("scene-inputs-record");
+  GltfBuilder b;
+  b.json()["materials"].push_back({{"name", "leaf"}});
+  b.add_node({{"mesh", b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0)}});
+  b.write_gltf(dir / "q.gltf");
+  const std::string stack = R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3}]})";
+  fs::create_directories(dir.path / "out/materials/q/thin");
+  std::ofstream(dir / "out/materials/q/thin/leaf.json") << stack;
+  std::ofstream(dir / "m.json") << json{{"lamina_batch", 1},
+                                        {"settings", {{"width", 4}, {"height", 4}}},
+                                        {"scenes", {{{"name", "q"}, {"file", "q.gltf"}, {"materials", {{"leaf", "out/materials/q/thin/leaf.json"}}}}}},
+                                        {"variants", {{{"name", "thin"}, {"overrides", {{{"material", "leaf"}, {"set", {{"layers[0].thickness", 0.1}}}}}}}}},
+                                        {"spp", 1}}
+                                       .dump();
+  const Result r = run(dir, "batch " + dir / "m.json" + " --out " + dir / "out");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("the output '" + dir / "out/materials/q/thin/leaf.json" + "' is the stack file of material 'leaf'"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(slurp(dir / "out/materials/q/thin/leaf.json"), stack);
+}
+
 std::string job_hash(const TempDir& dir, const std::string& manifest) {
   const Result r = run(dir, "batch " + dir / manifest + " --list");
   EXPECT_EQ(r.exit_code, 0) << r.err;
