@@ -1,7 +1,6 @@
 // Batch jobs: expansion, hashing, stack overrides, comparisons and shards (see jobs.h).
 #include "renderer/batch/jobs.h"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -122,11 +121,8 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
       std::map<std::string, MaterialBinding> bindings;
       // A material the scene's stack assignments cover is rendered from the assigned file (as
       // --stack wins over --materials), not from the map.
-      for (const auto& [name, file] : scene.materials) {
-        const bool covered = std::any_of(scene.stacks.begin(), scene.stacks.end(),
-                                         [&](const StackAssignment& a) { return a.all() || a.material == name; });
-        if (!covered) bindings[name] = {name, stack_json(file), false};
-      }
+      for (const auto& [name, file] : scene.materials)
+        if (!scene.stack_assigned(name)) bindings[name] = {name, stack_json(file), false};
       for (std::size_t oi = 0; oi < variant.overrides.size(); ++oi) {
         const MaterialOverride& ov = variant.overrides[oi];
         const std::string file = ov.stack.empty() ? scene.materials.at(ov.material) : ov.stack;

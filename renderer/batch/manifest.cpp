@@ -222,13 +222,6 @@ std::vector<StackAssignment> parse_stacks(const json& j, const Where& where, con
   return out;
 }
 
-// Whether a scene's stack assignments cover a glTF material (a named one, or FILE for all).
-bool assigned(const SceneSpec& scene, const std::string& material) {
-  for (const StackAssignment& a : scene.stacks)
-    if (a.all() || a.material == material) return true;
-  return false;
-}
-
 void check_setting_value(const json& v, const Where& where) {
   auto finite = [](const json& x) { return x.is_number() && std::isfinite(x.get<double>()); };
   const bool ok = finite(v) || (v.is_string() && v.get<std::string>() == "inf") ||
@@ -347,7 +340,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
                                       join(scene_materials[si]) + ")");
             // The stack a job renders such a material with is the file (as on the command line,
             // where --stack wins over the map): a variant could not change it.
-            if (assigned(m.scenes[si], ov.material))
+            if (m.scenes[si].stack_assigned(ov.material))
               wk.key("material").fail("'" + ov.material + "' is assigned a stack by \"" + stack_key() + "\" in scene '" +
                                       m.scenes[si].name + "': a variant cannot override it (map it in the scene's \"materials\" instead)");
             if (ov.stack.empty() && !m.scenes[si].materials.count(ov.material))

@@ -50,6 +50,12 @@ struct SceneSpec {
   // `lamina render --stack` (renderer/layered/stack_assignment.h) for this scene's jobs: the
   // settings' assignments, then the scene's own, files absolute. They win over `materials`.
   std::vector<StackAssignment> stacks;
+  // Whether `stacks` covers a glTF material (named, or FILE for all).
+  bool stack_assigned(const std::string& material) const {
+    for (const StackAssignment& a : stacks)
+      if (a.all() || a.material == material) return true;
+    return false;
+  }
 };
 
 // Extra arguments of `lamina render` that set the lighting: the environment and the camera.
