@@ -33,6 +33,7 @@
 #include "renderer/render/render_job.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/finite_output.h"
 #include "renderer/util/paths.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
@@ -98,17 +99,35 @@ bool job_complete(const std::string& out, const BatchJob& job, Metadata* metadat
 // The material map of a job (glTF material name -> stack file, relative to the map), with the
 // stacks written beside it: out/materials/<scene>/<variant>/. `stacks` receives the same stacks
 // in memory, named by their files.
-std::string write_material_map(const std::string& out, const BatchJob& job, std::vector<InlineStack>* stacks) {
+// Where they go: the map, and each material's stack file (job.materials' order).
+struct MaterialRecord {
+  std::string map;
+  std::vector<std::string> stems;  // "<stem>.json" beside the map
+  std::vector<std::string> stacks;
+};
+MaterialRecord material_record(const std::string& out, const BatchJob& job) {
   const fs::path dir = fs::path(out) / "materials" / job.scene / job.variant;
-  fs::create_directories(dir);
-  const std::string map_path = (dir / "map.json").string();
-  json map = json::object();
+  MaterialRecord r{(dir / "map.json").string(), {}, {}};
   std::set<std::string> stems;
   for (const MaterialBinding& b : job.materials) {
     std::string stem = file_stem_for(b.material);
     for (int k = 2; stems.count(stem); ++k) stem = file_stem_for(b.material) + "-" + std::to_string(k);
     stems.insert(stem);
-    const std::string stack_path = (dir / (stem + ".json")).string();
+    r.stems.push_back(stem);
+    r.stacks.push_back((dir / (stem + ".json")).string());
+  }
+  return r;
+}
+
+std::string write_material_map(const std::string& out, const BatchJob& job, std::vector<InlineStack>* stacks) {
+  const MaterialRecord record = material_record(out, job);
+  fs::create_directories(fs::path(record.map).parent_path());
+  const std::string& map_path = record.map;
+  json map = json::object();
+  for (std::size_t i = 0; i < job.materials.size(); ++i) {
+    const MaterialBinding& b = job.materials[i];
+    const std::string& stem = record.stems[i];
+    const std::string& stack_path = record.stacks[i];
     const std::string text = b.stack.dump(2) + "\n";
     write_text_if_changed(stack_path, text);
     // Named as `lamina render --materials` names it: relative to the map.
@@ -154,6 +173,8 @@ std::optional<RenderResult> render_batch_job(const std::string& out, const Batch
     r.camera_name = job.camera;
     args.insert(args.end(), {"--camera", job.camera});
   }
+  for (const StackAssignment& a : job.stacks) args.insert(args.end(), {kStackFlag, stack_assignment_text(a)});
+  r.stacks = job.stacks;
   if (!job.materials.empty()) {
     // The stacks are rendered from memory; the files are the record (docs/batch.md).
     const std::string map_path = write_material_map(out, job, &r.inline_stacks);
@@ -284,8 +305,21 @@ ContactCell write_difference_picture(const std::string& png, const ContactSheetS
   return {false_colour_map(rel, ref.width, ref.height, range), std::move(label)};
 }
 
-// Shortest text that reads back as the same double (nlohmann::json prints numbers so).
-std::string csv_number(double v) { return std::isfinite(v) ? json(v).dump() : ""; }
+// Shortest text that reads back as the same double (nlohmann::json prints numbers so). A number
+// that is not finite fails the batch naming the file, the row and the column, before the file is
+// written (renderer/util/finite_output.h); an empty column is written on purpose, for a value
+// that does not exist (no comparison, no timing in the header).
+std::string csv_number(double v, const std::string& file, const std::string& row, const std::string& column) {
+  try {
+    check_finite_output(v, file, row + " " + column);
+  } catch (const NonFiniteOutputError& e) {
+    throw BatchError(e.what());
+  }
+  return json(v).dump();
+}
+std::string csv_number(const std::optional<double>& v, const std::string& file, const std::string& row, const std::string& column) {
+  return v ? csv_number(*v, file, row, column) : "";
+}
 
 // Comparisons, previews, the contact sheet and the summary: needs every job complete.
 int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJob>& jobs, const std::vector<ComparisonPair>& pairs,
@@ -335,9 +369,11 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
                {"lamina:compare:definition", "(TEST - REF) / max(REF, guard_floor)"},
                {"lamina:compare:guard_floor", number(c.guard_floor)}});
     diff_cells.push_back(write_difference_picture(stem + ".png", m.contact_sheet, p.name, jobs[p.reference], jobs[p.test], ref, test));
-    cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << csv_number(c.mean_relative) << ","
-            << csv_number(c.rms_relative) << "," << csv_number(c.max_abs_relative) << "," << csv_number(c.rmse) << ","
-            << csv_number(c.ssim) << "\n";
+    const std::string cmp_file = (fs::path(out) / "comparisons.csv").string();
+    auto cmp_number = [&](double v, const char* column) { return csv_number(v, cmp_file, p.id, column); };
+    cmp_csv << p.name << "," << jobs[p.reference].id << "," << jobs[p.test].id << "," << cmp_number(c.mean_relative, "mean_relative")
+            << "," << cmp_number(c.rms_relative, "rms_relative") << "," << cmp_number(c.max_abs_relative, "max_abs_relative") << ","
+            << cmp_number(c.rmse, "rmse") << "," << cmp_number(c.ssim, "ssim") << "\n";
   }
   write_text_if_changed((fs::path(out) / "comparisons.csv").string(), cmp_csv.str());
 
@@ -347,18 +383,25 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
   csv << "job,scene,variant,lighting,mode,spp,seconds,rays_per_second,rmse_vs_reference,rel_rms_vs_reference,auto_choices\n";
   for (const BatchJob& job : jobs) {
     const Metadata& mt = meta[job.index];
-    double seconds = NAN, rays = NAN;
+    // Timings from the header; a header without them (or a render of no measurable time) leaves
+    // the columns empty.
+    std::optional<double> seconds, rays_per_second;
     try {
-      seconds = std::stod(meta_value(mt, "lamina:seconds"));
-      rays = std::stod(meta_value(mt, "lamina:rays_closest")) + std::stod(meta_value(mt, "lamina:rays_shadow"));
+      const double s = std::stod(meta_value(mt, "lamina:seconds"));
+      const double rays = std::stod(meta_value(mt, "lamina:rays_closest")) + std::stod(meta_value(mt, "lamina:rays_shadow"));
+      seconds = s;
+      if (s > 0.0) rays_per_second = rays / s;
     } catch (const std::exception&) {
     }
+    const std::string summary_file = (fs::path(out) / "summary.csv").string();
     csv << job.id << "," << job.scene << "," << job.variant << "," << job.lighting << "," << job.mode << "," << job.spp << ","
-        << csv_number(seconds) << "," << csv_number(seconds > 0.0 ? rays / seconds : NAN) << ",";
+        << csv_number(seconds, summary_file, job.id, "seconds") << ","
+        << csv_number(rays_per_second, summary_file, job.id, "rays_per_second") << ",";
     const auto it = std::find_if(pairs.begin(), pairs.end(), [&](const ComparisonPair& p) { return p.test == job.index; });
     if (it != pairs.end()) {
       const CompareMetrics& c = metrics[static_cast<std::size_t>(it - pairs.begin())];
-      csv << csv_number(c.rmse) << "," << csv_number(c.rms_relative);
+      csv << csv_number(c.rmse, summary_file, job.id, "rmse_vs_reference") << ","
+          << csv_number(c.rms_relative, summary_file, job.id, "rel_rms_vs_reference");
     } else {
       csv << ",";
     }
@@ -388,26 +431,29 @@ int finalize(const std::string& out, const Manifest& m, const std::vector<BatchJ
   return 0;
 }
 
-// No file the batch writes is one it reads: the manifest, a job's scene or environment file
-// (renderer/util/paths.h's same_file: links and other spellings resolved).
+// No file the batch writes is one it reads: the manifest, or a file a job reads (BatchJob::inputs:
+// its scene and the buffers and images that names, its stacks, its environment map), under any
+// name (renderer/util/paths.h's same_file: links and other spellings resolved).
 void check_outputs_not_inputs(const std::string& out, const std::string& manifest, const std::vector<BatchJob>& jobs) {
-  std::vector<std::pair<std::string, std::string>> inputs = {{"the manifest", manifest}};
-  for (const BatchJob& job : jobs) {
-    inputs.push_back({"job " + job.id + "'s scene", job.scene_file});
-    if (!job.env.empty()) inputs.push_back({"job " + job.id + "'s environment", job.env});
-  }
+  // What the message names each input by (its path included), and the path.
+  std::vector<std::pair<std::string, std::string>> inputs = {{"the manifest '" + manifest + "'", manifest}};
+  for (const BatchJob& job : jobs)
+    for (const JobInput& in : job.inputs) inputs.push_back({in.what + " '" + in.path + "' (job " + job.id + ")", in.path});
   std::vector<std::string> outputs;
   for (const char* name : {"jobs.json", "summary.csv", "comparisons.csv", "contact_sheet.png"})
     outputs.push_back((fs::path(out) / name).string());
   for (const BatchJob& job : jobs) {
     outputs.push_back(job_exr(out, job));
     outputs.push_back((fs::path(out) / "jobs" / (job.id + ".png")).string());
+    if (job.materials.empty()) continue;
+    const MaterialRecord record = material_record(out, job);  // the variant's stacks, written before the job renders
+    outputs.push_back(record.map);
+    outputs.insert(outputs.end(), record.stacks.begin(), record.stacks.end());
   }
   for (const std::string& o : outputs)
     for (const auto& [what, path] : inputs)
       if (same_file(o, path))
-        throw BatchUsageError("--out '" + out + "': the output '" + o + "' is " + what + " '" + path +
-                              "': an input is never overwritten");
+        throw BatchUsageError("--out '" + out + "': the output '" + o + "' is " + what + ": an input is never overwritten");
 }
 
 }  // namespace

@@ -35,7 +35,7 @@ std::string file_hash(const std::string& path) { return content_hash(read_bytes(
 
 // The pixels depend on the buffers and images as much as on the .gltf, so their bytes are hashed
 // too; data: URIs and a GLB's own buffer are already in the file's bytes.
-std::string scene_hash(const std::string& path) {
+std::string scene_hash(const std::string& path, std::vector<std::string>* files) {
   json gltf;
   try {
     gltf = read_gltf_json(path);
@@ -47,6 +47,7 @@ std::string scene_hash(const std::string& path) {
     std::error_code ec;
     if (!fs::is_regular_file(f.path, ec)) throw ManifestError(path + ": " + f.list + " uri '" + f.uri + "' names no file");
     all += f.uri + " " + file_hash(f.path) + "\n";
+    if (files) files->push_back(f.path);
   }
   return content_hash(all);
 }
@@ -92,6 +93,7 @@ void apply_stack_override(json& stack, const MaterialOverride& ov, const std::st
 std::vector<BatchJob> expand_jobs(const Manifest& m) {
   // Hash each input file once, however many jobs use it.
   std::map<std::string, std::string> scene_hashes, env_hashes;
+  std::map<std::string, std::vector<std::string>> scene_files;  // the buffers and images of each
   std::map<std::string, json> stacks;
   auto stack_json = [&](const std::string& file) -> const json& {
     auto it = stacks.find(file);
@@ -106,12 +108,21 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
   std::vector<BatchJob> jobs;
   for (const SceneSpec& scene : m.scenes) {
     auto sh = scene_hashes.find(scene.file);
-    if (sh == scene_hashes.end()) sh = scene_hashes.emplace(scene.file, scene_hash(scene.file)).first;
+    if (sh == scene_hashes.end()) sh = scene_hashes.emplace(scene.file, scene_hash(scene.file, &scene_files[scene.file])).first;
+    // --stack: each file's content, as the materials' stacks are hashed (its name does not count).
+    json stacks_desc = json::array();
+    for (const StackAssignment& a : scene.stacks) stacks_desc.push_back({{"material", a.material}, {"stack_hash", file_hash(a.path)}});
+    std::vector<JobInput> scene_inputs = {{"the scene", scene.file}};
+    for (const std::string& f : scene_files[scene.file]) scene_inputs.push_back({"a file of the scene '" + scene.file + "'", f});
+    for (const StackAssignment& a : scene.stacks) scene_inputs.push_back({"a stack file", a.path});
     for (std::size_t vi = 0; vi < m.variants.size(); ++vi) {
       const VariantSpec& variant = m.variants[vi];
       // The stacks of this scene under this variant, by glTF material name.
       std::map<std::string, MaterialBinding> bindings;
-      for (const auto& [name, file] : scene.materials) bindings[name] = {name, stack_json(file), false};
+      // A material the scene's stack assignments cover is rendered from the assigned file (as
+      // --stack wins over --materials), not from the map.
+      for (const auto& [name, file] : scene.materials)
+        if (!scene.stack_assigned(name)) bindings[name] = {name, stack_json(file), false};
       for (std::size_t oi = 0; oi < variant.overrides.size(); ++oi) {
         const MaterialOverride& ov = variant.overrides[oi];
         const std::string file = ov.stack.empty() ? scene.materials.at(ov.material) : ov.stack;
@@ -122,6 +133,11 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
       }
       json materials_desc = json::object();
       std::vector<MaterialBinding> binding_list;
+      std::vector<JobInput> variant_inputs = scene_inputs;
+      for (const auto& [name, file] : scene.materials)
+        if (bindings.count(name)) variant_inputs.push_back({"the stack file of material '" + name + "'", file});
+      for (const MaterialOverride& ov : variant.overrides)
+        if (!ov.stack.empty()) variant_inputs.push_back({"the stack file of material '" + ov.material + "'", ov.stack});
       for (auto& [name, b] : bindings) {
         materials_desc[name] = content_hash(b.stack.dump());
         binding_list.push_back(b);
@@ -146,6 +162,9 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
             job.id = scene.name + "__" + variant.name + "__" + lighting.name + "__" + mode.name + "__spp" + std::to_string(spp);
             job.scene_file = scene.file;
             job.materials = binding_list;
+            job.stacks = scene.stacks;
+            job.inputs = variant_inputs;
+            if (lighting.env_is_file) job.inputs.push_back({"the environment", lighting.env});
             job.env = lighting.env;
             job.camera = lighting.camera;
             // Everything that changes the pixels, and nothing else (not names, paths or the
@@ -164,6 +183,8 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
                                    {"height", m.settings.height},
                                    {"max_depth", m.settings.max_depth}};
             if (mode.subsurface.automatic) job.description["tolerance"] = mode.subsurface.tolerance;
+            // Only with --stack, so that the hashes of other jobs are those they always were.
+            if (!stacks_desc.empty()) job.description["stack"] = stacks_desc;
             job.hash = content_hash(job.description.dump());
             jobs.push_back(std::move(job));
           }

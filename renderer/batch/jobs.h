@@ -23,6 +23,11 @@ struct MaterialBinding {
   bool overridden = false;    // a variant changed it
 };
 
+// A file a job reads: how a message names it, and its path.
+struct JobInput {
+  std::string what, path;
+};
+
 struct BatchJob {
   std::size_t index = 0;  // position in the expansion order
   std::string id;         // scene__variant__lighting__mode__sppN: the output file's stem
@@ -30,7 +35,11 @@ struct BatchJob {
   SubsurfaceChoice subsurface;  // the --subsurface argument (and --tolerance with auto)
   int spp = 0;
   std::string scene_file;
-  std::vector<MaterialBinding> materials;  // sorted by material name
+  std::vector<MaterialBinding> materials;  // sorted by material name; none a stack assignment covers
+  std::vector<StackAssignment> stacks;     // --stack: the scene's assignments (SceneSpec::stacks)
+  // Every file the job reads, which no output of the batch may be: the scene, the buffers and
+  // images it names, the stack files and the environment map.
+  std::vector<JobInput> inputs;
   std::string env;  // --env argument ("" for none)
   std::string camera;
   nlohmann::json description;  // everything that affects the image, canonical
@@ -67,7 +76,8 @@ std::pair<int, int> parse_shard(const std::string& text);
 
 // content_hash of a file's bytes; throws ManifestError naming the file if it cannot be read.
 std::string file_hash(const std::string& path);
-// content_hash over a glTF file and the external files it references (buffers, images).
-std::string scene_hash(const std::string& path);
+// content_hash over a glTF file and the external files it references (buffers, images); their
+// paths are appended to *files if given.
+std::string scene_hash(const std::string& path, std::vector<std::string>* files = nullptr);
 
 }  // namespace lamina

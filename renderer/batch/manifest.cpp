@@ -197,6 +197,32 @@ JobSelector parse_selector(const json& j, const Where& where, const Manifest& m)
   return s;
 }
 
+// The manifest's key for `lamina render --stack`, from its flag: "stack".
+std::string stack_key() { return std::string(kStackFlag).substr(2); }
+
+// A "stack" value: one assignment or an array of them, each "FILE" or "NAME=FILE" as --stack
+// takes it (parse_stack_assignment, with its messages), FILE relative to the manifest and
+// existing, NAME a material of every scene in `scenes`.
+std::vector<StackAssignment> parse_stacks(const json& j, const Where& where, const std::string& directory,
+                                          const std::vector<std::pair<std::string, std::set<std::string>>>& scenes) {
+  const json list = j.is_array() ? j : json::array({j});
+  if (list.empty()) where.fail("expected \"FILE\", \"NAME=FILE\" or a non-empty array of them");
+  std::vector<StackAssignment> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Where w = j.is_array() ? where.at(i) : where;
+    const std::string text = get_string(list[i], w);
+    StackAssignment a;
+    std::string why;
+    if (!parse_stack_assignment(text, &a, &why)) w.fail("'" + text + "': " + why);
+    a.path = get_file(json(a.path), w, directory);
+    for (const auto& [scene, names] : scenes)
+      if (!a.all() && !names.count(a.material))
+        w.fail("'" + text + "': no material '" + a.material + "' in scene '" + scene + "' (its materials: " + join(names) + ")");
+    out.push_back(a);
+  }
+  return out;
+}
+
 void check_setting_value(const json& v, const Where& where) {
   auto finite = [](const json& x) { return x.is_number() && std::isfinite(x.get<double>()); };
   const bool ok = finite(v) || (v.is_string() && v.get<std::string>() == "inf") ||
@@ -220,7 +246,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   if (j.contains("settings")) {
     const Where w = root.key("settings");
     const json& s = j["settings"];
-    check_keys(s, w, {"width", "height", "seed", "max_depth"});
+    check_keys(s, w, {"width", "height", "seed", "max_depth", "stack"});
     if (s.contains("width")) m.settings.width = static_cast<int>(get_integer(s["width"], w.key("width"), 1, 16384));
     if (s.contains("height")) m.settings.height = static_cast<int>(get_integer(s["height"], w.key("height"), 1, 16384));
     if (s.contains("seed")) m.settings.seed = static_cast<std::uint64_t>(get_integer(s["seed"], w.key("seed"), 0, 1ll << 62));
@@ -235,7 +261,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   for (std::size_t i = 0; i < j["scenes"].size(); ++i) {
     const json& s = j["scenes"][i];
     const Where w = ws.at(i);
-    check_keys(s, w, {"name", "file", "materials"});
+    check_keys(s, w, {"name", "file", "materials", "stack"});
     if (!s.contains("name")) w.fail("missing \"name\"");
     if (!s.contains("file")) w.fail("missing \"file\"");
     SceneSpec scene;
@@ -259,6 +285,13 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
           wm.key(it.key()).fail("'" + it.key() + "' is not a material of " + scene.file + " (materials: " + join(scene_materials.back()) + ")");
         scene.materials[it.key()] = get_file(it.value(), wm.key(it.key()), directory);
       }
+    }
+    const std::vector<std::pair<std::string, std::set<std::string>>> this_scene = {{scene.name, scene_materials.back()}};
+    if (j.contains("settings") && j["settings"].contains(stack_key()))
+      scene.stacks = parse_stacks(j["settings"][stack_key()], root.key("settings").key(stack_key()), directory, this_scene);
+    if (s.contains(stack_key())) {
+      const std::vector<StackAssignment> own = parse_stacks(s[stack_key()], w.key(stack_key()), directory, this_scene);
+      scene.stacks.insert(scene.stacks.end(), own.begin(), own.end());
     }
     for (const SceneSpec& other : m.scenes)
       if (other.name == scene.name) w.key("name").fail("duplicate scene name '" + scene.name + "'");
@@ -306,6 +339,11 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
             if (!scene_materials[si].count(ov.material))
               wk.key("material").fail("'" + ov.material + "' is not a material of scene '" + m.scenes[si].name + "' (materials: " +
                                       join(scene_materials[si]) + ")");
+            // The stack a job renders such a material with is the file (as on the command line,
+            // where --stack wins over the map): a variant could not change it.
+            if (m.scenes[si].stack_assigned(ov.material))
+              wk.key("material").fail("'" + ov.material + "' is assigned a stack by \"" + stack_key() + "\" in scene '" +
+                                      m.scenes[si].name + "': a variant cannot override it (map it in the scene's \"materials\" instead)");
             if (ov.stack.empty() && !m.scenes[si].materials.count(ov.material))
               wk.fail("no \"stack\" given and scene '" + m.scenes[si].name + "' maps no stack to '" + ov.material + "'");
           }

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/image/tone_map.h"
+#include "renderer/layered/stack_assignment.h"
 #include "renderer/layered/subsurface_mode.h"
 
 namespace lamina {
@@ -46,6 +47,15 @@ struct SceneSpec {
   std::string name;
   std::string file;                           // absolute path of the .gltf/.glb
   std::map<std::string, std::string> materials;  // glTF material name -> stack file (absolute)
+  // `lamina render --stack` (renderer/layered/stack_assignment.h) for this scene's jobs: the
+  // settings' assignments, then the scene's own, files absolute. They win over `materials`.
+  std::vector<StackAssignment> stacks;
+  // Whether `stacks` covers a glTF material (named, or FILE for all).
+  bool stack_assigned(const std::string& material) const {
+    for (const StackAssignment& a : stacks)
+      if (a.all() || a.material == material) return true;
+    return false;
+  }
 };
 
 // Extra arguments of `lamina render` that set the lighting: the environment and the camera.

@@ -42,6 +42,7 @@
 #include "renderer/cli/options.h"
 #include "renderer/util/progress.h"
 #include "renderer/cli/outputs.h"
+#include "renderer/util/finite_output.h"
 #include "renderer/util/atomic_file.h"
 #include "renderer/util/python_plot.h"
 
@@ -80,33 +81,38 @@ void add_request_options(CLI::App& app, lamina::BrdfRequest* request, std::strin
   }
 }
 
-// %.9g of a finite number; a non-finite one fails the command (docs/contracts.md, "Outputs").
-std::string format_number(double v) {
-  if (!std::isfinite(v)) throw std::runtime_error("the table has a non-finite value (" + std::to_string(v) + ")");
+// %.9g of a finite number; a non-finite one fails the command naming the output, the line and
+// the column (docs/contracts.md, "Outputs").
+std::string format_number(double v, const std::string& output, std::size_t line, const char* column) {
+  lamina::check_finite_output(v, output, "line " + std::to_string(line) + " " + column);
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
 }
 
-std::string table_csv(const BrdfTable& t) {
+// The table as --out writes it; `output` names it in errors.
+std::string table_csv(const BrdfTable& t, const std::string& output) {
   static const char* kChannelNames[kChannels] = {"r", "g", "b"};
   std::ostringstream os;
   os << "side,channel,theta_o_deg,phi_o_deg,value,stderr,single,multiple\n";
+  std::size_t line = 1;
   for (int side = 0; side < 2; ++side)
     for (int k = 0; k < t.options.bins_theta; ++k)
       for (int m = 0; m < t.options.bins_phi; ++m) {
         const int b = t.bin_index(static_cast<BrdfSide>(side), k, m);
         for (int c = 0; c < kChannels; ++c) {
+          ++line;
+          auto number = [&](double v, const char* column) { return format_number(v, output, line, column); };
           os << (side == 0 ? "reflect" : "transmit") << ',' << kChannelNames[c] << ','
-             << format_number(t.theta_centre_deg(k)) << ',' << format_number(t.phi_centre_deg(m)) << ','
-             << format_number(t.value[b][c]) << ',' << format_number(t.stderr_[b][c]) << ','
-             << format_number(t.single[b][c]) << ',' << format_number(t.multiple[b][c]) << '\n';
+             << number(t.theta_centre_deg(k), "theta_o_deg") << ',' << number(t.phi_centre_deg(m), "phi_o_deg") << ','
+             << number(t.value[b][c], "value") << ',' << number(t.stderr_[b][c], "stderr") << ','
+             << number(t.single[b][c], "single") << ',' << number(t.multiple[b][c], "multiple") << '\n';
         }
       }
   return os.str();
 }
 
-std::string totals_json(const BrdfTable& t, const std::string& method) {
+std::string totals_json(const BrdfTable& t, const std::string& method, const std::string& output) {
   nlohmann::ordered_json j;
   j["method"] = method;
   j["theta_i_deg"] = t.options.theta_i_deg;
@@ -135,14 +141,14 @@ std::string totals_json(const BrdfTable& t, const std::string& method) {
     put("unresolved", t.totals.unresolved);
     j["unresolved_walks"] = t.totals.unresolved_walks;
   }
-  lamina::cli::check_finite_numbers(j, "the totals");
+  lamina::cli::check_finite_numbers(j, output);
   return j.dump(2) + "\n";
 }
 
 // The summary of --method adding-doubling: the keys of totals_json with standard errors 0, the
 // diffuse-incidence totals, and the discretisation error estimate (materials/adding_doubling/adding_doubling.h).
 std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const BrdfOptions& o, int quadrature_points,
-                                 bool with_table) {
+                                 bool with_table, const std::string& output) {
   nlohmann::ordered_json j;
   j["method"] = "adding-doubling";
   j["theta_i_deg"] = o.theta_i_deg;
@@ -175,7 +181,7 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
     j["R_forward_peak"] = rgb(t.R_forward_peak);
     j["T_forward_peak"] = rgb(t.T_forward_peak);
   }
-  lamina::cli::check_finite_numbers(j, "the totals");
+  lamina::cli::check_finite_numbers(j, output);
   return j.dump(2) + "\n";
 }
 
@@ -271,10 +277,13 @@ int run_brdf(int argc, char** argv) {
     if (progress) progress->finish();
     for (const std::string& note : result.notes) std::fprintf(stderr, "lamina brdf: note: %s\n", note.c_str());
     const BrdfTable& table = result.table;
+    // How errors name the outputs (the summary goes to stdout without --summary).
+    const std::string out_name = "--out '" + out_path + "'", plot_name = "--plot '" + plot_path + "' (its table)";
+    const std::string summary_name = summary_path.empty() ? std::string("the summary (stdout)") : "--summary '" + summary_path + "'";
     if (request.method == lamina::BrdfMethod::AddingDoubling) {
-      const std::string csv = out_path.empty() ? "" : table_csv(table);
-      const std::string json = adding_doubling_json(result.adding_doubling, options, request.quadrature_points, !out_path.empty());
-      if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
+      const std::string csv = out_path.empty() ? "" : table_csv(table, out_name);
+      const std::string json = adding_doubling_json(result.adding_doubling, options, request.quadrature_points, !out_path.empty(), summary_name);
+      if (!plot_path.empty()) plot_brdf(table_csv(table, plot_name), json, plot_path);
       cli::StagedOutputs outputs;  // both files or neither
       if (!out_path.empty()) outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
       if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });
@@ -282,11 +291,11 @@ int run_brdf(int argc, char** argv) {
       if (summary_path.empty()) std::fputs(json.c_str(), stdout);
       return 0;
     }
-    const std::string json = totals_json(table, method);
-    if (!plot_path.empty()) plot_brdf(table_csv(table), json, plot_path);
+    const std::string json = totals_json(table, method, summary_name);
+    if (!plot_path.empty()) plot_brdf(table_csv(table, plot_name), json, plot_path);
     cli::StagedOutputs outputs;  // both files or neither
     if (!out_path.empty()) {
-      const std::string csv = table_csv(table);
+      const std::string csv = table_csv(table, out_name);
       outputs.write(out_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, csv); });
     }
     if (!summary_path.empty()) outputs.write(summary_path, [&](const std::string& tmp) { lamina::write_file_atomically(tmp, json); });

@@ -71,7 +71,8 @@ const char* quantity_name(lamina::FitQuantity q) {
 
 nlohmann::ordered_json number_or_null(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
 
-std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::FitMeasurement>& data, int quadrature_points) {
+std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::FitMeasurement>& data, int quadrature_points,
+                         const std::string& output) {
   static const char* kChannels[] = {"r", "g", "b"};
   nlohmann::ordered_json j;
   j["method"] = "adding-doubling";
@@ -115,7 +116,7 @@ std::string summary_json(const lamina::FitResult& r, const std::vector<lamina::F
   }
   j["measurements"] = ms;
   j["warnings"] = r.warnings;
-  cli::check_finite_numbers(j, "the fit's report");  // a non-finite chi2 or residual is a failure, not a null
+  cli::check_finite_numbers(j, output);  // a non-finite chi2 or residual is a failure, not a null
   return j.dump(2) + "\n";
 }
 
@@ -386,12 +387,13 @@ int run_fit(int argc, char** argv) {
       throw lamina::FitError(stack_path + ": " + e.what());
     }
     for (const std::string& w : r.warnings) std::fprintf(stderr, "lamina fit: warning: %s\n", cli::one_line(w).c_str());
-    const std::string json = summary_json(r, data, quadrature_points);
+    const std::string json =
+        summary_json(r, data, quadrature_points, summary_path.empty() ? std::string("the report (stdout)") : "--summary '" + summary_path + "'");
     std::string fitted;
     if (!out_path.empty()) {
       nlohmann::json j = nlohmann::json::parse(text);  // parsed once already (parse_stack_template_json)
       lamina::write_fitted_values(j, t, specs, r);
-      cli::check_finite_numbers(j, "the fitted material file");
+      cli::check_finite_numbers(j, "--out '" + out_path + "'");
       fitted = j.dump(2) + "\n";
     }
     cli::StagedOutputs outputs;  // both files or neither

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/finite_output.h"
 #include "renderer/util/paths.h"
 
 namespace lamina::cli {
@@ -93,16 +94,17 @@ inline void check_outputs_not_inputs(const std::vector<OutputPath>& outputs, con
   }
 }
 
-// Throws std::runtime_error("WHAT: JSON.PATH is not finite (VALUE)") at the first NaN or infinite
-// number in `j` (nlohmann would write it as null): every number a command writes is finite, or
-// the command fails (docs/contracts.md, "Outputs"). A null written on purpose (a fit's sigma that
+// Throws NonFiniteOutputError("WHAT: JSON.PATH is not finite (VALUE)") at the first NaN or
+// infinite number in `j` (nlohmann would write it as null), WHAT naming the output: every number
+// a command writes is finite, or the command fails (docs/contracts.md, "Outputs"; the text
+// formats' checks are renderer/util/finite_output.h). A null written on purpose (a fit's sigma that
 // the data do not determine) is JSON null, not a number, and passes.
 template <class Json>
 void check_finite_numbers(const Json& j, const std::string& what, const std::string& path = "") {
   if (j.is_number_float()) {
     const double v = j.template get<double>();
     if (!std::isfinite(v))
-      throw std::runtime_error(what + ": " + (path.empty() ? "the value" : path) + " is not finite (" + std::to_string(v) + ")");
+      throw NonFiniteOutputError(non_finite_message(what, path.empty() ? "the value" : path, std::to_string(v)));
   } else if (j.is_object()) {
     for (auto it = j.begin(); it != j.end(); ++it) check_finite_numbers(it.value(), what, path.empty() ? it.key() : path + "." + it.key());
   } else if (j.is_array()) {

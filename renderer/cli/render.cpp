@@ -122,11 +122,17 @@ void add_walk_options(CLI::App& app, RandomWalkOptions* walk, std::vector<std::s
 
 // -o chooses the format by its extension, and the render writes OpenEXR only: a .png (or any
 // other) name would hold an EXR under the wrong name, so it is refused, and the display PNG has
-// its own option.
+// its own option. (Writing only a PNG at -o is not one change: the render, its previews and
+// lamina batch all write the EXR at -o.) For a .png the message gives the command that works.
 void check_out_extension(const std::string& out_path) {
-  std::string ext = std::filesystem::path(out_path).extension().string();
+  const std::filesystem::path path(out_path);
+  std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext == ".exr") return;
+  if (ext == ".png")
+    throw UsageError("--out '" + out_path + "': lamina render writes OpenEXR at --out; use --png '" + out_path +
+                     "' for the display PNG, with an EXR beside it: -o '" + std::filesystem::path(path).replace_extension(".exr").string() +
+                     "' --png '" + out_path + "'");
   throw UsageError("--out '" + out_path + "': " + (ext.empty() ? "no extension" : "'" + ext + "' is not written") +
                    "; lamina render writes OpenEXR (.exr), and a display PNG beside it with --png FILE.png");
 }

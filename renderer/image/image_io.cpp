@@ -46,6 +46,7 @@
 #pragma GCC diagnostic pop
 
 #include "renderer/util/atomic_file.h"
+#include "renderer/util/finite_output.h"
 
 namespace lamina {
 namespace {
@@ -406,9 +407,36 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
   write_exr(path, image, metadata, {});
 }
 
+namespace {
+
+// The header attributes that hold the user's own words (names, paths, the command line, --meta),
+// where "nan" may be a camera's name: every other lamina: attribute is Lamina's numbers, lists
+// of them or sentences around them.
+bool is_text_attribute(const std::string& key) {
+  static const char* const kText[] = {"lamina:version",           "lamina:command",       "lamina:scene",
+                                      "lamina:camera",            "lamina:env",           "lamina:stack",
+                                      "lamina:job_id",            "lamina:job_hash",      "lamina:denoised",
+                                      "lamina:compare:reference", "lamina:compare:test"};
+  if (key.rfind("lamina:", 0) != 0) return true;  // --meta KEY=VALUE: the user's
+  for (const char* k : kText)
+    if (key == k) return true;
+  return false;
+}
+
+// Every number the header holds is finite, or nothing is written (docs/contracts.md, "Outputs").
+void check_header_numbers(const std::string& path, const Metadata& metadata) {
+  for (const auto& [key, value] : metadata)
+    if (!is_text_attribute(key))
+      if (const std::string word = first_non_finite_word(value); !word.empty())
+        throw ImageIoError(non_finite_message(path, "header attribute " + key, "'" + value + "'"));
+}
+
+}  // namespace
+
 void write_exr(const std::string& path, const Image& image, const Metadata& metadata,
                const std::vector<ExtraChannel>& extra, const DataWindow& window) {
   check_size(path, image);
+  check_header_numbers(path, metadata);
   const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
   for (const ExtraChannel& c : extra)
     if (c.values.size() != pixels) throw ImageIoError(path + ": channel " + c.name + " has the wrong size");

@@ -87,6 +87,25 @@ struct LoadedScene {
   std::unique_ptr<Camera> camera;
 };
 
+// The command line checked the files it names; those the scene pulls in are known only once it
+// is read: the buffers and images the glTF names (resolved as the loader found them), the stack
+// files of its materials and the maps their parameters are bound to. No output may be one of
+// them, under any name (renderer/util/paths.h's same_file).
+void check_outputs_not_scene_inputs(const RenderRequest& request, const SceneDesc& desc, const LayeredBindings& bindings) {
+  std::vector<std::pair<std::string, std::string>> inputs;  // how the message names it, the file
+  for (const std::string& f : desc.files_read) inputs.emplace_back("a file of the scene '" + request.scene_path + "'", f);
+  for (const auto& m : bindings.by_material) {
+    if (!m) continue;
+    inputs.emplace_back("the stack file", m->source());
+    if (m->bindings())
+      for (const std::string& f : m->bindings()->map_files()) inputs.emplace_back("a parameter map of the stack '" + m->source() + "'", f);
+  }
+  for (const std::string& output : {request.out_path, request.png_path})
+    for (const auto& [what, path] : inputs)
+      if (!output.empty() && same_file(output, path))
+        throw std::runtime_error("the output '" + output + "' is " + what + " '" + path + "': an input is never overwritten");
+}
+
 void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene* out) {
   const RenderSettings& settings = request.settings;
   if (!request.env.empty()) out->env = EnvironmentMap::from_argument(request.env);
@@ -94,12 +113,7 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   adopt_meshes_without_material(request.stacks, &desc);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
   out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
-  // The command line checked the files it names; the stack files are known only now.
-  for (const auto& m : out->bindings.by_material)
-    for (const std::string& output : {request.out_path, request.png_path})
-      if (m && same_file(output, m->source()))
-        throw std::runtime_error("the output '" + output + "' is the stack file '" + m->source() +
-                                 "' of a material: an input is never overwritten");
+  check_outputs_not_scene_inputs(request, desc, out->bindings);
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()

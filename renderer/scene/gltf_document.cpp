@@ -11,6 +11,7 @@
 
 #include "materials/stack/json_limits.h"
 #include "materials/stack/text_file.h"
+#include "renderer/scene/gltf_validate.h"
 
 namespace lamina {
 
@@ -100,7 +101,10 @@ std::vector<GltfExternalFile> gltf_external_files(const json& gltf, const std::s
       if (!item.contains("uri") || !item["uri"].is_string()) continue;  // a GLB's own buffer, or an image in a bufferView
       const std::string uri = item["uri"].get<std::string>();
       if (uri.rfind("data:", 0) == 0) continue;  // embedded: already in the file's bytes
-      files.push_back({list, uri, (dir / percent_decode(uri)).string()});
+      // The file the loader reads (its search: the glTF's directory, then the working one), or,
+      // if there is none, where the glTF says it is.
+      const std::string found = tinygltf_resolve_uri(uri, dir.string());
+      files.push_back({list, uri, found.empty() ? (dir / percent_decode(uri)).string() : found});
     }
   }
   return files;

@@ -70,11 +70,12 @@ std::set<std::string> gltf_camera_names(const nlohmann::json& gltf);
 struct GltfExternalFile {
   std::string list;  // "buffers" or "images": the array it is listed in
   std::string uri;   // as written in the file
-  std::string path;  // the file: the URI percent-decoded, relative to the glTF's directory
+  std::string path;  // the file (below)
 };
 // The buffers, then the images, with a "uri" that is not a data: URI (embedded data is in the
 // file's own bytes), in file order (glTF 2.0 spec, Properties Reference, "Buffer" and "Image":
-// a relative "uri" is relative to the .gltf file). Whether each file exists is not checked.
+// a relative "uri" is relative to the .gltf file). `path` is the file the loader reads
+// (tinygltf_resolve_uri, gltf_validate.h), or where the URI points if no such file exists.
 std::vector<GltfExternalFile> gltf_external_files(const nlohmann::json& gltf, const std::string& gltf_path);
 
 // "%20" and friends in glTF URIs decoded (RFC 3986 percent-encoding; glTF 2.0 spec, "URIs"). A

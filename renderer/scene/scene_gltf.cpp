@@ -953,6 +953,7 @@ std::string tinygltf_base_dir(const std::string& path) {
 // reads, for paths it found by its own search (the current directory after the file's own).
 struct FileGuard {
   std::uint64_t max_bytes;
+  std::vector<std::string>* read;  // every file read, in order
 };
 bool guarded_read(std::vector<unsigned char>* out, std::string* err, const std::string& file, void* user) {
   namespace fs = std::filesystem;
@@ -967,6 +968,7 @@ bool guarded_read(std::vector<unsigned char>* out, std::string* err, const std::
     if (err) *err += "is " + std::to_string(size) + " bytes, more than the scene memory limit (LAMINA_MAX_SCENE_BYTES)";
     return false;
   }
+  static_cast<const FileGuard*>(user)->read->push_back(file);
   return tinygltf::ReadWholeFile(out, err, file, nullptr);
 }
 bool default_exists(const std::string& file, void*) { return tinygltf::FileExists(file, nullptr); }
@@ -995,7 +997,8 @@ SceneDesc load_validated(const std::string& path) {
   doc = nlohmann::json();
 
   tinygltf::TinyGLTF loader;
-  FileGuard guard{max_bytes};
+  std::vector<std::string> files_read;
+  FileGuard guard{max_bytes, &files_read};
   loader.SetFsCallbacks({&default_exists, &default_expand, &guarded_read, &refuse_write, &guard});
   tinygltf::Model model;
   std::string err, warn;
@@ -1009,6 +1012,7 @@ SceneDesc load_validated(const std::string& path) {
   if (!ok || !err.empty()) fail(path, err.empty() ? "cannot be read as glTF" : err);
   SceneDesc scene;
   scene.path = path;
+  scene.files_read = std::move(files_read);
   if (!warn.empty()) scene.warnings.push_back(one_line(warn));
   Loader(path, model, &scene, max_bytes).run();
   return scene;

@@ -200,6 +200,9 @@ struct SceneDesc {
   std::uint64_t triangles = 0;
   std::uint64_t degenerate_triangles = 0;  // skipped
   std::vector<std::string> warnings;       // each once
+  // The files outside the glTF that the loader read (external buffers and images), as it found
+  // them: inputs of the render, which no output may overwrite (docs/contracts.md, "Outputs").
+  std::vector<std::string> files_read;
   // asset.generator, and the factor applied to every punctual light's intensity (1, or
   // 1 / kBlenderLumensPerWatt for Blender's exporter).
   std::string generator;
