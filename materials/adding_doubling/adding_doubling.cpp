@@ -667,6 +667,24 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   return e;
 }
 
+// A layer without scattering (11.: the unscattered solution), exactly: R = 0 and T diagonal,
+// exp(-tau / mu) per node (the beam's attenuation along its path); the same as layer_element's
+// doubling of it, without the doubling.
+Element absorbing_layer_element(const Layer& layer, int c, const Medium& m, int size) {
+  Element e{Matrix(size), Matrix(size), Matrix(), Matrix(), true, {}};
+  if (layer.semi_infinite()) {
+    e.diagonal = false;
+    return e;  // nothing comes back; Td empty as layer_element's
+  }
+  e.Td = e.Tu = Matrix(size);
+  const double tau = layer.sigma_t()[c] * layer.thickness;
+  for (std::size_t k = 0; k < m.active.size(); ++k) {
+    const int j = m.active[k];
+    e.Td(j, j) = e.Tu(j, j) = std::isinf(tau) ? 0.0 : std::exp(-tau / m.mu[k]);
+  }
+  return e;
+}
+
 Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size, int mode) {
   Element e;
   e.Rt = Matrix(size);
@@ -823,6 +841,10 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
 Element solve_stack(const Problem& p, int c, int mode, int* doublings, const LayerStack* other = nullptr) {
   const LayerStack& stack = other ? *other : *p.stack;
   const int nl = static_cast<int>(stack.layers.size()), size = p.size();
+  // The unscattered copy's layers are exact diagonals (no doubling).
+  auto layer_element = [&](const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
+    return other ? absorbing_layer_element(layer, c, m, size) : lamina::layer_element(layer, c, m, size, mode, doublings);
+  };
   Element acc;
   const Layer& last = stack.layers[nl - 1];
   if (p.semi) {

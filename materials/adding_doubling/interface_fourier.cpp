@@ -27,7 +27,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <list>
 #include <tuple>
 #include <memory>
@@ -214,8 +213,10 @@ struct CacheKey {
   int walks;
   std::uint64_t seed;
   std::vector<double> above_mu, above_lo, above_hi, below_mu, below_lo, below_hi;
-  bool operator==(const CacheKey& o) const {
-    return alpha == o.alpha && n_above == o.n_above && n_below == o.n_below && modes == o.modes &&
+  // Serves `o`: the same inputs, and at least o's modes (mode m's numbers do not depend on how
+  // many modes are projected, so the first o.modes of a larger projection are o's projection).
+  bool serves(const CacheKey& o) const {
+    return alpha == o.alpha && n_above == o.n_above && n_below == o.n_below && modes >= o.modes &&
            cell_points == o.cell_points && input_points == o.input_points && phi_panels == o.phi_panels &&
            phi_points == o.phi_points && eval == o.eval && multiple == o.multiple && walks == o.walks &&
            seed == o.seed && above_mu == o.above_mu && above_lo == o.above_lo &&
@@ -232,9 +233,13 @@ InterfaceFourier cached(CacheKey key, Make make) {
   {
     std::lock_guard<std::mutex> lock(cache_mutex);
     for (auto it = cache.begin(); it != cache.end(); ++it)
-      if (it->first == key) {
+      if (it->first.serves(key)) {
         cache.splice(cache.begin(), cache, it);
-        return *cache.front().second;
+        InterfaceFourier out = *cache.front().second;
+        out.modes = key.modes;
+        for (auto* b : {&out.Rt, &out.Td, &out.Rb, &out.Tu, &out.Rt_single, &out.Td_single})
+          if (static_cast<int>(b->size()) > key.modes) b->resize(key.modes);
+        return out;
       }
   }
   auto made = std::make_shared<const InterfaceFourier>(make());
@@ -425,6 +430,7 @@ InterfaceFourier project_microsurface(double alpha, double n_above, double n_bel
   return cached(key_of(alpha, n_above, n_below, microsurface_single_eval, true, above, below, modes, settings), [&] {
     InterfaceFourier out = project(alpha, n_above, n_below, microsurface_single_eval, above, below, modes, settings);
     out.Rt_single = out.Rt;
+    out.Td_single = out.Td;
     const MicrosurfaceDielectric surface{{alpha}, n_above, n_below};
     Blocks Rt, Td, Rb, Tu;
     walk_higher_orders(surface, above, 1.0, above, below, modes, settings, 1, &Rt, &Td);
@@ -451,27 +457,40 @@ BeamFourier project_microsurface_beams(double alpha, double n_above, double n_be
                                        const InterfaceProjectionSettings& settings) {
   BeamFourier out = project_beams(alpha, n_above, n_below, microsurface_single_eval, beams, above, below, modes, settings);
   out.Rt_single = out.Rt;
-  const MicrosurfaceDielectric surface{{alpha}, n_above, n_below};
-  // Each beam its own stream (keyed on its cosine's bits), so a beam's columns do not depend on
-  // which other beams are projected with it.
-  const int nb = beams.size();
-  for (int k = 0; k < nb; ++k) {
-    FourierDirections one;
-    one.mu = {beams.mu[k]};
-    one.x_lo = {beams.x_lo[k]};
-    one.x_hi = {beams.x_hi[k]};
-    std::uint64_t bits;
-    std::memcpy(&bits, &beams.mu[k], sizeof bits);
-    Blocks R1(modes, std::vector<double>(above.size())), T1(modes, std::vector<double>(below.size())), HR, HT;
+  // The higher orders are smooth in the incidence: a beam's are interpolated, linearly in mu^2,
+  // between the columns of the two cells around it (the nodes' projection, cached: its walks
+  // are made once per interface and basis), then its column is made to sum to 1 as the nodes'.
+  const InterfaceFourier nodes = project_microsurface(alpha, n_above, n_below, above, below, modes, settings);
+  const int na = above.size(), nb_rows = below.size(), cols = beams.size();
+  std::vector<std::pair<double, int>> centres;  // cell midpoints in mu^2, ascending
+  for (int j = 0; j < na; ++j)
+    if (above.x_hi[j] > above.x_lo[j]) centres.push_back({0.5 * (above.x_lo[j] + above.x_hi[j]), j});
+  std::sort(centres.begin(), centres.end());
+  if (centres.empty()) return out;
+  for (int k = 0; k < cols; ++k) {
+    const double x = beams.mu[k] * beams.mu[k];
+    std::size_t hi = std::upper_bound(centres.begin(), centres.end(), std::make_pair(x, -1)) - centres.begin();
+    const std::size_t lo = hi == 0 ? 0 : hi - 1;
+    hi = std::min(hi, centres.size() - 1);
+    const double t = hi == lo ? 0.0 : std::clamp((x - centres[lo].first) / (centres[hi].first - centres[lo].first), 0.0, 1.0);
+    const int j0 = centres[lo].second, j1 = centres[hi].second;
+    Blocks R1(modes, std::vector<double>(na)), T1(modes, std::vector<double>(nb_rows)), HR = R1, HT = T1;
     for (int m = 0; m < modes; ++m) {
-      for (int i = 0; i < above.size(); ++i) R1[m][i] = out.Rt[m][static_cast<std::size_t>(i) * nb + k];
-      for (int i = 0; i < below.size(); ++i) T1[m][i] = out.Td[m][static_cast<std::size_t>(i) * nb + k];
+      for (int i = 0; i < na; ++i) {
+        const std::size_t a0 = static_cast<std::size_t>(i) * na + j0, a1 = static_cast<std::size_t>(i) * na + j1;
+        R1[m][i] = out.Rt[m][static_cast<std::size_t>(i) * cols + k];
+        HR[m][i] = (1.0 - t) * (nodes.Rt[m][a0] - nodes.Rt_single[m][a0]) + t * (nodes.Rt[m][a1] - nodes.Rt_single[m][a1]);
+      }
+      for (int i = 0; i < nb_rows; ++i) {
+        const std::size_t a0 = static_cast<std::size_t>(i) * na + j0, a1 = static_cast<std::size_t>(i) * na + j1;
+        T1[m][i] = out.Td[m][static_cast<std::size_t>(i) * cols + k];
+        HT[m][i] = (1.0 - t) * (nodes.Td[m][a0] - nodes.Td_single[m][a0]) + t * (nodes.Td[m][a1] - nodes.Td_single[m][a1]);
+      }
     }
-    walk_higher_orders(surface, one, 1.0, above, below, modes, settings, mix64(bits ^ 3), &HR, &HT);
     conserve_energy(R1, T1, &HR, &HT, 1, nullptr);
     for (int m = 0; m < modes; ++m) {
-      for (int i = 0; i < above.size(); ++i) out.Rt[m][static_cast<std::size_t>(i) * nb + k] += HR[m][i];
-      for (int i = 0; i < below.size(); ++i) out.Td[m][static_cast<std::size_t>(i) * nb + k] += HT[m][i];
+      for (int i = 0; i < na; ++i) out.Rt[m][static_cast<std::size_t>(i) * cols + k] += HR[m][i];
+      for (int i = 0; i < nb_rows; ++i) out.Td[m][static_cast<std::size_t>(i) * cols + k] += HT[m][i];
     }
   }
   return out;

@@ -49,9 +49,9 @@ struct FourierDirections {
 struct InterfaceFourier {
   int modes = 0, above = 0, below = 0;
   std::vector<std::vector<double>> Rt, Td, Rb, Tu;  // [mode][i * columns + j]
-  // project_microsurface only: the first order's part of Rt (the rest of Rt is the light that
+  // project_microsurface only: the first order's part of Rt and Td (the rest is the light that
   // met the facets more than once).
-  std::vector<std::vector<double>> Rt_single;
+  std::vector<std::vector<double>> Rt_single, Td_single;
   // project_microsurface only: over the columns, the largest energy correction |1 - first - higher|
   // (the first order's quadrature error and the walks' estimate of the higher orders together),
   // and the first order's share of a column, least and most.
@@ -95,7 +95,7 @@ BeamFourier project_beams(double alpha, double n_above, double n_below, const In
 // orders: the first order projected as project_interface does (quadrature of
 // microsurface_single_eval), the orders >= 2 -- smooth, broad and a small share -- estimated by
 // `settings.walks` microsurface walks per column (MicrosurfaceDielectric::sample; incoming
-// directions stratified over the column's cell, or the beam's own), each walk of order >= 2
+// directions stratified over the column's cell), each walk of order >= 2
 // binned into its outgoing cell with its cos(m dphi) moments. Fixed seeds: the same inputs give
 // the same numbers on any thread count. Energy: the interface loses nothing, so each column's
 // higher orders are scaled so that the column (both blocks, mode 0) sums to 1 exactly (the
@@ -105,6 +105,9 @@ BeamFourier project_beams(double alpha, double n_above, double n_below, const In
 InterfaceFourier project_microsurface(double alpha, double n_above, double n_below, const FourierDirections& above,
                                       const FourierDirections& below, int modes,
                                       const InterfaceProjectionSettings& settings = {});
+// Beams: the first order by quadrature at the beam's direction, the higher orders interpolated
+// (linearly in mu^2) between the nodes' columns of project_microsurface (the same arguments, so
+// its cached walks), each column then made to sum to 1.
 BeamFourier project_microsurface_beams(double alpha, double n_above, double n_below, const FourierDirections& beams,
                                        const FourierDirections& above, const FourierDirections& below, int modes,
                                        const InterfaceProjectionSettings& settings = {});
