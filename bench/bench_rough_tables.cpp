@@ -9,7 +9,9 @@
 //   totals (cold): adding_doubling_totals at one incidence, the first at this roughness (the
 //                 totals project mode 0 alone: another cache entry than the table's);
 //   totals (warm): then at another incidence (only the incidence's columns are projected);
-// and the same for the smooth stack (roughness 0) for comparison.
+// for the single-scattering rough top, the energy-conserving one (interface_model
+// energy_conserving: the microsurface's higher orders by walks, adding_doubling.cpp 11.), and the
+// smooth stack (roughness 0) for comparison.
 // Usage: bench_rough_tables [repeats] (default: $BENCH_REPEATS, else 5)
 #include <algorithm>
 #include <chrono>
@@ -58,12 +60,14 @@ int main(int argc, char** argv) {
   const int repeats = std::max(1, argc > 1 ? std::atoi(argv[1]) : env ? std::atoi(env) : 5);
   const lamina::LayerStack base = lamina::load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
   const lamina::TableSettings settings;
-  for (bool rough : {true, false}) {
+  for (int variant : {0, 2, 1}) {
+    const bool rough = variant != 1, energy_conserving = variant == 2;
     std::vector<Time> cold, warm, totals_cold, totals;
     for (int r = 0; r < repeats; ++r) {
       lamina::LayerStack s = base;
       // A new roughness per repeat (a cold projection), within 1e-6 of the preset's.
       s.top_roughness = rough ? base.top_roughness * (1.0 + 1e-7 * (r + 1)) : 0.0;
+      if (energy_conserving) s.interface_model = lamina::InterfaceModel::EnergyConserving;
       cold.push_back(measure([&] { lamina::build_layered_table(s, settings); }));
       warm.push_back(measure([&] { lamina::build_layered_table(s, settings); }));
       const double mu = std::cos((20.0 + r) * 3.14159265358979323846 / 180.0);
@@ -71,7 +75,11 @@ int main(int argc, char** argv) {
       const double mu2 = std::cos((50.0 + r) * 3.14159265358979323846 / 180.0);
       totals.push_back(measure([&] { lamina::adding_doubling_totals(s, mu2); }));
     }
-    std::printf("%s (skin_oily, %d repeats, medians):\n", rough ? "rough top, roughness 0.4" : "smooth top", repeats);
+    std::printf("%s (skin_oily, %d repeats, medians):\n",
+                energy_conserving ? "energy-conserving rough top, roughness 0.4"
+                : rough           ? "rough top, roughness 0.4"
+                                  : "smooth top",
+                repeats);
     report("  table set (cold)", median(cold));
     report("  table set (warm)", median(warm));
     report("  totals at one incidence (cold)", median(totals_cold));

@@ -667,6 +667,24 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   return e;
 }
 
+// A layer without scattering (11.: the unscattered solution), exactly: R = 0 and T diagonal,
+// exp(-tau / mu) per node (the beam's attenuation along its path); the same as layer_element's
+// doubling of it, without the doubling.
+Element absorbing_layer_element(const Layer& layer, int c, const Medium& m, int size) {
+  Element e{Matrix(size), Matrix(size), Matrix(), Matrix(), true, {}};
+  if (layer.semi_infinite()) {
+    e.diagonal = false;
+    return e;  // nothing comes back; Td empty as layer_element's
+  }
+  e.Td = e.Tu = Matrix(size);
+  const double tau = layer.sigma_t()[c] * layer.thickness;
+  for (std::size_t k = 0; k < m.active.size(); ++k) {
+    const int j = m.active[k];
+    e.Td(j, j) = e.Tu(j, j) = std::isinf(tau) ? 0.0 : std::exp(-tau / m.mu[k]);
+  }
+  return e;
+}
+
 Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size, int mode) {
   Element e;
   e.Rt = Matrix(size);
@@ -676,6 +694,15 @@ Element lambert_element(const Spectrum& albedo, int c, const Medium& m, int size
   return e;
 }
 
+// A rough interface of the stack on the solver's basis (10.): interface k (0 the top, N the
+// bottom), its projection on every mode the solution uses, the incidences' columns apart (the
+// nodes' are cached: the same for every incidence), and where they sit among the nodes.
+struct RoughInterface {
+  std::shared_ptr<const InterfaceFourier> f;
+  std::shared_ptr<const BeamFourier> beams;
+  std::vector<int> above, below, incidence;  // global node indices
+};
+
 // The discretised stack for a set of incidence cosines.
 struct Problem {
   const LayerStack* stack = nullptr;
@@ -683,32 +710,39 @@ struct Problem {
   Medium above, below;  // below: only for a transmitting stack
   std::vector<Medium> media;
   bool lambert = false, semi = false, transmits = false;
-  // A rough top (stack.rough_top()): its projection on every mode the solution uses (10.), the
-  // nodes' (cached: the same for every incidence) and the incidences' columns apart.
-  std::shared_ptr<const InterfaceFourier> rough_top;
-  std::shared_ptr<const BeamFourier> rough_beams;
-  std::vector<int> rough_above, rough_below, rough_incidence;  // their global node indices
+  // rough[k]: interface k if it is rough (its f set), else smooth; rough_top: rough[0] is.
+  std::vector<RoughInterface> rough;
+  bool rough_top = false;
+  // Energy-conserving rough interfaces (11.): the same stack without scattering, whose solution is
+  // the unscattered light (the walk's R_specular and T_ballistic); null otherwise.
+  std::shared_ptr<const LayerStack> unscattered;
   int size() const { return nodes.size(); }
 };
 
-// 10. The rough top of mode `mode` on all nodes: the projected blocks (interface_fourier.h)
+// 10. Rough interface k of mode `mode` on all nodes: the projected blocks (interface_fourier.h)
 // embedded at the real nodes of the media above and below it, and the incidences' columns.
-// Not diagonal.
-Element rough_interface_element(const Problem& p, int size, int mode) {
+// Not diagonal. `single`: the first order's reflection from above alone (Rt, the rest empty).
+Element rough_interface_element(const Problem& p, int k, int size, int mode, bool single = false) {
   Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), false, {}};
-  const InterfaceFourier& f = *p.rough_top;
+  const RoughInterface& r = p.rough[k];
+  const InterfaceFourier& f = *r.f;
   if (mode >= f.modes) return e;
   auto embed = [&](const std::vector<double>& block, const std::vector<int>& to, const std::vector<int>& from, Matrix* m) {
     const std::size_t cols = from.size();
     for (std::size_t i = 0; i < to.size(); ++i)
       for (std::size_t j = 0; j < cols; ++j) (*m)(to[i], from[j]) = block[i * cols + j];
   };
-  embed(f.Rt[mode], p.rough_above, p.rough_above, &e.Rt);
-  embed(f.Td[mode], p.rough_below, p.rough_above, &e.Td);
-  embed(f.Rb[mode], p.rough_below, p.rough_below, &e.Rb);
-  embed(f.Tu[mode], p.rough_above, p.rough_below, &e.Tu);
-  embed(p.rough_beams->Rt[mode], p.rough_above, p.rough_incidence, &e.Rt);
-  embed(p.rough_beams->Td[mode], p.rough_below, p.rough_incidence, &e.Td);
+  if (single) {
+    embed(f.Rt_single[mode], r.above, r.above, &e.Rt);
+    embed(r.beams->Rt_single[mode], r.above, r.incidence, &e.Rt);
+    return e;
+  }
+  embed(f.Rt[mode], r.above, r.above, &e.Rt);
+  embed(f.Td[mode], r.below, r.above, &e.Td);
+  embed(f.Rb[mode], r.below, r.below, &e.Rb);
+  embed(f.Tu[mode], r.above, r.below, &e.Tu);
+  embed(r.beams->Rt[mode], r.above, r.incidence, &e.Rt);
+  embed(r.beams->Td[mode], r.below, r.incidence, &e.Td);
   return e;
 }
 
@@ -723,6 +757,19 @@ FourierDirections real_directions(const Medium& m, std::vector<int>* global) {
     global->push_back(m.active[k]);
   }
   return d;
+}
+
+// 11. The stack without scattering: every layer's scattering becomes absorption (the same
+// extinction), a Lambert substrate black. Its solution is the light that left without meeting a
+// particle or the substrate -- through and between rough interfaces too, where it is spread and
+// no closed form (zeroth_order) applies.
+LayerStack without_scattering(LayerStack s) {
+  for (Layer& l : s.layers) {
+    l.sigma_a = l.sigma_t();
+    for (PhaseLobe& lobe : l.lobes) lobe.sigma_s = Spectrum(0.0);
+  }
+  if (s.below.kind == Below::Kind::Lambert) s.below.albedo = Spectrum(0.0);
+  return s;
 }
 
 Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_theta_i,
@@ -744,48 +791,76 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   p.above = make_medium(p.nodes, stack.above_ior);
   for (const Layer& l : stack.layers) p.media.push_back(make_medium(p.nodes, l.ior));
   if (p.transmits) p.below = make_medium(p.nodes, stack.below.ior);
+  const int nl = static_cast<int>(stack.layers.size());
+  p.rough.resize(nl + 1);
   // rough_modes: -1 every mode any layer uses (brdf_tables_adding_doubling's `modes`), 1 mode 0
   // alone (the totals), 0 none (the media alone). The projection is the same for every channel
   // (the indices are grey).
-  if (stack.rough_top() && rough_modes != 0) {
-    int modes = 1;
-    if (rough_modes < 0)
-      for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
-    const FourierDirections above = real_directions(p.above, &p.rough_above);
-    const FourierDirections below = real_directions(p.media[0], &p.rough_below);
+  if (rough_modes == 0) return p;
+  int modes = 1;
+  if (rough_modes < 0)
+    for (const Medium& m : p.media) modes = std::max(modes, truncation_order(m));
+  // Interface k between the media above and below it; its beams: the incidences' nodes as they
+  // exist in the medium above it (their cosines there).
+  auto project = [&](int k, double alpha, bool energy_conserving) {
+    const Medium& above = k == 0 ? p.above : p.media[k - 1];
+    const Medium& below = k == nl ? p.below : p.media[k];
+    RoughInterface& r = p.rough[k];
+    const FourierDirections a = real_directions(above, &r.above);
+    const FourierDirections b = real_directions(below, &r.below);
     FourierDirections beams;
-    for (int j : p.nodes.incidences) {
-      const double mu = p.nodes.t[j];  // the incidence's cosine in the medium above (make_nodes)
+    for (std::size_t q = 0; q < above.active.size(); ++q) {
+      const int j = above.active[q];
+      if (j < p.nodes.real) continue;
+      // At the top, the incidence's cosine itself (make_nodes).
+      const double mu = k == 0 ? p.nodes.t[j] : above.mu[q];
       beams.mu.push_back(mu);
       beams.x_lo.push_back(mu * mu);
       beams.x_hi.push_back(mu * mu);
-      p.rough_incidence.push_back(j);
+      r.incidence.push_back(j);
     }
-    const double alpha = stack.top_roughness, n0 = stack.above_ior, n1 = stack.layers[0].ior;
-    p.rough_top = std::make_shared<InterfaceFourier>(project_interface(alpha, n0, n1, settings.rough_eval, above, below, modes));
-    p.rough_beams = std::make_shared<BeamFourier>(project_beams(alpha, n0, n1, settings.rough_eval, beams, above, below, modes));
-  }
+    if (energy_conserving) {
+      r.f = std::make_shared<InterfaceFourier>(project_microsurface(alpha, above.n, below.n, a, b, modes));
+      r.beams = std::make_shared<BeamFourier>(project_microsurface_beams(alpha, above.n, below.n, beams, a, b, modes));
+    } else {
+      r.f = std::make_shared<InterfaceFourier>(project_interface(alpha, above.n, below.n, settings.rough_eval, a, b, modes));
+      r.beams = std::make_shared<BeamFourier>(project_beams(alpha, above.n, below.n, settings.rough_eval, beams, a, b, modes));
+    }
+  };
+  if (stack.single_scattering_top()) project(0, stack.top_roughness, false);
+  for (int k = 0; k <= nl; ++k)
+    if (const double alpha = stack.energy_conserving_alpha(k); alpha > 0.0 && (k < nl || p.transmits)) project(k, alpha, true);
+  p.rough_top = p.rough[0].f != nullptr;
+  if (stack.energy_conserving_rough()) p.unscattered = std::make_shared<LayerStack>(without_scattering(stack));
   return p;
 }
 
-// R_t and T_d of the whole stack in channel c and Fourier mode `mode`, added from the bottom up
-// (6.); T_d is empty unless the stack transmits.
-Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
-  const LayerStack& stack = *p.stack;
+// R_t and T_d of the whole stack (or of `stack`, the same layers' structure: the unscattered
+// copy of 11.) in channel c and Fourier mode `mode`, added from the bottom up (6.); T_d is empty
+// unless the stack transmits.
+Element solve_stack(const Problem& p, int c, int mode, int* doublings, const LayerStack* other = nullptr) {
+  const LayerStack& stack = other ? *other : *p.stack;
   const int nl = static_cast<int>(stack.layers.size()), size = p.size();
+  // The unscattered copy's layers are exact diagonals (no doubling).
+  auto layer_element = [&](const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
+    return other ? absorbing_layer_element(layer, c, m, size) : lamina::layer_element(layer, c, m, size, mode, doublings);
+  };
   Element acc;
   const Layer& last = stack.layers[nl - 1];
   if (p.semi) {
     acc = layer_element(last, c, p.media[nl - 1], size, mode, doublings);
     acc.Td = Matrix();
   } else {
-    const Element bottom = p.lambert ? lambert_element(stack.below.albedo, c, p.media[nl - 1], size, mode)
-                                     : interface_element(p.media[nl - 1], p.below, size);
+    const Element bottom = p.lambert       ? lambert_element(stack.below.albedo, c, p.media[nl - 1], size, mode)
+                           : p.rough[nl].f ? rough_interface_element(p, nl, size, mode)
+                                           : interface_element(p.media[nl - 1], p.below, size);
     acc = add_over(layer_element(last, c, p.media[nl - 1], size, mode, doublings), bottom);
     if (p.lambert) acc.Td = Matrix();
   }
   for (int k = nl - 2; k >= 0; --k) {
-    if (stack.layers[k].ior != stack.layers[k + 1].ior)
+    if (p.rough[k + 1].f)
+      acc = add_over(rough_interface_element(p, k + 1, size, mode), acc);
+    else if (stack.layers[k].ior != stack.layers[k + 1].ior)
       acc = add_over(interface_element(p.media[k], p.media[k + 1], size), acc);
     // A layer that neither scatters nor absorbs (a clear coat) in a medium where every node
     // exists is the identity (R = 0, T = I), and adding it returns the part below unchanged
@@ -797,7 +872,7 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
   }
   if (p.rough_top) {
     // 10. The top's own reflection is kept apart (Rt_direct) and the rest added as usual.
-    Element top = rough_interface_element(p, size, mode);
+    Element top = rough_interface_element(p, 0, size, mode);
     Matrix direct = std::move(top.Rt);
     top.Rt = Matrix(size);
     acc = add_over(top, acc);
@@ -806,6 +881,44 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings) {
     acc = add_over(interface_element(p.above, p.media[0], size), acc);
   }
   return acc;
+}
+
+// Column j of an element's reflection (its top's own included) and transmission.
+std::pair<double, double> column_sums(const Element& e, int j) {
+  double r = 0.0, t = 0.0;
+  for (int i = 0; i < e.Rt.n; ++i) {
+    r += e.Rt(i, j);
+    if (e.Rt_direct.n > 0) r += e.Rt_direct(i, j);
+    if (e.Td.n > 0) t += e.Td(i, j);
+  }
+  return {r, t};
+}
+
+// 11. Energy-conserving rough interfaces: the totals split as the walk's, R_specular and
+// T_ballistic the unscattered solution's (u), the rest diffuse; R_hemispherical_glossy the
+// unscattered part of the diffuse-incidence reflection.
+void fill_totals_unscattered(const Problem& p, const Element& acc, const Element& u, int c, int j0,
+                             AddingDoublingTotals* out) {
+  const auto [R, T] = column_sums(acc, j0);
+  const auto [UR, UT] = column_sums(u, j0);
+  double Rh = 0.0, Th = 0.0, Rh_u = 0.0;
+  for (std::size_t k = 0; k < p.above.active.size(); ++k) {
+    if (p.above.W[k] == 0.0) continue;
+    const int j = p.above.active[k];
+    const auto [r, t] = column_sums(acc, j);
+    Rh += p.above.W[k] * r;
+    Th += p.above.W[k] * t;
+    Rh_u += p.above.W[k] * column_sums(u, j).first;
+  }
+  out->R_specular[c] = UR;
+  out->R_diffuse[c] = R - UR;
+  out->T_ballistic[c] = UT;
+  out->T_diffuse[c] = T - UT;
+  out->absorbed[c] = 1.0 - R - T;
+  out->R_hemispherical[c] = Rh;
+  out->T_hemispherical[c] = Th;
+  out->absorbed_hemispherical[c] = 1.0 - Rh - Th;
+  out->R_hemispherical_glossy[c] = Rh_u;
 }
 
 void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int c, int j0, AddingDoublingTotals* out) {
@@ -857,6 +970,30 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
 
 }  // namespace
 
+ZerothOrder zeroth_order_above_rough(const LayerStack& stack, double cos_theta_i) {
+  if (!stack.energy_conserving_rough()) return zeroth_order(stack, cos_theta_i);
+  // The stack down to the first rough interface, over a black substrate (which has no interface
+  // and reflects nothing unscattered): the light that met no rough interface.
+  const int first = [&] {
+    int k = 0;
+    while (!(stack.energy_conserving_alpha(k) > 0.0)) ++k;
+    return k;
+  }();
+  if (first == 0) {
+    ZerothOrder z = zeroth_order(stack, cos_theta_i);
+    z.R_specular = z.T_ballistic = Spectrum(0.0);
+    return z;
+  }
+  LayerStack above = stack;
+  above.layers.resize(first);
+  above.below.kind = Below::Kind::Lambert;
+  above.below.albedo = Spectrum(0.0);
+  ZerothOrder z = zeroth_order(stack, cos_theta_i);
+  z.R_specular = zeroth_order(above, cos_theta_i).R_specular;
+  z.T_ballistic = Spectrum(0.0);
+  return z;
+}
+
 AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_theta_i,
                                             const AddingDoublingSettings& settings) {
   const Problem p = make_problem(stack, {cos_theta_i}, settings, "adding_doubling_totals", 1);
@@ -865,7 +1002,14 @@ AddingDoublingTotals adding_doubling_totals(const LayerStack& stack, double cos_
   const ZerothOrder z = zeroth_order(stack, cos_theta_i);
   for (int c = 0; c < kChannels; ++c)
     if (settings.only_channel < 0 || settings.only_channel == c)
-      fill_totals(p, solve_stack(p, c, 0, &out.doublings), z, c, p.nodes.incidences[0], &out);
+    {
+      const Element acc = solve_stack(p, c, 0, &out.doublings);
+      if (p.unscattered)
+        fill_totals_unscattered(p, acc, solve_stack(p, c, 0, &out.doublings, p.unscattered.get()), c,
+                                p.nodes.incidences[0], &out);
+      else
+        fill_totals(p, acc, z, c, p.nodes.incidences[0], &out);
+    }
   return out;
 }
 
@@ -964,7 +1108,8 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
   std::vector<std::vector<Spectrum>> value(n_inc);
   for (int q = 0; q < n_inc; ++q) {
     // The single-scattering part and the table's layout from the analytic first order.
-    if (settings.single_scattering_bins && !p.rough_top) {  // first order reads a smooth top
+    // First order reads smooth interfaces only.
+    if (settings.single_scattering_bins && !p.rough_top && !p.unscattered) {
       tables[q] = brdf_table_first_order(stack, opts[q], 6, false);  // its totals are replaced below
     } else {
       tables[q].options = opts[q];
@@ -1014,10 +1159,14 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
       if (going[c])
         for (int mode = first; mode < first + batch; ++mode) tasks.push_back({c, mode});
     if (tasks.empty()) break;
-    std::vector<Element> solved(tasks.size());
+    std::vector<Element> solved(tasks.size()), unscattered(tasks.size());
     std::vector<int> task_doublings(tasks.size(), 0);
     tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t i) {
       solved[i] = solve_stack(p, tasks[i].first, tasks[i].second, &task_doublings[i]);
+      // 11. The unscattered solution: for the totals' split (mode 0), and subtracted from the
+      // bins unless they hold it (the table mode).
+      if (p.unscattered && (tasks[i].second == 0 || !settings.bins_hold_unscattered))
+        unscattered[i] = solve_stack(p, tasks[i].first, tasks[i].second, &task_doublings[i], p.unscattered.get());
     });
     for (std::size_t i = 0; i < tasks.size(); ++i) {
       const auto [c, mode] = tasks[i];
@@ -1025,7 +1174,12 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
       const Element& acc = solved[i];
       doublings += task_doublings[i];
       if (mode == 0)
-        for (int q = 0; q < n_inc; ++q) fill_totals(p, acc, z[q], c, p.nodes.incidences[q], &t[q]);
+        for (int q = 0; q < n_inc; ++q) {
+          if (p.unscattered)
+            fill_totals_unscattered(p, acc, unscattered[i], c, p.nodes.incidences[q], &t[q]);
+          else
+            fill_totals(p, acc, z[q], c, p.nodes.incidences[q], &t[q]);
+        }
       // The modes fall off with m (multiple scattering smooths the azimuthal dependence, and the
       // phase function's own modes decay as g^m): after two modes below 1e-7 of mode 0 the rest
       // cannot change a bin by more than about that fraction of the largest value, so they are
@@ -1034,9 +1188,30 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
       if (mode == 0) size0[c] = size;
       small[c] = size <= 1e-7 * size0[c] ? small[c] + 1 : 0;
       const double weight = mode == 0 ? 1.0 : 2.0;
+      // What the bins hold: the light that entered (smooth and single-scattering rough tops), or
+      // with energy-conserving rough interfaces (11.) the light that scattered (the walk's bins),
+      // or in the table mode all but the top's first-order reflection, which the renderer
+      // evaluates exactly.
+      Matrix binned_R, binned_T;
+      const Matrix* source_R = &acc.Rt;
+      const Matrix* source_T = &acc.Td;
+      if (p.unscattered) {
+        binned_R = acc.Rt_direct.n > 0 ? acc.Rt + acc.Rt_direct : acc.Rt;
+        binned_T = acc.Td;
+        if (!settings.bins_hold_unscattered) {
+          const Element& u = unscattered[i];
+          binned_R = binned_R - u.Rt;
+          if (u.Rt_direct.n > 0) binned_R = binned_R - u.Rt_direct;
+          if (binned_T.n > 0) binned_T = binned_T - u.Td;
+        } else if (p.rough_top) {
+          binned_R = binned_R - rough_interface_element(p, 0, p.size(), mode, true).Rt;
+        }
+        source_R = &binned_R;
+        source_T = &binned_T;
+      }
       for (int q = 0; q < n_inc; ++q)
         for (int side = 0; side < (acc.Td.n > 0 ? 2 : 1); ++side) {
-          L.build(p, side == 0 ? p.above : p.below, side == 0 ? acc.Rt : acc.Td, p.nodes.incidences[q]);
+          L.build(p, side == 0 ? p.above : p.below, side == 0 ? *source_R : *source_T, p.nodes.incidences[q]);
           for (int k = 0; k < K; ++k) {
             const double mu_part = L.integral(static_cast<double>(k) / K, static_cast<double>(k + 1) / K);
             for (int b = 0; b < Mphi; ++b)
@@ -1078,6 +1253,19 @@ std::vector<BrdfTable> brdf_tables_adding_doubling(const LayerStack& stack, cons
       // Under a rough top no light stays unscattered in the solver's incidence node (the top
       // spreads it over the real nodes at once), so there is no peak: the bins hold it all.
       if (p.rough_top) continue;
+      if (p.unscattered) {
+        // 11. Under a smooth top, what the solver left in the incidence node beyond the
+        // unscattered light: the forward peak of the layers above the first rough interface
+        // (the light that crossed a rough interface is spread over the real nodes, so nothing
+        // is left for transmission). The unscattered light is the unscattered solution's
+        // (bins of the light that scattered), or the delta lobes (zeroth_order_above_rough)
+        // when the bins hold the rest.
+        const double exact = settings.bins_hold_unscattered ? zeroth_order_above_rough(stack, mu0[q]).R_specular[c]
+                                                            : t[q].R_specular[c];
+        t[q].R_forward_peak[c] = t[q].R_specular[c] + t[q].R_diffuse[c] - exact - binned_R;
+        add_peak(value[q], BrdfSide::Reflect, mu0[q], c, t[q].R_forward_peak[c]);
+        continue;
+      }
       t[q].R_forward_peak[c] = t[q].R_diffuse[c] - binned_R;
       add_peak(value[q], BrdfSide::Reflect, mu0[q], c, t[q].R_forward_peak[c]);
       if (p.transmits) {

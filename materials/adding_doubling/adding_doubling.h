@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "materials/adding_doubling/interface_fourier.h"
+#include "materials/analytic/zeroth_order.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/base/spectrum.h"
 #include "materials/stack/stack.h"
@@ -53,6 +54,12 @@ struct AddingDoublingSettings {
   // A rough top's BSDF, projected onto the solver's basis (interface_fourier.h): today's
   // single-scattering GGX dielectric, as the walk's rough top.
   InterfaceEval rough_eval = single_scattering_ggx_eval;
+  // Energy-conserving rough interfaces (LayerStack::interface_model), what the bins of
+  // brdf_table_adding_doubling hold: false, the light that scattered at least once (the walk's
+  // bins; R_specular and T_ballistic are then the unscattered light, also where rough interfaces
+  // spread it); true (the table mode), everything but what the renderer adds exactly: the top's
+  // first-order glossy reflection and the delta lobes of zeroth_order_above_rough.
+  bool bins_hold_unscattered = false;
 };
 
 struct AddingDoublingTotals {
@@ -75,6 +82,12 @@ struct AddingDoublingTotals {
   int nodes = 0;      // quadrature nodes per hemisphere over all media (without the incidence)
   int doublings = 0;  // doubling steps over all layers and channels
 };
+
+// The unscattered light of a stack with energy-conserving rough interfaces that stays a delta
+// lobe: the light that meets no rough interface (the top's Fresnel reflection and the
+// reflections of the smooth interfaces above the first rough one); none under a rough top, and
+// no ballistic transmission (it would cross a rough interface). Other stacks: zeroth_order.
+ZerothOrder zeroth_order_above_rough(const LayerStack& stack, double cos_theta_i);
 
 // The totals of `stack` (validate_stack must accept it) for light from above at cos_theta_i in
 // (0, 1]. Under a rough top, as in the walk's totals (materials/brdf/brdf_table.cpp): R_specular is

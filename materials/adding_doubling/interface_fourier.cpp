@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <cmath>
 #include <list>
+#include <tuple>
 #include <memory>
 #include <mutex>
 
@@ -36,12 +37,18 @@
 #include "materials/analytic/first_order.h"  // GaussLegendreRule
 #include "materials/base/sampling.h"         // kPi
 #include "materials/interfaces/microfacet.h"
+#include "materials/interfaces/microsurface.h"
 
 namespace lamina {
 
 double single_scattering_ggx_eval(double alpha, double n_above, double n_below, const glm::dvec3& wo,
                                   const glm::dvec3& wi) {
   return RoughDielectric{{alpha}, n_above, n_below}.eval(wo, wi);
+}
+
+double microsurface_single_eval(double alpha, double n_above, double n_below, const glm::dvec3& wo,
+                                const glm::dvec3& wi) {
+  return MicrosurfaceDielectric{{alpha}, n_above, n_below}.eval_single(wo, wi);
 }
 
 namespace {
@@ -202,17 +209,53 @@ struct CacheKey {
   double alpha, n_above, n_below;
   int modes, cell_points, input_points, phi_panels, phi_points;
   EvalFunction eval;
+  bool multiple;  // project_microsurface (walks, seed: its higher orders)
+  int walks;
+  std::uint64_t seed;
   std::vector<double> above_mu, above_lo, above_hi, below_mu, below_lo, below_hi;
-  bool operator==(const CacheKey& o) const {
-    return alpha == o.alpha && n_above == o.n_above && n_below == o.n_below && modes == o.modes &&
+  // Serves `o`: the same inputs, and at least o's modes (mode m's numbers do not depend on how
+  // many modes are projected, so the first o.modes of a larger projection are o's projection).
+  bool serves(const CacheKey& o) const {
+    return alpha == o.alpha && n_above == o.n_above && n_below == o.n_below && modes >= o.modes &&
            cell_points == o.cell_points && input_points == o.input_points && phi_panels == o.phi_panels &&
-           phi_points == o.phi_points && eval == o.eval && above_mu == o.above_mu && above_lo == o.above_lo &&
+           phi_points == o.phi_points && eval == o.eval && multiple == o.multiple && walks == o.walks &&
+           seed == o.seed && above_mu == o.above_mu && above_lo == o.above_lo &&
            above_hi == o.above_hi && below_mu == o.below_mu && below_lo == o.below_lo && below_hi == o.below_hi;
   }
 };
 constexpr std::size_t kCacheSize = 8;
 std::mutex cache_mutex;
 std::list<std::pair<CacheKey, std::shared_ptr<const InterfaceFourier>>> cache;  // most recent first
+
+// A projection by its exact inputs from the cache, or made by `make` and stored.
+template <class Make>
+InterfaceFourier cached(CacheKey key, Make make) {
+  {
+    std::lock_guard<std::mutex> lock(cache_mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it)
+      if (it->first.serves(key)) {
+        cache.splice(cache.begin(), cache, it);
+        InterfaceFourier out = *cache.front().second;
+        out.modes = key.modes;
+        for (auto* b : {&out.Rt, &out.Td, &out.Rb, &out.Tu, &out.Rt_single, &out.Td_single})
+          if (static_cast<int>(b->size()) > key.modes) b->resize(key.modes);
+        return out;
+      }
+  }
+  auto made = std::make_shared<const InterfaceFourier>(make());
+  std::lock_guard<std::mutex> lock(cache_mutex);
+  cache.emplace_front(std::move(key), made);
+  if (cache.size() > kCacheSize) cache.pop_back();
+  return *made;
+}
+
+CacheKey key_of(double alpha, double n_above, double n_below, EvalFunction eval, bool multiple,
+                const FourierDirections& above, const FourierDirections& below, int modes,
+                const InterfaceProjectionSettings& s) {
+  return CacheKey{alpha, n_above, n_below, modes, s.cell_points, s.input_points, s.phi_panels, s.phi_points,
+                  eval, multiple, multiple ? s.walks : 0, multiple ? s.seed : 0, above.mu, above.x_lo, above.x_hi,
+                  below.mu, below.x_lo, below.x_hi};
+}
 
 }  // namespace
 
@@ -222,21 +265,8 @@ InterfaceFourier project_interface(double alpha, double n_above, double n_below,
   // Only a plain function is known by its address; anything else is projected every time.
   const EvalFunction* function = eval.target<EvalFunction>();
   if (!function) return project(alpha, n_above, n_below, eval, above, below, modes, settings);
-  CacheKey key{alpha, n_above, n_below, modes, settings.cell_points, settings.input_points, settings.phi_panels,
-               settings.phi_points, *function, above.mu, above.x_lo, above.x_hi, below.mu, below.x_lo, below.x_hi};
-  {
-    std::lock_guard<std::mutex> lock(cache_mutex);
-    for (auto it = cache.begin(); it != cache.end(); ++it)
-      if (it->first == key) {
-        cache.splice(cache.begin(), cache, it);
-        return *cache.front().second;
-      }
-  }
-  auto made = std::make_shared<const InterfaceFourier>(project(alpha, n_above, n_below, eval, above, below, modes, settings));
-  std::lock_guard<std::mutex> lock(cache_mutex);
-  cache.emplace_front(std::move(key), made);
-  if (cache.size() > kCacheSize) cache.pop_back();
-  return *made;
+  return cached(key_of(alpha, n_above, n_below, *function, false, above, below, modes, settings),
+                [&] { return project(alpha, n_above, n_below, eval, above, below, modes, settings); });
 }
 
 }  // namespace lamina
@@ -251,6 +281,218 @@ BeamFourier project_beams(double alpha, double n_above, double n_below, const In
   out.beams = beams.size();
   out.Rt = project_block(alpha, n_above, n_below, eval, beams, 1.0, above, 1.0, modes, settings);
   out.Td = project_block(alpha, n_above, n_below, eval, beams, 1.0, below, -1.0, modes, settings);
+  return out;
+}
+
+namespace {
+
+// The cells of one side sorted by their lower end, to find the cell of an outgoing mu^2.
+struct CellIndex {
+  std::vector<double> lo;
+  std::vector<int> node;
+  explicit CellIndex(const FourierDirections& d) {
+    std::vector<int> order;
+    for (int i = 0; i < d.size(); ++i)
+      if (d.x_hi[i] > d.x_lo[i]) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return d.x_lo[a] < d.x_lo[b]; });
+    for (int i : order) {
+      lo.push_back(d.x_lo[i]);
+      node.push_back(i);
+    }
+  }
+  int find(double x) const {
+    if (lo.empty()) return -1;
+    const auto it = std::upper_bound(lo.begin(), lo.end(), x);
+    return node[std::max<std::ptrdiff_t>(0, (it - lo.begin()) - 1)];
+  }
+};
+
+using Blocks = std::vector<std::vector<double>>;  // [mode][i * columns + j]
+
+// The orders >= 2 of the columns `in` (side in_sign): into H_R (cells of the same side) and H_T
+// (the other side), M_ij(m) = E[1{to in cell i} cos(m (phi - pi))] over the walks of order
+// >= 2 (phi the azimuth of the exit from the arrival's: the moments of project_block, since the
+// walk's density P(to | from) = f |to.z| is the cells' measure).
+void walk_higher_orders(const MicrosurfaceDielectric& surface, const FourierDirections& in, double in_sign,
+                        const FourierDirections& same, const FourierDirections& other, int modes,
+                        const InterfaceProjectionSettings& s, std::uint64_t stream, Blocks* H_R, Blocks* H_T) {
+  const int cols = in.size(), n_same = same.size(), n_other = other.size();
+  H_R->assign(modes, std::vector<double>(static_cast<std::size_t>(n_same) * cols, 0.0));
+  H_T->assign(modes, std::vector<double>(static_cast<std::size_t>(n_other) * cols, 0.0));
+  const CellIndex same_cells(same), other_cells(other);
+  tbb::parallel_for(0, cols, [&](int j) {
+    if (!(in.mu[j] > 0.0)) return;
+    Rng rng(s.seed, stream, static_cast<std::uint64_t>(j));
+    const bool cell = in.x_hi[j] > in.x_lo[j];
+    const double weight = 1.0 / s.walks;
+    for (int k = 0; k < s.walks; ++k) {
+      // Stratified over the cell uniformly in mu^2 (projected solid angle): the incoming power
+      // spread evenly over it, as project_block's input average.
+      const double x = cell ? in.x_lo[j] + (in.x_hi[j] - in.x_lo[j]) * (k + rng.uniform()) / s.walks : in.mu[j] * in.mu[j];
+      const double mu = std::sqrt(std::clamp(x, 0.0, 1.0));
+      const glm::dvec3 from{std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu))), 0.0, in_sign * mu};
+      glm::dvec3 to;
+      int order = 0;
+      if (!surface.sample(from, rng, &to, &order) || order < 2) continue;
+      const bool reflected = to.z * in_sign > 0.0;
+      const int i = (reflected ? same_cells : other_cells).find(to.z * to.z);
+      if (i < 0) continue;
+      Blocks& block = reflected ? *H_R : *H_T;
+      const std::size_t at = static_cast<std::size_t>(i) * cols + j;
+      const double st = std::sqrt(to.x * to.x + to.y * to.y);
+      const double c = st > 0.0 ? to.x / st : 1.0;
+      // (-1)^m cos(m phi) by the Chebyshev recurrence, as project_block.
+      double prev = 1.0, cur = c;
+      block[0][at] += weight;
+      for (int m = 1; m < modes; ++m) {
+        block[m][at] += (m % 2 ? -cur : cur) * weight;
+        const double next = 2.0 * c * cur - prev;
+        prev = cur;
+        cur = next;
+      }
+    }
+  });
+}
+
+// The energy step: the interface loses nothing, so each column of the first order (R, T) plus
+// the higher orders (H_R, H_T) sums to 1 in mode 0; the higher orders' column is scaled to make
+// it so (every mode by the same factor). Returns the largest |1 - first - higher| before.
+double conserve_energy(const Blocks& R, const Blocks& T, Blocks* H_R, Blocks* H_T, int cols, InterfaceFourier* check) {
+  const std::size_t n_same = R[0].size() / std::max(1, cols), n_other = T[0].size() / std::max(1, cols);
+  double largest = 0.0;
+  for (int j = 0; j < cols; ++j) {
+    double first = 0.0, higher = 0.0;
+    for (std::size_t i = 0; i < n_same; ++i) {
+      first += R[0][i * cols + j];
+      higher += (*H_R)[0][i * cols + j];
+    }
+    for (std::size_t i = 0; i < n_other; ++i) {
+      first += T[0][i * cols + j];
+      higher += (*H_T)[0][i * cols + j];
+    }
+    if (!(first > 0.0) && !(higher > 0.0)) continue;  // a column of no direction
+    largest = std::max(largest, std::abs(1.0 - first - higher));
+    if (check) {
+      check->smallest_single_albedo = std::min(check->smallest_single_albedo, first);
+      check->largest_single_albedo = std::max(check->largest_single_albedo, first);
+    }
+    const double scale = higher > 0.0 ? std::max(0.0, 1.0 - first) / higher : 0.0;
+    for (auto* H : {H_R, H_T})
+      for (auto& mode : *H)
+        for (std::size_t i = 0; i < mode.size() / cols; ++i) mode[i * cols + j] *= scale;
+  }
+  return largest;
+}
+
+// Reciprocity of the higher orders, which their walks hold only in the mean: the power exchanged
+// between two cells under uniform radiance, n_j^2 W_j M_ij (W the cell's measure in mu^2, n the
+// index on the arrival's side: f(wo, wi) / n_o^2 = f(wi, wo) / n_i^2), is the same read either
+// way; each pair's two estimates are replaced by their mean (which also halves their variance).
+void symmetrise(const FourierDirections& a, const FourierDirections& b, double n_a, double n_b, Blocks* Ra, Blocks* Tab,
+                Blocks* Rb, Blocks* Tba) {
+  const int na = a.size(), nb = b.size();
+  auto W = [](const FourierDirections& d, int i) { return d.x_hi[i] - d.x_lo[i]; };
+  for (std::size_t m = 0; m < Ra->size(); ++m) {
+    for (auto [R, d, n] : {std::tuple{Ra, &a, na}, std::tuple{Rb, &b, nb}})
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+          double& x = (*R)[m][static_cast<std::size_t>(i) * n + j];
+          double& y = (*R)[m][static_cast<std::size_t>(j) * n + i];
+          const double wi = W(*d, i), wj = W(*d, j);
+          if (!(wi > 0.0) || !(wj > 0.0)) continue;
+          const double mean = 0.5 * (wj * x + wi * y);
+          x = mean / wj;
+          y = mean / wi;
+        }
+    // Td: a (column j) -> b (row i), na x ... rows nb; Tu: b (column i) -> a (row j).
+    for (int i = 0; i < nb; ++i)
+      for (int j = 0; j < na; ++j) {
+        double& x = (*Tab)[m][static_cast<std::size_t>(i) * na + j];
+        double& y = (*Tba)[m][static_cast<std::size_t>(j) * nb + i];
+        const double wx = n_a * n_a * W(a, j), wy = n_b * n_b * W(b, i);
+        if (!(wx > 0.0) || !(wy > 0.0)) continue;
+        const double mean = 0.5 * (wx * x + wy * y);
+        x = mean / wx;
+        y = mean / wy;
+      }
+  }
+}
+
+void add_to(Blocks* x, const Blocks& y) {
+  for (std::size_t m = 0; m < x->size(); ++m)
+    for (std::size_t k = 0; k < (*x)[m].size(); ++k) (*x)[m][k] += y[m][k];
+}
+
+}  // namespace
+
+InterfaceFourier project_microsurface(double alpha, double n_above, double n_below, const FourierDirections& above,
+                                      const FourierDirections& below, int modes, const InterfaceProjectionSettings& settings) {
+  return cached(key_of(alpha, n_above, n_below, microsurface_single_eval, true, above, below, modes, settings), [&] {
+    InterfaceFourier out = project(alpha, n_above, n_below, microsurface_single_eval, above, below, modes, settings);
+    out.Rt_single = out.Rt;
+    out.Td_single = out.Td;
+    const MicrosurfaceDielectric surface{{alpha}, n_above, n_below};
+    Blocks Rt, Td, Rb, Tu;
+    walk_higher_orders(surface, above, 1.0, above, below, modes, settings, 1, &Rt, &Td);
+    walk_higher_orders(surface, below, -1.0, below, above, modes, settings, 2, &Rb, &Tu);
+    // Energy (exact) and reciprocity (in the mean) alternately, energy last: the columns sum to 1
+    // and the pairs are reciprocal to far below the walks' noise after a few rounds.
+    out.largest_energy_correction = std::max(conserve_energy(out.Rt, out.Td, &Rt, &Td, above.size(), &out),
+                                        conserve_energy(out.Rb, out.Tu, &Rb, &Tu, below.size(), &out));
+    for (int round = 0; round < 4; ++round) {
+      symmetrise(above, below, n_above, n_below, &Rt, &Td, &Rb, &Tu);
+      conserve_energy(out.Rt, out.Td, &Rt, &Td, above.size(), nullptr);
+      conserve_energy(out.Rb, out.Tu, &Rb, &Tu, below.size(), nullptr);
+    }
+    add_to(&out.Rt, Rt);
+    add_to(&out.Td, Td);
+    add_to(&out.Rb, Rb);
+    add_to(&out.Tu, Tu);
+    return out;
+  });
+}
+
+BeamFourier project_microsurface_beams(double alpha, double n_above, double n_below, const FourierDirections& beams,
+                                       const FourierDirections& above, const FourierDirections& below, int modes,
+                                       const InterfaceProjectionSettings& settings) {
+  BeamFourier out = project_beams(alpha, n_above, n_below, microsurface_single_eval, beams, above, below, modes, settings);
+  out.Rt_single = out.Rt;
+  // The higher orders are smooth in the incidence: a beam's are interpolated, linearly in mu^2,
+  // between the columns of the two cells around it (the nodes' projection, cached: its walks
+  // are made once per interface and basis), then its column is made to sum to 1 as the nodes'.
+  const InterfaceFourier nodes = project_microsurface(alpha, n_above, n_below, above, below, modes, settings);
+  const int na = above.size(), nb_rows = below.size(), cols = beams.size();
+  std::vector<std::pair<double, int>> centres;  // cell midpoints in mu^2, ascending
+  for (int j = 0; j < na; ++j)
+    if (above.x_hi[j] > above.x_lo[j]) centres.push_back({0.5 * (above.x_lo[j] + above.x_hi[j]), j});
+  std::sort(centres.begin(), centres.end());
+  if (centres.empty()) return out;
+  for (int k = 0; k < cols; ++k) {
+    const double x = beams.mu[k] * beams.mu[k];
+    std::size_t hi = std::upper_bound(centres.begin(), centres.end(), std::make_pair(x, -1)) - centres.begin();
+    const std::size_t lo = hi == 0 ? 0 : hi - 1;
+    hi = std::min(hi, centres.size() - 1);
+    const double t = hi == lo ? 0.0 : std::clamp((x - centres[lo].first) / (centres[hi].first - centres[lo].first), 0.0, 1.0);
+    const int j0 = centres[lo].second, j1 = centres[hi].second;
+    Blocks R1(modes, std::vector<double>(na)), T1(modes, std::vector<double>(nb_rows)), HR = R1, HT = T1;
+    for (int m = 0; m < modes; ++m) {
+      for (int i = 0; i < na; ++i) {
+        const std::size_t a0 = static_cast<std::size_t>(i) * na + j0, a1 = static_cast<std::size_t>(i) * na + j1;
+        R1[m][i] = out.Rt[m][static_cast<std::size_t>(i) * cols + k];
+        HR[m][i] = (1.0 - t) * (nodes.Rt[m][a0] - nodes.Rt_single[m][a0]) + t * (nodes.Rt[m][a1] - nodes.Rt_single[m][a1]);
+      }
+      for (int i = 0; i < nb_rows; ++i) {
+        const std::size_t a0 = static_cast<std::size_t>(i) * na + j0, a1 = static_cast<std::size_t>(i) * na + j1;
+        T1[m][i] = out.Td[m][static_cast<std::size_t>(i) * cols + k];
+        HT[m][i] = (1.0 - t) * (nodes.Td[m][a0] - nodes.Td_single[m][a0]) + t * (nodes.Td[m][a1] - nodes.Td_single[m][a1]);
+      }
+    }
+    conserve_energy(R1, T1, &HR, &HT, 1, nullptr);
+    for (int m = 0; m < modes; ++m) {
+      for (int i = 0; i < na; ++i) out.Rt[m][static_cast<std::size_t>(i) * cols + k] += HR[m][i];
+      for (int i = 0; i < nb_rows; ++i) out.Td[m][static_cast<std::size_t>(i) * cols + k] += HT[m][i];
+    }
+  }
   return out;
 }
 

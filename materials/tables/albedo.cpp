@@ -72,8 +72,10 @@ Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack,
   // R_h: one adding-doubling solution (its diffuse-incidence totals do not depend on cos_theta_i).
   const AddingDoublingTotals totals = adding_doubling_totals(stack, 1.0, settings);
   const Spectrum r_h = totals.R_hemispherical;
-  // A rough top: its own (glossy) reflection is the unscattered part, from the same solution.
-  if (stack.rough_top()) {
+  // A rough top: its own (glossy) reflection is the unscattered part, from the same solution;
+  // with energy-conserving rough interfaces, all the unscattered light (the walk's estimate
+  // leaves out exactly that: its exits of no scattering).
+  if (stack.rough_top() || stack.energy_conserving_rough()) {
     Spectrum a = r_h - totals.R_hemispherical_glossy;
     for (int c = 0; c < kChannels; ++c) a[c] = std::max(a[c], 0.0);
     return a;

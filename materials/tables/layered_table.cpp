@@ -58,6 +58,8 @@ LayeredTable build_layered_table(const LayerStack& stack, const TableSettings& s
   AddingDoublingSettings ad;
   ad.quadrature_points = settings.quadrature_points;
   ad.single_scattering_bins = false;
+  // Energy-conserving rough interfaces: the bins hold all that the surface does not add exactly.
+  ad.bins_hold_unscattered = true;
   if (settings.method == TableSettings::Method::AddingDoubling) {
     t.walk_fallback = !adding_doubling_resolves(stack, settings.quadrature_points, &ad);
     t.quadrature_points = ad.quadrature_points;

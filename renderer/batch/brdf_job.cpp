@@ -146,9 +146,9 @@ void check_brdf_method(const LayerStack& stack, const std::string& source, BrdfM
   if (method == BrdfMethod::FirstOrder && stack.rough_top())
     throw std::runtime_error(source + ": roughness: the first-order solution is for a smooth top interface; "
                              "use --method monte-carlo or adding-doubling");
-  if (method != BrdfMethod::MonteCarlo && stack.energy_conserving_rough())
+  if (method == BrdfMethod::FirstOrder && stack.energy_conserving_rough())
     throw std::runtime_error(source + ": interface_model: the " + brdf_method_name(method) +
-                             " solution has no energy-conserving rough interfaces; use --method monte-carlo");
+                             " solution has no energy-conserving rough interfaces; use --method monte-carlo or adding-doubling");
 }
 
 BrdfResult compute_brdf(const LayerStack& stack, const std::string& source, const BrdfRequest& request) {

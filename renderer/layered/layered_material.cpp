@@ -10,15 +10,12 @@
 namespace lamina {
 namespace {
 
-// The lambert mode's albedo of a stack: by adding-doubling, a single-scattering rough top's facets
-// projected onto its basis (no noise: standard error 0; materials/tables/albedo.h); by `walks`
-// walks for energy-conserving rough interfaces (their multiple scattering is not in adding-doubling).
-Spectrum albedo_of(const LayerStack& stack, int walks, Spectrum* standard_error = nullptr) {
-  if (!stack.energy_conserving_rough()) {  // adding-doubling: smooth or single-scattering rough top
-    if (standard_error) *standard_error = Spectrum(0.0);
-    return diffuse_bihemispherical_albedo_adding_doubling(stack);
-  }
-  return diffuse_bihemispherical_albedo(stack, walks, LayeredMaterial::kAlbedoSeed, standard_error);
+// The lambert mode's albedo of a stack: by adding-doubling, rough interfaces (single-scattering
+// top or energy-conserving anywhere) projected onto its basis (no noise: standard error 0;
+// materials/tables/albedo.h). `walks` is no longer used by any stack.
+Spectrum albedo_of(const LayerStack& stack, int /*walks*/, Spectrum* standard_error = nullptr) {
+  if (standard_error) *standard_error = Spectrum(0.0);
+  return diffuse_bihemispherical_albedo_adding_doubling(stack);
 }
 
 }  // namespace

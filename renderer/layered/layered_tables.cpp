@@ -33,15 +33,11 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     const auto& m = bindings.by_material[i];
     if (!m || i >= only.size() || !only[i] || tables_.count({m.get(), false})) continue;
-    // A (single-scattering) rough top is tabulated as it is: the table holds the light that
-    // entered the stack and the surface adds the top's glossy lobe exactly
-    // (renderer/surfaces/table_surface.h). Energy-conserving rough interfaces are not in
-    // adding-doubling: the smooth stack, with the warning of render_job (ignored_by_mode).
+    // A rough top is tabulated as it is: the table holds all but the top's first-order glossy
+    // lobe (and the delta lobes), which the surface adds exactly (renderer/surfaces/
+    // table_surface.h); energy-conserving rough interfaces, at the top or inside, are in
+    // adding-doubling (materials/adding_doubling/adding_doubling.h).
     const LayerStack* stack = &m->base_stack();
-    if (stack->energy_conserving_rough()) {
-      owned_stacks_.push_back(std::make_unique<LayerStack>(with_smooth_top(*stack)));
-      stack = owned_stacks_.back().get();
-    }
     const StackBindings* b = m->bindings();
     if (!b || b->empty()) {
       tables_[{m.get(), false}] = obtain(*stack);
@@ -60,7 +56,6 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       std::array<const LayerStack*, 2> pair{nullptr, nullptr};
       auto up = std::make_unique<LayerStack>();
       apply_parameters(t, ps, v.data(), up.get());
-      if (up->energy_conserving_rough()) *up = with_smooth_top(*up);
       pair[0] = up.get();
       if (sides == 2) {
         owned_stacks_.push_back(std::make_unique<LayerStack>(flipped(*up)));

@@ -490,7 +490,8 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   // A rough top: the first-order mode refracts through a smooth mirror, which the prediction
   // (delta parts D, a glossy lobe's total among them) cannot tell from the glossy lobe: never
   // chosen. The table mode renders the lobe exactly and the lambert mode's error includes it.
-  const bool rough = material.base_stack().rough_top();
+  // Energy-conserving rough inner interfaces too: the first-order mode's interfaces are mirrors.
+  const bool rough = material.base_stack().rough_top() || material.base_stack().energy_conserving_rough();
   if (ch.error_lambert <= tol) ch.mode = SubsurfaceMode::Lambert;
   else if (!rough && ch.error_first_order <= tol) ch.mode = SubsurfaceMode::FirstOrder;
   else if (ch.error_table <= tol) ch.mode = SubsurfaceMode::Table;
@@ -625,14 +626,6 @@ std::vector<AutoChoice> choose_subsurface_modes(const LayeredBindings& bindings,
       continue;
     }
     const LayeredMaterial& m = *bindings.by_material[i];
-    if (m.base_stack().energy_conserving_rough()) {
-      // The other modes would drop the glossy lobe (and first order and tables would refract
-      // through a mirror): no prediction can make them right.
-      out[i].mode = SubsurfaceMode::RandomWalk;
-      out[i].reason = string_printf("chose random-walk (energy-conserving rough interfaces, top roughness %.3g: only the walk renders them; no prediction)",
-                                    m.base_stack().top_roughness);
-      continue;
-    }
     const std::string key = cache ? auto_key(m, settings) : "";
     if (cache) {
       if (std::optional<AutoChoice> c = load_choice(*cache, key)) {

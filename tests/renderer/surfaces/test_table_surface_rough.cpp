@@ -96,5 +96,37 @@ TEST(RoughTableSurface, SamplerAgreesWithEvalAndPdf) {
   EXPECT_NEAR(mean, a[1], 4.0 * se) << "stderr " << se;
 }
 
+// Energy-conserving rough interfaces (docs/adding_doubling.md, "Energy-conserving rough
+// interfaces"): the table holds all but the top's first-order glossy lobe, which the surface
+// evaluates exactly, and the delta lobes of the smooth interfaces above the first rough one. At
+// a node the surface's albedo plus those deltas is the solver's total reflectance, as above (the
+// bins' cosine quadrature, 2e-3 of what they hold), on rough skin and on a stack with a smooth top
+// and a rough inner interface.
+TEST(RoughTableSurface, EnergyConservingAlbedoIsTheSolversTotalReflectance) {
+  LayerStack top = rough_skin();
+  top.interface_model = InterfaceModel::EnergyConserving;
+  LayerStack inner = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
+  inner.interface_model = InterfaceModel::EnergyConserving;
+  inner.layers[1].ior = 1.55;
+  inner.layers[0].bottom_roughness = 0.3;
+  ASSERT_EQ(validate_stack(inner), "");
+  for (const LayerStack* s : {&top, &inner}) {
+    TableSettings ts;
+    ts.nodes = 5;
+    const LayeredTable table = build_layered_table(*s, ts);
+    for (int j : {1, 3, 4}) {
+      const double mu = table_node_cosine(ts, j);
+      const glm::dvec3 wo{std::sqrt(1.0 - mu * mu), 0.0, mu};
+      const TableSurface surface(table, wo);
+      const Spectrum a = albedo_by_quadrature(surface, wo) + zeroth_order_above_rough(*s, mu).R_specular;
+      const AddingDoublingTotals t = adding_doubling_totals(*s, mu);
+      for (int c = 0; c < kChannels; ++c) {
+        const double R = t.R_specular[c] + t.R_diffuse[c];
+        EXPECT_NEAR(a[c], R, 2e-4 + 2e-3 * R) << (s == &top ? "rough top" : "rough inner") << " mu " << mu << " channel " << c;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lamina
