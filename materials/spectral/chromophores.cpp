@@ -128,6 +128,7 @@ namespace {
 // The chromophores' absorption on the colour grid, tabulated once.
 struct GridChromophores {
   std::array<double, 85> eumelanin, pheomelanin, oxy, deoxy, water, fat, carotene, baseline;
+  std::array<double, 85> log_x, rayleigh;  // ln(nm / 500) and (nm / 500)^-4, for the power law
 };
 
 const GridChromophores& on_grid() {
@@ -144,6 +145,8 @@ const GridChromophores& on_grid() {
       q.fat[i] = fat_absorption(nm);
       q.carotene[i] = carotene_absorption_per_concentration(nm);
       q.baseline[i] = skin_baseline_absorption(nm);
+      q.log_x[i] = std::log(nm / 500.0);
+      q.rayleigh[i] = std::pow(nm / 500.0, -4.0);
     }
     return q;
   }();
@@ -154,23 +157,34 @@ const GridChromophores& on_grid() {
 // its reduced albedo: R_d = (a'/2) (1 + exp(-4/3 A x)) exp(-x) (Jensen, Marschner, Levoy and
 // Hanrahan 2001, eq. 5 with its dipole's boundary term A at the tissue's index 1.4: A = (1 +
 // F_dr) / (1 - F_dr), F_dr = -1.440/n^2 + 0.710/n + 0.668 + 0.0636 n). Decreasing in x on [0, sqrt 3].
-double diffuse_reflectance(double x) {
-  constexpr double n = 1.4;
-  const double f_dr = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
-  const double a = (1.0 + f_dr) / (1.0 - f_dr);
-  return 0.5 * (1.0 - x * x / 3.0) * (1.0 + std::exp(-4.0 / 3.0 * a * x)) * std::exp(-x);
-}
-
-// The absorption whose diffuse reflectance, at reduced scattering s, is r: bisection on x.
-double absorption_of_reflectance(double r, double s) {
-  double lo = 0.0, hi = std::sqrt(3.0);
-  for (int k = 0; k < 60; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    (diffuse_reflectance(mid) > r ? lo : hi) = mid;
+struct DiffuseReflectance {
+  double k;  // 4/3 A
+  DiffuseReflectance() {
+    constexpr double n = 1.4;
+    const double f_dr = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+    k = 4.0 / 3.0 * (1.0 + f_dr) / (1.0 - f_dr);
   }
-  const double x = 0.5 * (lo + hi), albedo = 1.0 - x * x / 3.0;
-  return albedo > 0.0 ? s * (1.0 - albedo) / albedo : std::numeric_limits<double>::infinity();
-}
+  double operator()(double x) const { return 0.5 * (1.0 - x * x / 3.0) * (1.0 + std::exp(-k * x)) * std::exp(-x); }
+  // The absorption whose R_d at reduced scattering s is r: Newton's method on x, kept inside the
+  // bracket that the signs of R_d - r narrow (bisection where a step would leave it); the same
+  // steps for the same numbers, so deterministic.
+  double absorption(double r, double s) const {
+    double lo = 0.0, hi = std::sqrt(3.0), x = 0.5 * hi;
+    for (int it = 0; it < 40; ++it) {
+      const double e = std::exp(-x), ek = std::exp(-k * x), q = 1.0 - x * x / 3.0;
+      const double f = 0.5 * q * (1.0 + ek) * e - r;
+      (f > 0.0 ? lo : hi) = x;
+      const double slope = 0.5 * e * (-2.0 * x / 3.0 * (1.0 + ek) - k * q * ek - q * (1.0 + ek));
+      double next = x - f / slope;
+      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      const bool done = std::abs(next - x) <= 1e-15 * next;
+      x = next;
+      if (done) break;
+    }
+    const double albedo = 1.0 - x * x / 3.0;
+    return albedo > 0.0 ? s * (1.0 - albedo) / albedo : std::numeric_limits<double>::infinity();
+  }
+};
 
 }  // namespace
 
@@ -181,13 +195,16 @@ double absorption_of_reflectance(double r, double s) {
 Spectrum SkinChromophores::absorption_rgb() const {
   const GridChromophores& q = on_grid();
   const ChannelWeights& cw = rec709_channel_weights();
+  static const DiffuseReflectance rd;
   Spectrum mean_a(0.0), mean_r(0.0), mean_s(0.0);
   for (int i = 0; i < 85; ++i) {
     const double a = melanin * (eumelanin * q.eumelanin[i] + (1.0 - eumelanin) * q.pheomelanin[i]) +
                      blood * (oxygenation * q.oxy[i] + (1.0 - oxygenation) * q.deoxy[i]) + water * q.water[i] +
                      fat * q.fat[i] + carotene * q.carotene[i] + baseline * q.baseline[i];
-    const double s = scattering.reduced(cw.nm(i));
-    const double r = s > 0.0 ? diffuse_reflectance(std::sqrt(3.0 * a / (a + s))) : 0.0;
+    // scattering.reduced(nm), with the powers from the table.
+    const double s = scattering.reduced_500 * (scattering.f_rayleigh * q.rayleigh[i] +
+                                               (1.0 - scattering.f_rayleigh) * std::exp(-scattering.b_mie * q.log_x[i]));
+    const double r = s > 0.0 ? rd(std::sqrt(3.0 * a / (a + s))) : 0.0;
     for (int c = 0; c < kChannels; ++c) {
       mean_a[c] += cw.w[i][c] * a;
       mean_r[c] += cw.w[i][c] * r;
@@ -196,7 +213,7 @@ Spectrum SkinChromophores::absorption_rgb() const {
   }
   if (!(scattering.reduced_500 > 0.0)) return {std::max(0.0, mean_a[0]), std::max(0.0, mean_a[1]), std::max(0.0, mean_a[2])};
   Spectrum out;
-  for (int c = 0; c < kChannels; ++c) out[c] = absorption_of_reflectance(mean_r[c], mean_s[c]);
+  for (int c = 0; c < kChannels; ++c) out[c] = rd.absorption(mean_r[c], mean_s[c]);
   return out;
 }
 
