@@ -24,12 +24,9 @@ double* chromophore_parameter(SpectralStack* stack, const std::string& path) {
     if (key == "b_mie") return &c.scattering.b_mie;
     throw FitError(path + ": unknown scattering key (reduced_500, f_rayleigh, b_mie)");
   }
-  const std::pair<const char*, double*> keys[] = {
-      {"melanin", &c.melanin}, {"eumelanin", &c.eumelanin}, {"blood", &c.blood}, {"oxygenation", &c.oxygenation},
-      {"water", &c.water},     {"fat", &c.fat},             {"carotene", &c.carotene}, {"baseline", &c.baseline},
-      {"g", &c.g}};
-  for (const auto& [name, value] : keys)
-    if (key == name) return value;
+  for (const ChromophoreKey& k : chromophore_keys())  // materials/spectral/chromophores.h
+    if (key == k.name) return &(c.*k.member);
+  if (key == "g") return &c.g;
   throw FitError(path + ": unknown chromophore key (melanin, eumelanin, blood, oxygenation, water, fat, carotene, baseline, "
                         "g, scattering.reduced_500|f_rayleigh|b_mie)");
 }

@@ -6,6 +6,10 @@
 // docs/spectral.md, "Skin chromophores".
 #pragma once
 
+#include <array>
+
+#include "materials/base/spectrum.h"
+
 namespace lamina {
 
 // Absorption of the pure chromophores, 1/mm.
@@ -56,6 +60,50 @@ struct SkinChromophores {
 
   double absorption(double nm) const;  // 1/mm
   double scattering_coefficient(double nm) const { return scattering.reduced(nm) / (1.0 - g); }  // 1/mm
+
+  // The RGB mode's coefficients (1/mm). Scattering: each channel's mean of the spectrum
+  // (rec709_channel_mean). Absorption: per channel, the coefficient whose diffuse reflectance (a
+  // semi-infinite layer at the channel's mean scattering, the dipole's R_d) equals the channel's
+  // colour of the layer's diffuse reflectance spectrum, so that the RGB mode shows about the colour
+  // the spectrum gives (docs/skin_tones.md measures how close); the mean of the coefficient would
+  // let blood's narrow bands near 560 nm darken the red channel. A layer that does not scatter
+  // takes the mean coefficient. A function of the chromophores alone: a map that drives one
+  // recomputes it per shading point (docs/stack_bindings.md, "Chromophore parameters").
+  Spectrum absorption_rgb() const;
+  Spectrum scattering_coefficient_rgb() const;
 };
+
+// The scalar keys of a "chromophores" object, declared once for the material-file reader and the
+// stack parameters that bind them (docs/spectral.md, "Skin chromophores"). A volume fraction
+// counts towards the sum M + B + W + F + baseline <= 1.
+struct ChromophoreKey {
+  const char* name;
+  double SkinChromophores::*member;
+  double max;          // the range is [0, max]; max may be +infinity
+  bool volume_fraction;
+};
+const std::array<ChromophoreKey, 8>& chromophore_keys();
+
+// The weights that project a spectrum onto a linear Rec. 709 channel (c = 0, 1, 2), on the
+// colour grid (360-780 nm every 5 nm, materials/spectral/colour.h): w_c(nm) proportional to
+// D65(nm) r_c(nm), r_c = sum_k M[c][k] xyz_bar_k the channel's colour-matching function (M the
+// sRGB matrix; negative where the channel's primary is out of gamut), normalised to sum 1 so that a
+// grey spectrum projects to the same grey. Of a reflectance spectrum, sum w_c R is its colour under
+// D65 (reflectance_to_linear_rec709 up to the white point's 1e-4).
+struct ChannelWeights {
+  std::array<double, 3> w[85];  // [wavelength index][channel]
+  double nm(int i) const { return 360.0 + 5.0 * i; }
+};
+const ChannelWeights& rec709_channel_weights();
+template <typename F>
+Spectrum rec709_channel_mean(F f) {
+  const ChannelWeights& cw = rec709_channel_weights();
+  Spectrum out(0.0);
+  for (int i = 0; i < 85; ++i) {
+    const double v = f(cw.nm(i));
+    for (int c = 0; c < kChannels; ++c) out[c] += cw.w[i][c] * v;
+  }
+  return out;
+}
 
 }  // namespace lamina

@@ -141,17 +141,14 @@ class Reader {
                          "scattering", "g"});
     SkinChromophores c;
     const double inf = std::numeric_limits<double>::infinity();
-    const std::pair<const char*, double*> fractions[] = {{"melanin", &c.melanin}, {"blood", &c.blood},
-                                                         {"water", &c.water},     {"fat", &c.fat},
-                                                         {"baseline", &c.baseline}};
-    double sum = 0.0;
-    for (const auto& [key, value] : fractions)
-      if (j.contains(key)) sum += *value = bounded(j[key], join(path, key), 0.0, 1.0);
+    double sum = 0.0;  // of the volume fractions
+    for (const ChromophoreKey& key : chromophore_keys()) {
+      if (!j.contains(key.name)) continue;
+      const double v = c.*key.member = bounded(j[key.name], join(path, key.name), 0.0, key.max);
+      if (key.volume_fraction) sum += v;
+    }
     if (sum > 1.0 + 1e-9)
       fail(path, "volume fractions melanin + blood + water + fat + baseline must not exceed 1 (sum " + fmt(sum) + ")");
-    if (j.contains("eumelanin")) c.eumelanin = bounded(j["eumelanin"], join(path, "eumelanin"), 0.0, 1.0);
-    if (j.contains("oxygenation")) c.oxygenation = bounded(j["oxygenation"], join(path, "oxygenation"), 0.0, 1.0);
-    if (j.contains("carotene")) c.carotene = bounded(j["carotene"], join(path, "carotene"), 0.0, inf);
     if (j.contains("g")) {
       if (!j["g"].is_number()) fail(join(path, "g"), "expected a number (one g at every wavelength), got " + type_name(j["g"]));
       c.g = asymmetry(j["g"], join(path, "g"))[0];
@@ -201,15 +198,20 @@ class Reader {
     if (j.contains("chromophores")) {
       if (direct || j.contains("components"))
         fail(path, "give either chromophores, or sigma_a, sigma_s and g, or components, not two of them");
-      if (spectral == nullptr)
-        fail(join(path, "chromophores"), "a layer given by chromophores has spectral coefficients: only "
-                                         "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
-      *spectral = chromophores(j["chromophores"], join(path, "chromophores"));
-      // Placeholders, the coefficients at 550 nm (so that validate_stack checks real values): the
-      // coefficients come per wavelength (stack_at_wavelength).
-      const SkinChromophores& c = **spectral;
-      layer.sigma_a = Spectrum(c.absorption(550.0));
-      layer.lobes.push_back({Spectrum(c.scattering_coefficient(550.0)), Spectrum(c.g)});
+      const SkinChromophores c = chromophores(j["chromophores"], join(path, "chromophores"));
+      if (spectral) {
+        // Placeholders, the coefficients at 550 nm (so that validate_stack checks real values): the
+        // coefficients come per wavelength (stack_at_wavelength).
+        *spectral = c;
+        layer.sigma_a = Spectrum(c.absorption(550.0));
+        layer.lobes.push_back({Spectrum(c.scattering_coefficient(550.0)), Spectrum(c.g)});
+      } else {
+        // The RGB mode: each channel's mean of the spectra (SkinChromophores::absorption_rgb; a
+        // bound chromophore recomputes it the same way, apply_parameters).
+        layer.sigma_a = c.absorption_rgb();
+        layer.lobes.push_back({c.scattering_coefficient_rgb(), Spectrum(c.g)});
+      }
+      desc->chromophores = c;
       desc->components.push_back({1.0, layer.sigma_a, layer.lobes.back().sigma_s, Spectrum(c.g)});
       return layer;
     }

@@ -36,8 +36,10 @@ LayerStack load_stack_file(const std::string& path);
 StackTemplate parse_stack_template_json(const std::string& text, const std::string& source_name);
 StackTemplate load_stack_template(const std::string& path);
 
-// A material file whose layers may be given by "chromophores" (docs/spectral.md); the functions
-// above reject such a layer. The other layers and a Lambert substrate must be grey.
+// A material file whose layers may be given by "chromophores" (docs/spectral.md). The functions
+// above read such a layer in RGB (each channel the mean of its spectra,
+// SkinChromophores::absorption_rgb); these keep the chromophores to evaluate per wavelength, and
+// require the other layers and a Lambert substrate to be grey.
 SpectralStack parse_spectral_stack_json(const std::string& text, const std::string& source_name);
 SpectralStack load_spectral_stack(const std::string& path);
 

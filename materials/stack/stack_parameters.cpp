@@ -34,6 +34,32 @@ int read_index(const std::string& path, std::size_t* pos) {
   return std::atoi(digits.c_str());
 }
 
+// The template's volume fractions of a chromophore layer other than `key` and the baseline (which
+// gives way when a fraction is bound; apply_chromophores).
+double other_volume_fractions(const SkinChromophores& c, const ChromophoreKey& key) {
+  double sum = 0.0;
+  for (const ChromophoreKey& k : chromophore_keys())
+    if (k.volume_fraction && k.member != key.member && k.member != &SkinChromophores::baseline) sum += c.*k.member;
+  return sum;
+}
+
+// layers[i].chromophores.KEY, `key` the text after "chromophores.".
+StackParameter chromophore_parameter(const LayerDesc& desc, const std::string& key, StackParameter p) {
+  const std::string layer = "layers[" + std::to_string(p.layer) + "]";
+  if (!desc.chromophores) fail(p.path, layer + " is not given by chromophores");
+  std::string names;
+  for (std::size_t k = 0; k < chromophore_keys().size(); ++k) {
+    const ChromophoreKey& ck = chromophore_keys()[k];
+    names += std::string(k ? ", " : "") + ck.name;
+    if (key != ck.name) continue;
+    p.kind = Kind::kChromophore;
+    p.chromophore = static_cast<int>(k);
+    p.chromophore_max = ck.volume_fraction ? std::min(1.0, 1.0 - other_volume_fractions(*desc.chromophores, ck)) : ck.max;
+    return p;
+  }
+  fail(p.path, "unknown chromophore key '" + key + "' (a texture can drive " + names + ")");
+}
+
 double clamp_value(Kind kind, double v) {
   if (std::isnan(v)) v = 0.0;
   switch (kind) {
@@ -72,6 +98,7 @@ double StackParameter::max_value() const {
     case Kind::kRoughness:
     case Kind::kBelowLambert: return 1.0;
     case Kind::kG: return kMaxAbsG;
+    case Kind::kChromophore: return chromophore_max;
     default: return std::numeric_limits<double>::infinity();
   }
 }
@@ -83,6 +110,7 @@ Spectrum StackParameter::template_value(const StackTemplate& t) const {
     case Kind::kBelowLambert: return t.stack.below.albedo;
     case Kind::kBelowIor: return Spectrum(t.stack.below.ior);
     case Kind::kRoughness: return Spectrum(t.stack.top_roughness);
+    case Kind::kChromophore: return Spectrum((*t.layers[layer].chromophores).*chromophore_keys()[chromophore].member);
     default: break;
   }
   const ComponentDesc& c = t.layers[layer].components[component < 0 ? 0 : component];
@@ -124,6 +152,7 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
   if (p.layer >= n)
     fail(path, "the stack has " + std::to_string(n) + " layer(s) (layers[0] .. layers[" + std::to_string(n - 1) + "])");
   const LayerDesc& desc = t.layers[p.layer];
+  if (path.compare(pos, 14, ".chromophores.") == 0) return chromophore_parameter(desc, path.substr(pos + 14), p);
   if (path.compare(pos, 12, ".components[") == 0) {
     if (!desc.composite) fail(path, "layers[" + std::to_string(p.layer) + "] has no components (it gives sigma_a, sigma_s, g)");
     pos += 11;
@@ -150,12 +179,15 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
   } else if (key == "ior") {
     p.kind = Kind::kIor;
   } else if (key == "sigma_a" || key == "sigma_s" || key == "g") {
+    if (desc.chromophores)
+      fail(path, "layers[" + std::to_string(p.layer) + "] is given by chromophores: bind layers[" +
+                     std::to_string(p.layer) + "].chromophores.KEY");
     if (desc.composite)
       fail(path, "layers[" + std::to_string(p.layer) + "] is mixed from components: bind layers[" +
                      std::to_string(p.layer) + "].components[j]." + key);
     p.kind = key == "sigma_a" ? Kind::kSigmaA : key == "sigma_s" ? Kind::kSigmaS : Kind::kG;
   } else {
-    fail(path, "unknown key '" + key + "' (a layer has thickness, ior, sigma_a, sigma_s, g, components[j])");
+    fail(path, "unknown key '" + key + "' (a layer has thickness, ior, sigma_a, sigma_s, g, components[j], chromophores.KEY)");
   }
   return p;
 }
@@ -163,8 +195,13 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
 void check_parameter_set(const std::vector<StackParameter>& ps) {
   for (std::size_t a = 0; a < ps.size(); ++a)
     for (std::size_t b = 0; b < a; ++b) {
-      if (ps[a].kind == ps[b].kind && ps[a].layer == ps[b].layer && ps[a].component == ps[b].component)
+      if (ps[a].kind == ps[b].kind && ps[a].layer == ps[b].layer && ps[a].component == ps[b].component &&
+          ps[a].chromophore == ps[b].chromophore)
         fail(ps[a].path, "bound twice (also as '" + ps[b].path + "')");
+      if (ps[a].kind == Kind::kChromophore && ps[b].kind == Kind::kChromophore && ps[a].layer == ps[b].layer &&
+          chromophore_keys()[ps[a].chromophore].volume_fraction && chromophore_keys()[ps[b].chromophore].volume_fraction)
+        fail(ps[a].path, "only one volume fraction per chromophore layer can be bound (also '" + ps[b].path +
+                             "'): the baseline gives way to keep the sum at most 1");
       if (ps[a].kind == Kind::kFraction && ps[b].kind == Kind::kFraction && ps[a].layer == ps[b].layer)
         fail(ps[a].path, "only one fraction per layer can be bound (also '" + ps[b].path +
                              "'): the others are rescaled to keep the sum 1");
@@ -180,6 +217,34 @@ void mix_layer(const LayerDesc& desc, Layer* layer) {
     layer->lobes[k] = PhaseLobe{c.fraction * c.sigma_s, c.g};
   }
 }
+
+namespace {
+
+// A chromophore layer with the chromophores bound in it set (ps[first] the first naming the layer):
+// its RGB absorption recomputed as the file reader computes it (the same function of the same
+// numbers, so a map holding the file's value gives the file's stack bit for bit). A bound volume
+// fraction x takes its difference from the template's x0 out of the baseline, b = max(0, b0 - (x -
+// x0)), as Donner and Jensen's bloodless tissue fills what melanin and blood leave.
+void apply_chromophores(const StackTemplate& t, const std::vector<StackParameter>& ps, const Spectrum* values,
+                        std::size_t first, LayerStack* out) {
+  const int l = ps[first].layer;
+  for (std::size_t e = 0; e < first; ++e)
+    if (ps[e].layer == l && ps[e].kind == Kind::kChromophore) return;  // done with the first
+  const SkinChromophores& c0 = *t.layers[l].chromophores;
+  SkinChromophores c = c0;
+  for (std::size_t e = first; e < ps.size(); ++e) {
+    const StackParameter& p = ps[e];
+    if (p.layer != l || p.kind != Kind::kChromophore) continue;
+    const ChromophoreKey& key = chromophore_keys()[p.chromophore];
+    const double x = std::clamp(clamp_value(p.kind, values[e][0]), 0.0, p.chromophore_max);
+    c.*key.member = x;
+    if (key.volume_fraction && key.member != &SkinChromophores::baseline)
+      c.baseline = std::max(0.0, c0.baseline - (x - c0.*key.member));
+  }
+  out->layers[l].sigma_a = c.absorption_rgb();
+}
+
+}  // namespace
 
 void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>& ps, const Spectrum* values,
                       LayerStack* out) {
@@ -200,6 +265,10 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
   for (std::size_t k = 0; k < ps.size(); ++k) {
     const int l = ps[k].layer;
     if (l < 0 || ps[k].kind == Kind::kThickness || ps[k].kind == Kind::kIor) continue;
+    if (ps[k].kind == Kind::kChromophore) {
+      apply_chromophores(t, ps, values, k, out);
+      continue;
+    }
     bool seen = false;
     for (std::size_t e = 0; e < k && !seen; ++e)
       seen = ps[e].layer == l && ps[e].kind != Kind::kThickness && ps[e].kind != Kind::kIor;

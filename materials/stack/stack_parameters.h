@@ -14,6 +14,9 @@
 //   layers[i].sigma_a|sigma_s|g    colour, of a layer given directly (no components)
 //   layers[i].components[j].fraction           scalar in [0, 1]; needs M >= 2
 //   layers[i].components[j].sigma_a|sigma_s|g  colour
+//   layers[i].chromophores.KEY     scalar, of a layer given by chromophores (KEY one of
+//                                  chromophore_keys(): melanin, blood, ...); the layer's RGB
+//                                  sigma_a is recomputed from its chromophores with the value set
 //   below.lambert                  colour in [0, 1] (a Lambert substrate)
 //   below.ior                      scalar, > 0 (a dielectric below)
 //
@@ -22,10 +25,12 @@
 // sum stays 1. If the others had zero total fraction in the template, they share 1 - f equally.
 // Values outside a parameter's physical range are clamped to it (a freckle added on top of a
 // map can overshoot): fraction to [0, 1], coefficients to >= 0, |g| to <= 1 - 1e-6, thickness to
-// >= 0, ior to >= 1e-6, Lambert albedo to [0, 1].
+// >= 0, ior to >= 1e-6, Lambert albedo to [0, 1], a chromophore to [0, its max_value()] (a volume
+// fraction so that the layer's fractions still sum to at most 1).
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -33,6 +38,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "materials/base/spectrum.h"
+#include "materials/spectral/chromophores.h"
 #include "materials/stack/stack.h"
 
 namespace lamina {
@@ -49,6 +55,8 @@ struct ComponentDesc {
 struct LayerDesc {
   bool composite = false;  // true: the file gave "components"; false: sigma_a, sigma_s, g
   std::vector<ComponentDesc> components;
+  // A layer given by chromophores: them (its one component holds their RGB coefficients).
+  std::optional<SkinChromophores> chromophores;
 };
 
 // A compiled stack and the description it was mixed from; layers[i] describes stack.layers[i].
@@ -62,11 +70,14 @@ struct StackParameterError : std::runtime_error {
 };
 
 struct StackParameter {
-  enum class Kind { kThickness, kIor, kSigmaA, kSigmaS, kG, kFraction, kBelowLambert, kBelowIor, kRoughness };
+  enum class Kind { kThickness, kIor, kSigmaA, kSigmaS, kG, kFraction, kBelowLambert, kBelowIor, kRoughness,
+                    kChromophore };
   std::string path;  // as given, for messages
   Kind kind = Kind::kThickness;
   int layer = -1;      // -1 for below.*
   int component = -1;  // -1 for a whole-layer parameter
+  int chromophore = -1;  // kChromophore: the index into chromophore_keys()
+  double chromophore_max = 1.0;  // kChromophore: its largest value in this stack
   // True if the parameter is a colour (sigma_a, sigma_s, g, lambert); false for a scalar.
   bool spectral() const;
   // The physical range of one channel (used to check binding ranges at load time).

@@ -65,11 +65,27 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
     for (std::size_t k = 0; k < ps.size(); ++k) values[k] = ps[k].template_value(t);
     LayerStack stack;
     apply_parameters(t, ps, values.data(), &stack);
-    const Spectrum a0 = albedo_of(stack, kLambertNodeWalks);
+    const Spectrum a_template = albedo_of(stack, kLambertNodeWalks);
     factors_.resize(ps.size());
+    // A parameter its map holds constant has one node: its value goes into the base values, the
+    // others' ratios are taken there, and constant_factor_ carries it.
+    bool constant = false;
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+      factors_[k].nodes = bindings_->nodes(k, kLambertNodes);
+      if (factors_[k].nodes.values.size() == 1) {
+        values[k] = factors_[k].nodes.values[0];
+        constant = true;
+      }
+    }
+    Spectrum a0 = a_template;
+    if (constant) {
+      apply_parameters(t, ps, values.data(), &stack);
+      a0 = albedo_of(stack, kLambertNodeWalks);
+      for (int c = 0; c < kChannels; ++c) constant_factor_[c] = a_template[c] > 0.0 ? a0[c] / a_template[c] : 1.0;
+    }
     for (std::size_t k = 0; k < ps.size(); ++k) {
       AlbedoFactor& f = factors_[k];
-      f.nodes = bindings_->nodes(k, kLambertNodes);
+      if (f.nodes.values.size() < 2) continue;
       std::vector<Spectrum> v = values;
       for (const Spectrum& node : f.nodes.values) {
         v[k] = node;
@@ -84,10 +100,10 @@ Spectrum LayeredMaterial::lambert_albedo_at(glm::dvec2 uv) const {
   ParameterValues values(ps.size());
   Spectrum* v = values.data();
   bindings_->values(uv, v);
-  Spectrum albedo = base;
+  Spectrum albedo = base * constant_factor_;
   for (std::size_t k = 0; k < factors_.size(); ++k) {
     const AlbedoFactor& f = factors_[k];
-    if (f.nodes.values.size() < 2) continue;
+    if (f.nodes.values.size() < 2) continue;  // in constant_factor_
     std::size_t j = 0;
     double w = 0.0;
     f.nodes.bracket(v[k][f.nodes.channel], &j, &w);

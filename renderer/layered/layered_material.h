@@ -111,6 +111,9 @@ class LayeredMaterial {
   };
   mutable std::once_flag factors_once_;
   mutable std::vector<AlbedoFactor> factors_;
+  // The parameters the maps hold constant, as one factor: the albedo at their values over the
+  // template's (1 when none).
+  mutable Spectrum constant_factor_{1.0};
 };
 
 // What a --subsurface mode leaves out of this material, for the warning and the EXR header

@@ -64,6 +64,11 @@ LayeredTables::LayeredTables(const LayeredBindings& bindings, const TableSetting
       owned_stacks_.push_back(std::move(up));
       return pair;
     };
+    // A parameter its map holds constant has one node: T_0 takes that value (no axis below).
+    for (std::size_t k = 0; k < ps.size(); ++k) {
+      const StackBindings::Nodes n = b->nodes(k, kParameterNodes);
+      if (n.values.size() == 1) values[k] = n.values[0];
+    }
     const auto base = stacks_for(values);
     for (int side = 0; side < sides; ++side) tables_[{m.get(), side == 1}] = obtain(*base[side]);
     for (std::size_t k = 0; k < ps.size(); ++k) {

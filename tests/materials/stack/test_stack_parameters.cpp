@@ -3,7 +3,9 @@
 // keep summing to 1, clamping keeps stacks valid, and bad paths are rejected with clear errors.
 #include "materials/stack/stack_parameters.h"
 
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -273,6 +275,85 @@ TEST(StackParameters, AmbiguousSetsAreRejected) {
 }
 
 // The syntax batch manifests' "set" paths share (split_stack_path), and walking a file's JSON.
+// A chromophore layer's melanin and blood (layers[i].chromophores.KEY): the stack equals, bit
+// for bit, the file with that value, the baseline giving way by the difference (b = b0 - (x - x0),
+// stack_parameters.cpp): the reader and the binding compute the RGB coefficients by the same
+// function of the same numbers. A share (eumelanin) leaves the baseline alone.
+TEST(StackParameters, ChromophoresEqualTheFileWithThatValue) {
+  const std::string text = read_text(std::string(LAMINA_SOURCE_DIR) + "/scenes/spectral/skin_spectral.json");
+  const StackTemplate t = parse_stack_template_json(text, "skin_spectral.json");
+  for (double m : {0.0, 0.01, 0.03, 0.2, 0.5}) {
+    SCOPED_TRACE("melanin " + std::to_string(m));
+    std::string edited = replaced(text, "\"melanin\": 0.03", "\"melanin\": " + num(m));
+    edited = replaced(edited, "\"baseline\": 0.97", "\"baseline\": " + num(std::max(0.0, 0.97 - (m - 0.03))));
+    const LayerStack got = applied(t, {"layers[0].chromophores.melanin"}, {Spectrum(m)});
+    const LayerStack expected = parse_stack_json(edited, "edited");
+    EXPECT_EQ(got.layers[0].sigma_a, expected.layers[0].sigma_a);
+    expect_same_stack(got, expected);
+  }
+  for (double b : {0.0, 0.005, 0.02, 0.02 + 1e-9, 0.04}) {
+    SCOPED_TRACE("blood " + std::to_string(b));
+    std::string edited = replaced(text, "\"blood\": 0.02", "\"blood\": " + num(b));
+    edited = replaced(edited, "\"baseline\": 0.38", "\"baseline\": " + num(std::max(0.0, 0.38 - (b - 0.02))));
+    const LayerStack got = applied(t, {"layers[1].chromophores.blood", "layers[0].chromophores.eumelanin"},
+                                   {Spectrum(b), Spectrum(0.4)});
+    edited = replaced(edited, "\"eumelanin\": 0.7", "\"eumelanin\": 0.4");
+    const LayerStack expected = parse_stack_json(edited, "edited");
+    EXPECT_EQ(got.layers[1].sigma_a, expected.layers[1].sigma_a);
+    EXPECT_EQ(got.layers[0].sigma_a, expected.layers[0].sigma_a);
+    expect_same_stack(got, expected);
+  }
+  // More melanin: darker in every channel; more blood: less green than red.
+  const LayerStack light = applied(t, {"layers[0].chromophores.melanin"}, {Spectrum(0.01)});
+  const LayerStack dark = applied(t, {"layers[0].chromophores.melanin"}, {Spectrum(0.1)});
+  for (int c = 0; c < kChannels; ++c) EXPECT_LT(light.layers[0].sigma_a[c], dark.layers[0].sigma_a[c]);
+}
+
+// A volume fraction's range ends where the others (but the baseline) fill the layer; values beyond
+// it are clamped there, a share to [0, 1]; paths that name no chromophore say why.
+TEST(StackParameters, ChromophoreRangesAndErrors) {
+  const std::string text = read_text(std::string(LAMINA_SOURCE_DIR) + "/scenes/spectral/skin_spectral.json");
+  const StackTemplate t = parse_stack_template_json(text, "skin_spectral.json");
+  const StackParameter melanin = parse_stack_parameter(t, "layers[0].chromophores.melanin");
+  EXPECT_FALSE(melanin.spectral());
+  EXPECT_EQ(melanin.max_value(), 1.0);
+  EXPECT_EQ(melanin.template_value(t), Spectrum(0.03));
+  const StackParameter blood = parse_stack_parameter(t, "layers[1].chromophores.blood");
+  EXPECT_DOUBLE_EQ(blood.max_value(), 0.4);  // water 0.6 stays
+  EXPECT_EQ(parse_stack_parameter(t, "layers[1].chromophores.carotene").max_value(),
+            std::numeric_limits<double>::infinity());
+  expect_same_stack(applied(t, {"layers[1].chromophores.blood"}, {Spectrum(0.9)}),
+                    applied(t, {"layers[1].chromophores.blood"}, {Spectrum(blood.max_value())}));
+  expect_same_stack(applied(t, {"layers[1].chromophores.oxygenation"}, {Spectrum(-3.0)}),
+                    applied(t, {"layers[1].chromophores.oxygenation"}, {Spectrum(0.0)}));
+  auto error = [&](const std::string& path) {
+    try {
+      parse_stack_parameter(t, path);
+    } catch (const StackParameterError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error("layers[0].chromophores.melanine"),
+            "layers[0].chromophores.melanine: unknown chromophore key 'melanine' (a texture can drive melanin, "
+            "eumelanin, blood, oxygenation, water, fat, carotene, baseline)");
+  EXPECT_EQ(error("layers[0].sigma_a"),
+            "layers[0].sigma_a: layers[0] is given by chromophores: bind layers[0].chromophores.KEY");
+  const StackTemplate rgb = load_stack_template(preset("skin.json"));
+  EXPECT_EQ(parse_stack_parameter(t, "layers[1].chromophores.water").max_value(), 1.0 - 0.02);
+  try {
+    parse_stack_parameter(rgb, "layers[0].chromophores.melanin");
+    FAIL() << "expected an error";
+  } catch (const StackParameterError& e) {
+    EXPECT_EQ(std::string(e.what()), "layers[0].chromophores.melanin: layers[0] is not given by chromophores");
+  }
+  std::vector<StackParameter> two = {parse_stack_parameter(t, "layers[1].chromophores.blood"),
+                                     parse_stack_parameter(t, "layers[1].chromophores.water")};
+  EXPECT_THROW(check_parameter_set(two), StackParameterError);
+  two[1] = parse_stack_parameter(t, "layers[1].chromophores.oxygenation");
+  EXPECT_NO_THROW(check_parameter_set(two));
+}
+
 TEST(StackParameters, SplitStackPathGivesKeysAndIndices) {
   const std::vector<StackPathStep> steps = split_stack_path("layers[1].components[0].fraction");
   ASSERT_EQ(steps.size(), 5u);

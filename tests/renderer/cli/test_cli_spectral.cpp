@@ -3,7 +3,7 @@
 // length, energy summing to 1, a colour when the grid spans the visible), a grey material equal
 // to the RGB solution at every wavelength. fit: a spectrum made by `lamina brdf --wavelengths`
 // from a known melanin fraction fitted back from another start (the fitted value, a vanishing
-// RMSE, the JSON's arrays). Both: usage errors (exit 2) and input errors (exit 1), one line each.
+// RMSE, the JSON's arrays); without --wavelengths, the RGB reading near the spectrum's colour. Both: usage errors (exit 2) and input errors (exit 1), one line each.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -94,10 +94,22 @@ TEST_F(CliSpectral, BrdfErrorsAreOneLine) {
                         "at most 10000 wavelengths");
   expect_one_line_error("brdf " + skin_ + " --theta-i 8 --wavelengths 400:700:10", 2,
                         "--wavelengths needs --method adding-doubling and no --out");
-  expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling", 1,
-                        "layers[0].chromophores: a layer given by chromophores has spectral coefficients");
   expect_one_line_error("brdf " + dir_ + "/missing.json --theta-i 8 --method adding-doubling --wavelengths 400:700:10", 1,
                         "cannot read the material file: does not exist");
+}
+
+// Without --wavelengths, `lamina brdf` reads the chromophore layers in RGB (their projection onto
+// the channels, docs/skin_tones.md): its total reflectance is about the colour of the spectrum,
+// within the projection's bound of test_chromophores (0.012 per channel). Replaces the refusal
+// this command gave before chromophore layers had an RGB reading.
+TEST_F(CliSpectral, RgbBrdfShowsAboutTheSpectrumsColour) {
+  const CliResult rgb = run("brdf " + skin_ + " --theta-i 8 --method adding-doubling");
+  const CliResult spectral = run("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 360:780:5");
+  ASSERT_EQ(rgb.exit_code, 0) << rgb.err;
+  ASSERT_EQ(spectral.exit_code, 0) << spectral.err;
+  const nlohmann::json a = nlohmann::json::parse(rgb.out), b = nlohmann::json::parse(spectral.out);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(a["R_specular"][c].get<double>() + a["R_diffuse"][c].get<double>(), b["R_rec709"][c].get<double>(), 0.012) << c;
 }
 
 TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {

@@ -8,12 +8,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "tests/support/image_files.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "materials/adding_doubling/adding_doubling.h"
 #include "materials/base/sampling.h"
 #include "materials/tables/albedo.h"
 #include "materials/stack/stack_file.h"
@@ -394,6 +396,79 @@ TEST(StackBindings, TableFollowsTheBoundParametersFromBothSides) {
     const Spectrum model = TableSurface(tables.get(m, true), below, wo, factors, 1).eval(wo, wi);
     const Spectrum truth = TableSurface(build_layered_table(below, TableSettings{}), below, wo, nullptr, 0).eval(wo, wi);
     for (int c = 0; c < kChannels; ++c) EXPECT_NEAR(model[c], truth[c], 1e-9 * truth[c] + 1e-15) << "u " << u << " channel " << c;
+  }
+}
+
+// Physiological maps: a melanin map and a blood map bound to a chromophore skin's epidermis and
+// dermis. Constant maps (range [v, v]) give, bit for bit, the stack of the file with those values
+// (the baseline giving way by the difference, docs/stack_bindings.md), at every point; the table
+// and lambert modes see the same stack (the table of the hit's stack; the lambert albedo of the
+// file's stack). A ramp darkens the skin with melanin in every channel.
+TEST(StackBindings, ConstantMelaninAndBloodMapsGiveTheFileWithThoseValues) {
+  const fs::path dir = temp_dir("chromophores");
+  test::write_png8((dir / "grey.png").string(), 2, 2, 1, {77, 77, 77, 77});
+  write_ramp_png(dir);
+  const std::string text = [] {
+    std::ifstream in(source("scenes/spectral/skin_spectral.json"));
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }();
+  auto t = std::make_shared<const StackTemplate>(parse_stack_template_json(text, "skin_spectral.json"));
+  const SceneDesc scene = empty_scene();
+  const double melanin = 0.12, blood = 0.035;
+  json spec = json::parse(R"({"bind": [
+      {"parameter": "layers[0].chromophores.melanin", "texture": "grey.png", "channel": "r", "range": [0, 0]},
+      {"parameter": "layers[1].chromophores.blood", "texture": "grey.png", "channel": "r", "range": [0, 0]}]})");
+  spec["bind"][0]["range"] = {melanin, melanin};
+  spec["bind"][1]["range"] = {blood, blood};
+  auto b = std::make_shared<const StackBindings>(spec, t, scene, (dir / "map.json").string(), "skin", (dir / "map.json").string());
+  json edited = json::parse(text);
+  edited["layers"][0]["chromophores"]["melanin"] = melanin;
+  edited["layers"][0]["chromophores"]["baseline"] = 0.97 - (melanin - 0.03);
+  edited["layers"][1]["chromophores"]["blood"] = blood;
+  edited["layers"][1]["chromophores"]["baseline"] = 0.38 - (blood - 0.02);
+  const LayerStack expected = parse_stack_json(edited.dump(), "edited");
+  const LayeredMaterial bound(t->stack, "skin_spectral.json", b);
+  const LayeredMaterial unbound(expected, "edited");
+  for (double u : {0.1, 0.5, 0.9}) {
+    StackScratch scratch;
+    ShadingPoint sp;
+    sp.uv = {u, 1.0 - u};
+    const LayerStack& got = bound.stack_at(sp, scratch);
+    for (std::size_t i = 0; i < 2; ++i) {
+      EXPECT_EQ(got.layers[i].sigma_a, expected.layers[i].sigma_a) << "u " << u << " layer " << i;
+      EXPECT_EQ(got.layers[i].lobes[0].sigma_s, expected.layers[i].lobes[0].sigma_s);
+    }
+    // The lambert model: the template's albedo times that of the constant values over the
+    // template's (adding-doubling: no noise), so the file's albedo to rounding.
+    const Spectrum model = bound.lambert_albedo_at(sp.uv), own = unbound.lambert_albedo_at(sp.uv);
+    for (int c = 0; c < kChannels; ++c) EXPECT_NEAR(model[c], own[c], 1e-12) << "u " << u << " channel " << c;
+  }
+  LayeredBindings bindings;
+  bindings.by_material.push_back(std::make_shared<const LayeredMaterial>(t->stack, "skin_spectral.json", b));
+  const LayeredMaterial* m = bindings.by_material[0].get();
+  const LayeredTables tables(bindings, TableSettings{});
+  Spectrum values[2];
+  b->values({0.5, 0.5}, values);
+  TableFactor factors[LayeredTables::kMaxFactors];
+  const int n = tables.factors(m, false, values, factors);
+  const glm::dvec3 wo = glm::normalize(glm::dvec3(0.2, -0.1, 0.9)), wi = glm::normalize(glm::dvec3(-0.3, 0.2, 0.7));
+  const Spectrum model = TableSurface(tables.get(m, false), expected, wo, factors, n).eval(wo, wi);
+  const Spectrum truth = TableSurface(build_layered_table(expected, TableSettings{}), expected, wo, nullptr, 0).eval(wo, wi);
+  EXPECT_EQ(n, 0);  // constant maps: no axes, the base table is the file's
+  EXPECT_EQ(model, truth);
+
+  const json ramp = json::parse(R"({"bind": [
+      {"parameter": "layers[0].chromophores.melanin", "texture": "ramp.png", "channel": "r", "range": [0.01, 0.4]}]})");
+  const StackBindings r(ramp, t, scene, (dir / "map.json").string(), "skin", (dir / "map.json").string());
+  Spectrum previous(2.0);
+  for (double u : {0.125, 0.375, 0.625, 0.875}) {
+    LayerStack s;
+    r.evaluate({u, 0.5}, &s);
+    const AddingDoublingTotals totals = adding_doubling_totals(s, 1.0);
+    for (int c = 0; c < kChannels; ++c) EXPECT_LT(totals.R_diffuse[c], previous[c]) << "u " << u << " channel " << c;
+    previous = totals.R_diffuse;
   }
 }
 
