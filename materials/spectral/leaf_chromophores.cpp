@@ -1,5 +1,7 @@
 #include "materials/spectral/leaf_chromophores.h"
 
+#include <cmath>
+
 namespace lamina {
 
 // Kubelka and Munk (1931): a non-absorbing layer of scattering power S and thickness d transmits
@@ -17,7 +19,7 @@ double LeafChromophores::absorption(double nm, double thickness_mm) const {
 }
 
 double LeafChromophores::scattering_coefficient(double nm, double thickness_mm) const {
-  return plates * plate_reduced_scattering_depth(nm) / (thickness_mm * (1.0 - g));
+  return plates * plate_reduced_scattering_depth(nm) * std::pow(nm / 1000.0, -scattering_power) / (thickness_mm * (1.0 - g));
 }
 
 }  // namespace lamina

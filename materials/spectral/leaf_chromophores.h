@@ -29,12 +29,13 @@ double plate_reduced_scattering_depth(double nm);
 // worth of scattering, and a Henyey-Greenstein asymmetry. Coefficients in 1/mm.
 struct LeafChromophores {
   LeafContents contents;
-  double plates = 0.0;  // >= 0
-  double g = 0.0;       // |g| < 1
+  double plates = 0.0;            // >= 0
+  double scattering_power = 0.0;  // b: the plates' scattering times (nm / 1000)^-b, |b| <= 4
+  double g = 0.0;                 // |g| < 1
 
   // sigma_a = K(nm) / d: PROSPECT-D's K is the normal optical thickness of the contents.
   double absorption(double nm, double thickness_mm) const;
-  // sigma_s = plates (4/3)(1 - t)/t / (d (1 - g)).
+  // sigma_s = plates (4/3)(1 - t)/t (nm / 1000)^-b / (d (1 - g)).
   double scattering_coefficient(double nm, double thickness_mm) const;
   // PROSPECT-D's refractive index of leaf material, the layer's at every wavelength.
   static double refractive_index(double nm) { return prospect_refractive_index(nm); }

@@ -171,15 +171,17 @@ class Reader {
   }
 
   // A layer's "leaf" object (docs/spectral.md, "Layered leaf"): contents per leaf area
-  // (kLeafContentKeys), "plates" and "g"; every key optional.
+  // (kLeafContentKeys), "plates", "scattering_power" and "g"; every key optional.
   LeafChromophores leaf(const json& j, const std::string& path) const {
     require_object(j, path);
-    check_keys(j, path, {"chlorophyll", "carotenoids", "anthocyanins", "brown", "water", "dry_matter", "plates", "g"});
+    check_keys(j, path, {"chlorophyll", "carotenoids", "anthocyanins", "brown", "water", "dry_matter", "plates", "scattering_power", "g"});
     LeafChromophores c;
     const double inf = std::numeric_limits<double>::infinity();
     for (const LeafContentKey& k : kLeafContentKeys)
       if (j.contains(k.key)) c.contents.*k.member = bounded(j[k.key], join(path, k.key), 0.0, inf);
     if (j.contains("plates")) c.plates = bounded(j["plates"], join(path, "plates"), 0.0, inf);
+    if (j.contains("scattering_power"))
+      c.scattering_power = bounded(j["scattering_power"], join(path, "scattering_power"), -4.0, 4.0);
     if (j.contains("g")) {
       if (!j["g"].is_number()) fail(join(path, "g"), "expected a number (one g at every wavelength), got " + type_name(j["g"]));
       c.g = asymmetry(j["g"], join(path, "g"))[0];

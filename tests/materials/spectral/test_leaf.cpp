@@ -55,6 +55,10 @@ TEST(LeafChromophores, PlatesScatterAsStokesPile) {
   c.plates = 2.0;
   c.g = 0.5;
   EXPECT_NEAR(c.scattering_coefficient(700.0, 0.1), 2.0 * plate_reduced_scattering_depth(700.0) / (0.1 * 0.5), 1e-12);
+  c.scattering_power = 1.5;  // the power law is 1 at 1000 nm
+  EXPECT_NEAR(c.scattering_coefficient(1000.0, 0.1), 2.0 * plate_reduced_scattering_depth(1000.0) / (0.1 * 0.5), 1e-12);
+  EXPECT_NEAR(c.scattering_coefficient(500.0, 0.1),
+              2.0 * plate_reduced_scattering_depth(500.0) * std::pow(2.0, 1.5) / (0.1 * 0.5), 1e-12);
   // The index falls from the blue to the short-wave infrared, and with it the scattering.
   EXPECT_GT(plate_reduced_scattering_depth(450.0), plate_reduced_scattering_depth(2400.0));
 }
@@ -64,7 +68,8 @@ const char* kLeaf = R"({"lamina_material": 1, "layers": [
   {"name": "palisade", "thickness": 0.1,
    "leaf": {"chlorophyll": 24, "carotenoids": 5, "anthocyanins": 1, "water": 0.006, "dry_matter": 0.005, "plates": 0.4, "g": 0.9}},
   {"name": "spongy", "thickness": 0.12,
-   "leaf": {"chlorophyll": 16, "carotenoids": 3, "brown": 0.2, "water": 0.005, "dry_matter": 0.004, "plates": 1.4, "g": 0.9}}]})";
+   "leaf": {"chlorophyll": 16, "carotenoids": 3, "brown": 0.2, "water": 0.005, "dry_matter": 0.004, "plates": 1.4,
+            "scattering_power": -0.3, "g": 0.9}}]})";
 
 TEST(LeafStack, ReadsLeafLayers) {
   const SpectralStack s = parse_spectral_stack_json(kLeaf, "leaf.json");
@@ -74,6 +79,8 @@ TEST(LeafStack, ReadsLeafLayers) {
   EXPECT_EQ(s.leaves[2]->contents.brown, 0.2);
   EXPECT_EQ(s.leaves[2]->plates, 1.4);
   EXPECT_EQ(s.leaves[0]->plates, 0.0);
+  EXPECT_EQ(s.leaves[2]->scattering_power, -0.3);
+  EXPECT_EQ(s.leaves[1]->scattering_power, 0.0);
   for (double nm : {450.0, 1450.0}) {
     const LayerStack at = stack_at_wavelength(s, nm);
     EXPECT_TRUE(at.grey());
@@ -108,6 +115,8 @@ TEST(LeafStack, OneLineErrorsNameTheValue) {
   EXPECT_EQ(leaf_error(head + R"("leaf": {"chlorophyl": 30}}]})").rfind("m.json: layers[0].leaf.chlorophyl: unknown key", 0), 0u);
   EXPECT_EQ(leaf_error(head + R"("leaf": {"plates": "many"}}]})"),
             "m.json: layers[0].leaf.plates: expected a number, got a string");
+  EXPECT_EQ(leaf_error(head + R"("leaf": {"scattering_power": 5}}]})"),
+            "m.json: layers[0].leaf.scattering_power: must lie in [-4, 4] (got 5)");
   EXPECT_EQ(leaf_error(head + R"("leaf": {"g": 1}}]})"),
             "m.json: layers[0].leaf.g: Henyey-Greenstein g must satisfy |g| < 1 (got 1)");
   EXPECT_EQ(leaf_error(head + R"("leaf": [1]}]})"), "m.json: layers[0].leaf: expected an object, got an array");
@@ -155,6 +164,36 @@ TEST(LeafStack, ConservesEnergyAndTransmitsReciprocally) {
     greener.leaves[1]->contents.chlorophyll *= 2.0;
     if (nm < 700.0)
       EXPECT_GT(adding_doubling_totals(stack_at_wavelength(greener, nm), mu, settings).absorbed[0], t.absorbed[0]) << nm;
+  }
+}
+
+// The fitted mature green leaf (scenes/spectral/leaf_layered.json, written by scripts/leaf_fit.py)
+// against Lamina's PROSPECT-D of the same leaf (N 1.5, chlorophyll 40, carotenoids 8, water 0.01,
+// dry matter 0.009) at ten wavelengths across 400-2500 nm, lit as PROSPECT assumes (isotropic
+// light within 40 degrees: three Gauss-Legendre nodes in sin^2 theta, as the script). Tolerance:
+// the fit report's largest deviation of this leaf over every nanometre (docs/leaf_fit.csv),
+// rounded up to the next thousandth.
+TEST(LayeredLeaf, FollowsProspectD) {
+  constexpr double kTolerance = 0.010;
+  const SpectralStack s = load_spectral_stack(std::string(LAMINA_SOURCE_DIR) + "/scenes/spectral/leaf_layered.json");
+  ProspectParameters leaf;  // its defaults are the mature green leaf
+  leaf.n = 1.5;
+  AddingDoublingSettings settings;
+  settings.quadrature_points = 8;
+  settings.only_channel = 0;
+  const double nodes[3] = {-0.7745966692414834, 0.0, 0.7745966692414834}, weights[3] = {5.0 / 18, 8.0 / 18, 5.0 / 18};
+  const double u_max = std::pow(std::sin(40.0 * kPi / 180.0), 2.0);
+  for (double nm : {450.0, 550.0, 680.0, 720.0, 1000.0, 1450.0, 1650.0, 1940.0, 2200.0, 2450.0}) {
+    double r = 0.0, t = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double u = u_max * (nodes[k] + 1.0) / 2.0;
+      const AddingDoublingTotals a = adding_doubling_totals(stack_at_wavelength(s, nm), std::sqrt(1.0 - u), settings);
+      r += weights[k] * (a.R_specular[0] + a.R_diffuse[0]);
+      t += weights[k] * (a.T_ballistic[0] + a.T_diffuse[0]);
+    }
+    const PlateOptics reference = prospect_d(leaf, nm);
+    EXPECT_NEAR(r, reference.reflectance, kTolerance) << nm;
+    EXPECT_NEAR(t, reference.transmittance, kTolerance) << nm;
   }
 }
 
