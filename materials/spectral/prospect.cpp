@@ -96,7 +96,7 @@ PlateOptics stokes_pile(const PlateOptics& one, double plates) {
   return {a * (b_nm1 * b_nm1 - 1.0) / denom, b_nm1 * (a * a - 1.0) / denom};
 }
 
-double prospect_d_absorption(const ProspectParameters& p, double nm) {
+double prospect_d_absorption(const LeafContents& p, double nm) {
   return p.chlorophyll * coefficient(&Row::chlorophyll, nm) + p.carotenoids * coefficient(&Row::carotenoids, nm) +
          p.anthocyanins * coefficient(&Row::anthocyanins, nm) + p.brown * coefficient(&Row::brown, nm) +
          p.water * coefficient(&Row::water, nm) + p.dry_matter * coefficient(&Row::dry_matter, nm);

@@ -12,15 +12,21 @@
 
 namespace lamina {
 
-// The model's parameters with their units (per unit leaf area). Defaults: a mature green leaf.
-struct ProspectParameters {
-  double n = 1.5;             // structure: the number of plates (>= 1, real)
-  double chlorophyll = 40.0;  // chlorophyll a+b, ug/cm2
-  double carotenoids = 8.0;   // ug/cm2
+// What a leaf (or one layer of it) holds per unit leaf area, the absorbers of PROSPECT-D. The
+// layered leaf (materials/spectral/leaf_chromophores.h) gives one per layer, defaults 0.
+struct LeafContents {
+  double chlorophyll = 0.0;   // chlorophyll a+b, ug/cm2
+  double carotenoids = 0.0;   // ug/cm2
   double anthocyanins = 0.0;  // ug/cm2
   double brown = 0.0;         // brown pigments, arbitrary units
-  double water = 0.01;        // equivalent water thickness, cm (g/cm2)
-  double dry_matter = 0.009;  // leaf mass per area, g/cm2
+  double water = 0.0;         // equivalent water thickness, cm (g/cm2)
+  double dry_matter = 0.0;    // leaf mass per area, g/cm2
+};
+
+// The model's parameters with their units (per unit leaf area). Defaults: a mature green leaf.
+struct ProspectParameters : LeafContents {
+  ProspectParameters() : LeafContents{40.0, 8.0, 0.0, 0.0, 0.01, 0.009} {}
+  double n = 1.5;  // structure: the number of plates (>= 1, real)
 };
 
 struct PlateOptics {
@@ -53,8 +59,9 @@ PlateOptics stokes_pile(const PlateOptics& one, double plates);
 PlateOptics prospect_d(const ProspectParameters& p, double nm);
 
 // Absorption coefficient sum (cab Kab + car Kcar + ant Kant + brown Kbrown + cw Kw + cm Km) of the
-// whole leaf at one wavelength, before it is shared among the N plates.
-double prospect_d_absorption(const ProspectParameters& p, double nm);
+// whole leaf at one wavelength, before it is shared among the N plates: the optical thickness
+// of absorption along the normal (a plate's interior transmits e^(-K/mu) in direction mu).
+double prospect_d_absorption(const LeafContents& p, double nm);
 
 // The refractive index of the leaf material (PROSPECT-D's nr).
 double prospect_refractive_index(double nm);

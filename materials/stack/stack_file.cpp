@@ -28,8 +28,10 @@ class Reader {
  public:
   // With `spectral`, layers may be given by chromophores (one entry per layer is written there);
   // without it such a layer is an error.
-  explicit Reader(std::string source, std::vector<std::optional<SkinChromophores>>* spectral = nullptr)
-      : source_(std::move(source)), spectral_(spectral) {}
+  // With `leaves` too (the same reader's spectral mode), layers may be given by leaf contents.
+  explicit Reader(std::string source, std::vector<std::optional<SkinChromophores>>* spectral = nullptr,
+                  std::vector<std::optional<LeafChromophores>>* leaves = nullptr)
+      : source_(std::move(source)), spectral_(spectral), leaves_(leaves) {}
 
   [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
     throw StackFileError(source_ + ": " + (path.empty() ? std::string("(document)") : path) +
@@ -165,6 +167,25 @@ class Reader {
     return c;
   }
 
+  // A layer's "leaf" object (docs/spectral.md, "Layered leaf"): contents per leaf area
+  // (kLeafContentKeys), "plates", "scattering_power" and "g"; every key optional.
+  LeafChromophores leaf(const json& j, const std::string& path) const {
+    require_object(j, path);
+    check_keys(j, path, {"chlorophyll", "carotenoids", "anthocyanins", "brown", "water", "dry_matter", "plates", "scattering_power", "g"});
+    LeafChromophores c;
+    const double inf = std::numeric_limits<double>::infinity();
+    for (const LeafContentKey& k : kLeafContentKeys)
+      if (j.contains(k.key)) c.contents.*k.member = bounded(j[k.key], join(path, k.key), 0.0, inf);
+    if (j.contains("plates")) c.plates = bounded(j["plates"], join(path, "plates"), 0.0, inf);
+    if (j.contains("scattering_power"))
+      c.scattering_power = bounded(j["scattering_power"], join(path, "scattering_power"), -4.0, 4.0);
+    if (j.contains("g")) {
+      if (!j["g"].is_number()) fail(join(path, "g"), "expected a number (one g at every wavelength), got " + type_name(j["g"]));
+      c.g = asymmetry(j["g"], join(path, "g"))[0];
+    }
+    return c;
+  }
+
   static bool grey(const Layer& layer) {
     if (!layer.sigma_a.is_grey()) return false;
     for (const PhaseLobe& lobe : layer.lobes)
@@ -173,13 +194,17 @@ class Reader {
   }
 
   Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc,
-              std::optional<SkinChromophores>* spectral) const {
+              std::optional<SkinChromophores>* spectral, std::optional<LeafChromophores>* leaf_out = nullptr) const {
     require_object(j, path);
     check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "sigma_a", "sigma_s", "g", "components",
-                         "chromophores"});
+                         "chromophores", "leaf"});
     Layer layer;
     if (j.contains("name")) layer.name = string(j["name"], join(path, "name"));
-    layer.ior = ior(member(j, path, "ior"), join(path, "ior"));
+    const bool is_leaf = j.contains("leaf");
+    if (is_leaf && j.contains("ior"))
+      fail(join(path, "ior"), "a leaf layer's index is PROSPECT-D's at each wavelength: leave out ior");
+    // A leaf layer's placeholder index: PROSPECT-D's at 550 nm (stack_at_wavelength sets each).
+    layer.ior = is_leaf ? LeafChromophores::refractive_index(550.0) : ior(member(j, path, "ior"), join(path, "ior"));
     if (j.contains("bottom_roughness")) layer.bottom_roughness = number(j["bottom_roughness"], join(path, "bottom_roughness"));
 
     const json& t = member(j, path, "thickness");
@@ -195,6 +220,21 @@ class Reader {
     }
 
     const bool direct = j.contains("sigma_a") || j.contains("sigma_s") || j.contains("g");
+    if (is_leaf) {
+      if (direct || j.contains("components") || j.contains("chromophores"))
+        fail(path, "give either leaf, or chromophores, or sigma_a, sigma_s and g, or components, not two of them");
+      if (leaf_out == nullptr)
+        fail(join(path, "leaf"), "a layer given by leaf contents has spectral coefficients: only "
+                                 "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
+      if (!(layer.thickness > 0.0) || layer.thickness == kInfiniteThickness)
+        fail(join(path, "thickness"), "a leaf layer needs a finite thickness > 0 (its contents are per leaf area)");
+      *leaf_out = leaf(j["leaf"], join(path, "leaf"));
+      const LeafChromophores& c = **leaf_out;  // placeholders at 550 nm, as for chromophores below
+      layer.sigma_a = Spectrum(c.absorption(550.0, layer.thickness));
+      layer.lobes.push_back({Spectrum(c.scattering_coefficient(550.0, layer.thickness)), Spectrum(c.g)});
+      desc->components.push_back({1.0, layer.sigma_a, layer.lobes.back().sigma_s, Spectrum(c.g)});
+      return layer;
+    }
     if (j.contains("chromophores")) {
       if (direct || j.contains("components"))
         fail(path, "give either chromophores, or sigma_a, sigma_s and g, or components, not two of them");
@@ -303,11 +343,13 @@ class Reader {
     if (layers.empty()) fail("layers", "a stack needs at least one layer");
     t.layers.resize(layers.size());
     if (spectral_) spectral_->assign(layers.size(), std::nullopt);
+    if (leaves_) leaves_->assign(layers.size(), std::nullopt);
     for (std::size_t i = 0; i < layers.size(); ++i) {
       const std::string path = "layers[" + std::to_string(i) + "]";
-      s.layers.push_back(layer(layers[i], path, i + 1 == layers.size(), &t.layers[i], spectral_ ? &(*spectral_)[i] : nullptr));
+      s.layers.push_back(layer(layers[i], path, i + 1 == layers.size(), &t.layers[i], spectral_ ? &(*spectral_)[i] : nullptr,
+                               leaves_ ? &(*leaves_)[i] : nullptr));
       // A spectral stack's other layers must be the same at every wavelength.
-      if (spectral_ && !(*spectral_)[i] && !grey(s.layers.back()))
+      if (spectral_ && !(*spectral_)[i] && !(leaves_ && (*leaves_)[i]) && !grey(s.layers.back()))
         fail(path, "in a stack with chromophore layers every other layer must be grey (one number per coefficient)");
     }
     if (root.contains("below")) s.below = below(root["below"], "below");
@@ -323,6 +365,7 @@ class Reader {
  private:
   std::string source_;
   std::vector<std::optional<SkinChromophores>>* spectral_ = nullptr;
+  std::vector<std::optional<LeafChromophores>>* leaves_ = nullptr;
 };
 
 }  // namespace
@@ -330,8 +373,9 @@ class Reader {
 namespace {
 
 StackTemplate parse(const std::string& text, const std::string& source_name,
-                    std::vector<std::optional<SkinChromophores>>* spectral) {
-  Reader reader(source_name, spectral);
+                    std::vector<std::optional<SkinChromophores>>* spectral,
+                    std::vector<std::optional<LeafChromophores>>* leaves = nullptr) {
+  Reader reader(source_name, spectral, leaves);
   // Before parsing: JSON nested deeper than any material file would overflow the stack of the
   // recursive walks over it (materials/stack/json_limits.h).
   if (const auto deep = json_nesting_exceeds(text)) throw StackFileError(source_name + ": " + json_nesting_message(*deep));
@@ -359,7 +403,7 @@ StackTemplate load_stack_template(const std::string& path) { return parse_stack_
 
 SpectralStack parse_spectral_stack_json(const std::string& text, const std::string& source_name) {
   SpectralStack s;
-  s.stack = parse(text, source_name, &s.chromophores).stack;
+  s.stack = parse(text, source_name, &s.chromophores, &s.leaves).stack;
   return s;
 }
 
