@@ -1,12 +1,16 @@
 // The walk's totals and adding-doubling's at one incidence, for the tests that hold one against
-// the other (test_adding_doubling, test_rough_adding_doubling).
+// the other (test_adding_doubling, test_rough_adding_doubling, test_energy_conserving_adding_doubling).
 #pragma once
 
 #include <cmath>
 #include <cstdint>
+#include <string>
+
+#include <gtest/gtest.h>
 
 #include "materials/adding_doubling/adding_doubling.h"
 #include "materials/brdf/brdf_table.h"
+#include "tests/support/statistics.h"
 
 namespace lamina::test {
 
@@ -23,5 +27,23 @@ inline WalkAndSolver walk_and_solver(const LayerStack& s, double theta_deg, std:
   o.bins_phi = 1;
   return {brdf_table_monte_carlo(s, o), adding_doubling_with_error(s, std::cos(theta_deg * M_PI / 180.0))};
 }
+
+// Adding-doubling's bins against the walk's, one channel: each bin's z-score within 4.5 (Bonferroni
+// over ~100 bins: P(|z| > 4.5) = 7e-6 each), and the chi-square of all of them consistent with
+// their count (p > 1e-3, expect_consistent).
+struct BinAgreement {
+  double chi2 = 0.0;
+  int dof = 0;
+  void add(const BrdfTable& ad, const BrdfTable& mc, int bin, int channel, const std::string& where) {
+    const double se = mc.stderr_[bin][channel];
+    const double z = (ad.value[bin][channel] - mc.value[bin][channel]) / se;
+    EXPECT_LT(std::abs(z), 4.5) << where << ": " << ad.value[bin][channel] << " vs " << mc.value[bin][channel] << " +- " << se;
+    chi2 += z * z;
+    ++dof;
+  }
+  void expect_consistent(const std::string& name) const {
+    EXPECT_GT(chi_square_p_value(chi2, dof), 1e-3) << name << " chi2 " << chi2 << " / " << dof;
+  }
+};
 
 }  // namespace lamina::test
