@@ -4,7 +4,6 @@
 #include <cmath>
 #include <regex>
 
-#include <nlopt.h>
 #include <tbb/parallel_for.h>
 
 namespace lamina {
@@ -45,6 +44,8 @@ std::vector<double> modelled_reflectance(const SpectralStack& stack, const std::
 
 namespace {
 
+// The fit's unknowns scaled to [0, 1] by their bounds (so that one tolerance serves all of them
+// whatever their units) and the residuals model - measured at a quadrature order.
 struct Problem {
   SpectralStack stack;
   std::vector<double*> targets;
@@ -52,60 +53,180 @@ struct Problem {
   const std::vector<double>* nm;
   const std::vector<double>* measured;
   double cos_theta_i;
-  AddingDoublingSettings settings;
-  int evaluations = 0;
+  AddingDoublingSettings settings;  // the order of the current stage
+  int evaluations = 0, coarse_evaluations = 0;
+  bool coarse = false;
 
-  void set(const double* u) {
+  void set(const std::vector<double>& u) {
     for (std::size_t k = 0; k < targets.size(); ++k) {
       const FitParameterSpec& p = (*specs)[k];
       *targets[k] = p.lower + std::clamp(u[k], 0.0, 1.0) * (p.upper - p.lower);
     }
   }
-  double sum_of_squares(const double* u) {
+  std::vector<double> residuals(const std::vector<double>& u) {
     set(u);
     ++evaluations;
-    const std::vector<double> r = modelled_reflectance(stack, *nm, cos_theta_i, settings);
-    double sum = 0.0;
-    for (std::size_t i = 0; i < r.size(); ++i) sum += (r[i] - (*measured)[i]) * (r[i] - (*measured)[i]);
-    return sum;
+    if (coarse) ++coarse_evaluations;
+    std::vector<double> r = modelled_reflectance(stack, *nm, cos_theta_i, settings);
+    for (std::size_t i = 0; i < r.size(); ++i) r[i] -= (*measured)[i];
+    return r;
   }
 };
 
-double objective(unsigned, const double* u, double*, void* data) { return static_cast<Problem*>(data)->sum_of_squares(u); }
+double sum_of_squares(const std::vector<double>& r) {
+  double s = 0.0;
+  for (double v : r) s += v * v;
+  return s;
+}
+
+// Solves the symmetric positive definite system A x = b (n x n, row-major) by Cholesky
+// (Golub and Van Loan, algorithm 4.2.1); false if A is not positive definite.
+bool solve_spd(int n, std::vector<double> A, std::vector<double>* b) {
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < j; ++k) A[j * n + j] -= A[j * n + k] * A[j * n + k];
+    if (!(A[j * n + j] > 0.0)) return false;
+    A[j * n + j] = std::sqrt(A[j * n + j]);
+    for (int i = j + 1; i < n; ++i) {
+      for (int k = 0; k < j; ++k) A[i * n + j] -= A[i * n + k] * A[j * n + k];
+      A[i * n + j] /= A[j * n + j];
+    }
+  }
+  std::vector<double>& x = *b;
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < i; ++k) x[i] -= A[i * n + k] * x[k];
+    x[i] /= A[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    for (int k = i + 1; k < n; ++k) x[i] -= A[k * n + i] * x[k];
+    x[i] /= A[i * n + i];
+  }
+  return true;
+}
+
+// Levenberg-Marquardt on the box [0, 1]^n (K. Madsen, H. B. Nielsen and O. Tingleff, "Methods
+// for non-linear least squares problems", 2nd ed., DTU 2004, algorithm 3.16: Marquardt's
+// damping of the Gauss-Newton step scaled by the curvature's diagonal, and Nielsen's update of
+// the damping from the gain ratio). The Jacobian by forward differences of 1e-6 in u (towards
+// the inside of the box): the residuals are smooth in the parameters, so the truncation error
+// is ~1e-6 of the curvature and the solver's rounding (~1e-12) / 1e-6 is far below the
+// measurement's 1e-4. Bounds: a step is clamped into the box, and an unknown at a bound whose
+// gradient points out of the box is held there for that iteration (the optimum is on the bound
+// in that unknown). Stops when a step moves no unknown by more than `xtol`, when the sum of
+// squares falls by less than 1e-10 of itself, or after `max_iterations` Jacobians.
+void levenberg_marquardt(Problem& pb, std::vector<double>* u_io, double* damping, double xtol, int max_iterations) {
+  std::vector<double>& u = *u_io;
+  double& mu = *damping;  // < 0: set from the first curvature
+  const int n = static_cast<int>(u.size());
+  std::vector<double> r = pb.residuals(u);
+  double cost = sum_of_squares(r);
+  const std::size_t m = r.size();
+  double nu = 2.0;  // the damping's growth after a rejected step
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
+    std::vector<std::vector<double>> J(static_cast<std::size_t>(n));  // columns dr/du_k
+    for (int k = 0; k < n; ++k) {
+      constexpr double h = 1e-6;
+      std::vector<double> up = u;
+      up[k] = u[k] + h <= 1.0 ? u[k] + h : u[k] - h;
+      J[k] = pb.residuals(up);
+      for (std::size_t i = 0; i < m; ++i) J[k][i] = (J[k][i] - r[i]) / (up[k] - u[k]);
+    }
+    std::vector<double> A(static_cast<std::size_t>(n) * n), g(n, 0.0);  // J^T J, J^T r
+    for (int a = 0; a < n; ++a) {
+      for (std::size_t i = 0; i < m; ++i) g[a] += J[a][i] * r[i];
+      for (int b = 0; b < n; ++b)
+        for (std::size_t i = 0; i < m; ++i) A[a * n + b] += J[a][i] * J[b][i];
+    }
+    std::vector<int> free;  // the unknowns not held at a bound
+    double largest = 0.0;
+    for (int k = 0; k < n; ++k) {
+      largest = std::max(largest, A[k * n + k]);
+      if (!((u[k] <= 0.0 && g[k] > 0.0) || (u[k] >= 1.0 && g[k] < 0.0))) free.push_back(k);
+    }
+    if (free.empty() || !(largest > 0.0)) return;
+    if (mu < 0.0) mu = 1e-3 * largest;
+    const int nf = static_cast<int>(free.size());
+    bool accepted = false;
+    while (!accepted) {
+      // (A + mu D) d = -g over the free unknowns, D = diag(A) floored at 1e-9 of its largest.
+      std::vector<double> Af(static_cast<std::size_t>(nf) * nf), d(nf);
+      for (int a = 0; a < nf; ++a) {
+        for (int b = 0; b < nf; ++b) Af[a * nf + b] = A[free[a] * n + free[b]];
+        Af[a * nf + a] += mu * std::max(A[free[a] * n + free[a]], 1e-9 * largest);
+        d[a] = -g[free[a]];
+      }
+      if (!solve_spd(nf, Af, &d)) {
+        mu *= nu;
+        nu *= 2.0;
+        continue;
+      }
+      std::vector<double> trial = u, step(n, 0.0);
+      double moved = 0.0;
+      for (int a = 0; a < nf; ++a) {
+        const int k = free[a];
+        trial[k] = std::clamp(u[k] + d[a], 0.0, 1.0);
+        step[k] = trial[k] - u[k];
+        moved = std::max(moved, std::abs(step[k]));
+      }
+      if (moved < xtol) return;
+      // The decrease the linear model predicts for the (clamped) step: -(2 s.g + s.A s).
+      double predicted = 0.0;
+      for (int a = 0; a < n; ++a) {
+        predicted -= 2.0 * step[a] * g[a];
+        for (int b = 0; b < n; ++b) predicted -= step[a] * A[a * n + b] * step[b];
+      }
+      std::vector<double> rt = pb.residuals(trial);
+      const double trial_cost = sum_of_squares(rt);
+      if (trial_cost < cost) {
+        const double rho = predicted > 0.0 ? (cost - trial_cost) / predicted : 1.0;
+        mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        nu = 2.0;
+        const bool stalled = cost - trial_cost < 1e-10 * cost;
+        u = trial;
+        r = std::move(rt);
+        cost = trial_cost;
+        if (stalled) return;
+        accepted = true;
+      } else {
+        mu *= nu;
+        nu *= 2.0;
+        if (mu > 1e12 * largest) return;  // no step decreases the sum: a minimum to rounding
+      }
+    }
+  }
+}
 
 }  // namespace
 
-// BOBYQA (Powell 2009) from the file's values (clamped into the bounds), initial step a tenth of
-// each range; stops when the parameters move by less than 1e-4 of their ranges or after 500
-// spectra.
+// Levenberg-Marquardt (above) from the file's values (clamped into the bounds), first on a coarse
+// model of `coarse_quadrature_points` (the search's many solutions at a fraction of the cost;
+// its optimum is within the discretisation's shift of the accurate one), then on the accurate
+// model from there, which has only that shift left to walk.
 SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<FitParameterSpec>& parameters,
                                const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
-                               const AddingDoublingSettings& settings) {
+                               const AddingDoublingSettings& settings, int coarse_quadrature_points) {
   if (parameters.empty() || parameters.size() > static_cast<std::size_t>(kMaxSpectralParameters))
     throw FitError("a spectral fit takes 1 to " + std::to_string(kMaxSpectralParameters) + " parameters");
   if (nm.empty() || nm.size() != measured.size()) throw FitError("the spectrum needs as many values as wavelengths");
   Problem pb{start, {}, &parameters, &nm, &measured, cos_theta_i, settings};
+  pb.settings.only_channel = 0;
   const int n = static_cast<int>(parameters.size());
-  std::vector<double> u(n), lo(n, 0.0), hi(n, 1.0), steps(n, 0.1);
+  std::vector<double> u(n);
   for (int k = 0; k < n; ++k) {
     const FitParameterSpec& p = parameters[k];
     if (!(p.lower < p.upper)) throw FitError(p.path + ": needs LO < HI");
     pb.targets.push_back(chromophore_parameter(&pb.stack, p.path));
     u[k] = std::clamp((*pb.targets.back() - p.lower) / (p.upper - p.lower), 0.0, 1.0);
   }
-  nlopt_opt opt = nlopt_create(NLOPT_LN_BOBYQA, static_cast<unsigned>(n));
-  nlopt_set_lower_bounds(opt, lo.data());
-  nlopt_set_upper_bounds(opt, hi.data());
-  nlopt_set_initial_step(opt, steps.data());
-  nlopt_set_min_objective(opt, objective, &pb);
-  nlopt_set_xtol_abs1(opt, 1e-4);
-  nlopt_set_maxeval(opt, 500);
-  double best = 0.0;
-  const nlopt_result status = nlopt_optimize(opt, u.data(), &best);
-  nlopt_destroy(opt);
-  if (status < 0 && status != NLOPT_ROUNDOFF_LIMITED)
-    throw FitError("the optimiser failed (NLopt status " + std::to_string(static_cast<int>(status)) + ")");
-  pb.set(u.data());
+  double damping = -1.0;  // carried from the coarse search: the accurate model's curvature is nearly the same
+  if (coarse_quadrature_points >= 2 && coarse_quadrature_points < settings.quadrature_points) {
+    pb.coarse = true;
+    pb.settings.quadrature_points = coarse_quadrature_points;
+    levenberg_marquardt(pb, &u, &damping, 1e-4, 100);
+    pb.coarse = false;
+    pb.settings.quadrature_points = settings.quadrature_points;
+  }
+  levenberg_marquardt(pb, &u, &damping, 1e-5, 100);
+  pb.set(u);
   SpectralFitResult r;
   for (double* t : pb.targets) r.values.push_back(*t);
   r.nm = nm;
@@ -115,6 +236,7 @@ SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<Fit
   for (std::size_t i = 0; i < nm.size(); ++i) sum += (r.modelled[i] - measured[i]) * (r.modelled[i] - measured[i]);
   r.rmse = std::sqrt(sum / static_cast<double>(nm.size()));
   r.evaluations = pb.evaluations + 1;
+  r.coarse_evaluations = pb.coarse_evaluations;
   r.fitted = pb.stack;
   return r;
 }

@@ -27,7 +27,8 @@ struct SpectralFitResult {
   std::vector<double> values;             // per parameter, in the order given
   std::vector<double> nm, measured, modelled;
   double rmse = 0.0;                      // sqrt(mean (modelled - measured)^2)
-  int evaluations = 0;                    // spectra solved
+  int evaluations = 0;                    // spectra solved (accurate and coarse)
+  int coarse_evaluations = 0;             // of which on the coarse model
   SpectralStack fitted;
 };
 
@@ -35,7 +36,7 @@ struct SpectralFitResult {
 // or wavelengths and measurements of different lengths.
 SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<FitParameterSpec>& parameters,
                                const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
-                               const AddingDoublingSettings& settings = {});
+                               const AddingDoublingSettings& settings = {}, int coarse_quadrature_points = 4);
 
 // The modelled total reflectance R_specular + R_diffuse at each wavelength.
 std::vector<double> modelled_reflectance(const SpectralStack& stack, const std::vector<double>& nm, double cos_theta_i,
