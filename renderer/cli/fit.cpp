@@ -355,6 +355,7 @@ int run_fit(int argc, char** argv) {
     spectral.summary_path = summary_path;
     spectral.parameters = specs;
     spectral.quadrature_points = quadrature_points;
+    spectral.coarse_quadrature_points = coarse_points;
     return cli::run_fit_spectral(spectral);
   }
 

@@ -1,9 +1,9 @@
 // lamina fit --spectrum (renderer/cli/fit_spectral.h). The spectrum CSV: lines starting with '#'
 // are comments, then a header "nm,NAME,..." and one row per wavelength (nm increasing); the
 // column fitted is --spectrum-column (default the first after nm). Output, one JSON object:
-// "parameters" {PATH: value}, "rmse", "evaluations", "theta_i_deg", "column", "wavelength_nm",
-// "measured", "modelled", and when the wavelengths cover 400-700 nm "measured_rec709" and
-// "modelled_rec709" (the colours under D65, materials/spectral/colour.h).
+// "parameters" {PATH: value}, "rmse", "evaluations", "coarse_evaluations", "theta_i_deg",
+// "column", "wavelength_nm", "measured", "modelled", and when the wavelengths cover 400-700 nm
+// "measured_rec709" and "modelled_rec709" (the colours under D65, materials/spectral/colour.h).
 #include "renderer/cli/fit_spectral.h"
 
 #include <cmath>
@@ -76,12 +76,14 @@ int run_fit_spectral(const SpectralFitRequest& r) {
     AddingDoublingSettings settings;
     settings.quadrature_points = r.quadrature_points;
     const double cos_theta_i = incident_direction(r.theta_i_deg, 0.0).z;
-    const SpectralFitResult fit = fit_spectrum(stack, r.parameters, nm, measured, cos_theta_i, settings);
+    const SpectralFitResult fit =
+        fit_spectrum(stack, r.parameters, nm, measured, cos_theta_i, settings, r.coarse_quadrature_points);
     nlohmann::ordered_json j, params;
     for (std::size_t k = 0; k < r.parameters.size(); ++k) params[r.parameters[k].path] = fit.values[k];
     j["parameters"] = params;
     j["rmse"] = fit.rmse;
     j["evaluations"] = fit.evaluations;
+    j["coarse_evaluations"] = fit.coarse_evaluations;
     j["theta_i_deg"] = r.theta_i_deg;
     j["column"] = column;
     j["wavelength_nm"] = fit.nm;

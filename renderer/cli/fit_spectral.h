@@ -15,6 +15,7 @@ struct SpectralFitRequest {
   std::vector<FitParameterSpec> parameters;
   double theta_i_deg = 8.0;
   int quadrature_points = 16;
+  int coarse_quadrature_points = 4;  // the search's model (materials/fit/spectral_fit.h); 0: none
 };
 
 // Returns the exit status; errors are one line on stderr.

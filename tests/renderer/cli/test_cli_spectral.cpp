@@ -3,7 +3,7 @@
 // length, energy summing to 1, a colour when the grid spans the visible), a grey material equal
 // to the RGB solution at every wavelength. fit: a spectrum made by `lamina brdf --wavelengths`
 // from a known melanin fraction fitted back from another start (the fitted value, a vanishing
-// RMSE, the JSON's arrays); without --wavelengths, the RGB reading near the spectrum's colour. Both: usage errors (exit 2) and input errors (exit 1), one line each.
+// RMSE, the JSON's arrays), with and without the coarse model's search; without --wavelengths, the RGB reading near the spectrum's colour. Both: usage errors (exit 2) and input errors (exit 1), one line each.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -50,6 +50,8 @@ class CliSpectral : public ::testing::Test {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
     EXPECT_NE(r.err.find(must_contain), std::string::npos) << args << ": " << r.err;
   }
+
+  void write_truth_spectrum();
 
   std::string dir_, skin_, grey_;
 };
@@ -112,18 +114,22 @@ TEST_F(CliSpectral, RgbBrdfShowsAboutTheSpectrumsColour) {
     EXPECT_NEAR(a["R_specular"][c].get<double>() + a["R_diffuse"][c].get<double>(), b["R_rec709"][c].get<double>(), 0.012) << c;
 }
 
-TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {
+// spectrum.csv: the total reflectance of truth.json (melanin 0.15) by `lamina brdf
+// --wavelengths` in its column R.
+void CliSpectral::write_truth_spectrum() {
   const CliResult brdf = run("brdf " + dir_ + "/truth.json --theta-i 8 --method adding-doubling --quadrature-points 8 "
                              "--wavelengths 400:700:30");
   ASSERT_EQ(brdf.exit_code, 0) << brdf.err;
   const nlohmann::json b = nlohmann::json::parse(brdf.out);
-  {
-    std::ofstream csv(dir_ + "/spectrum.csv");
-    csv << "# made by lamina brdf\nnm,other,R\n";
-    for (std::size_t i = 0; i < b["wavelength_nm"].size(); ++i)
-      csv << b["wavelength_nm"][i].get<double>() << ",0," << b["R_specular"][i].get<double>() + b["R_diffuse"][i].get<double>()
-          << "\n";
-  }
+  std::ofstream csv(dir_ + "/spectrum.csv");
+  csv << "# made by lamina brdf\nnm,other,R\n";
+  for (std::size_t i = 0; i < b["wavelength_nm"].size(); ++i)
+    csv << b["wavelength_nm"][i].get<double>() << ",0," << b["R_specular"][i].get<double>() + b["R_diffuse"][i].get<double>()
+        << "\n";
+}
+
+TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {
+  write_truth_spectrum();
   const CliResult fit = run("fit " + dir_ + "/start.json --spectrum " + dir_ + "/spectrum.csv --spectrum-column R "
                             "--param layers[0].chromophores.melanin=0:0.45 --quadrature-points 8");
   ASSERT_EQ(fit.exit_code, 0) << fit.err;
@@ -134,6 +140,28 @@ TEST_F(CliSpectral, FitsBackASpectrumOfKnownMelanin) {
   EXPECT_EQ(j["measured"].size(), 11u);
   EXPECT_EQ(j["modelled"].size(), 11u);
   EXPECT_EQ(j["measured_rec709"].size(), 3u);
+}
+
+// --coarse-quadrature-points: the search's model (default 4: most solutions are on it) or none
+// (0: every solution at --quadrature-points); both find the melanin fraction.
+TEST_F(CliSpectral, FitSearchesOnTheCoarseModel) {
+  write_truth_spectrum();
+  const std::string fit = "fit " + dir_ + "/start.json --spectrum " + dir_ +
+                          "/spectrum.csv --spectrum-column R --param layers[0].chromophores.melanin=0:0.45 "
+                          "--quadrature-points 8";
+  for (const char* coarse : {"", " --coarse-quadrature-points 0"}) {
+    const CliResult r = run(fit + coarse);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_NEAR(j["parameters"]["layers[0].chromophores.melanin"].get<double>(), 0.15, 2e-3) << coarse;
+    const int all = j["evaluations"].get<int>(), on_coarse = j["coarse_evaluations"].get<int>();
+    if (*coarse == '\0') {
+      EXPECT_GT(on_coarse, all / 2);
+      EXPECT_LT(on_coarse, all);
+    } else {
+      EXPECT_EQ(on_coarse, 0);
+    }
+  }
 }
 
 TEST_F(CliSpectral, FitErrorsAreOneLine) {
