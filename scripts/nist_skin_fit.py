@@ -76,7 +76,7 @@ def main():
     a = np.array([r[1:5] for r in rows])
     print(f'{len(rows)} subjects: median RMSE {np.median(a[:, 0]):.4f} (worst {a[:, 0].max():.4f}, subject '
           f'{rows[int(a[:, 0].argmax())][0]}), median CIEDE2000 {np.median(a[:, 1]):.2f} (worst {a[:, 1].max():.2f}), '
-          f'median {np.median(a[:, 3]):.1f} s CPU per subject; {os.path.relpath(args.out, ROOT)}')
+          f'median {np.median(a[:, 3]):.2f} s CPU per subject; {os.path.relpath(args.out, ROOT)}')
     return 0
 
 

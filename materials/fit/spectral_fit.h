@@ -2,8 +2,9 @@
 // --spectrum`; docs/spectral.md, "Fitting a measured skin spectrum"): a few chromophore
 // parameters (at most kMaxSpectralParameters) chosen so that the adding-doubling total
 // reflectance R = R_specular + R_diffuse at each measured wavelength, for collimated light at
-// theta_i, is closest to the measurement in the least-squares sense. NLopt's BOBYQA on the
-// parameters scaled to [0, 1], as materials/fit/stack_fit does.
+// theta_i, is closest to the measurement in the least-squares sense: Levenberg-Marquardt on the
+// parameters scaled to [0, 1] by their bounds, searching on a coarse quadrature first
+// (spectral_fit.cpp; docs/spectral.md, "Fitting a measured skin spectrum", has its cost).
 #pragma once
 
 #include <string>
@@ -32,8 +33,10 @@ struct SpectralFitResult {
   SpectralStack fitted;
 };
 
-// Throws FitError for a bad path, more than kMaxSpectralParameters parameters, lower >= upper,
-// or wavelengths and measurements of different lengths.
+// The search runs on the model at coarse_quadrature_points (when at least 2 and below
+// settings.quadrature_points; else on the accurate model alone), then on the accurate model from
+// its optimum. Throws FitError for a bad path, more than kMaxSpectralParameters parameters,
+// lower >= upper, or wavelengths and measurements of different lengths.
 SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<FitParameterSpec>& parameters,
                                const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
                                const AddingDoublingSettings& settings = {}, int coarse_quadrature_points = 4);
