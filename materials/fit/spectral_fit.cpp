@@ -103,94 +103,117 @@ bool solve_spd(int n, std::vector<double> A, std::vector<double>* b) {
   return true;
 }
 
+// The Jacobian dr/du_k (column k) at u by forward differences of 1e-6 in u, towards the inside
+// of the box: the residuals are smooth in the parameters, so the truncation error is ~1e-6 of
+// the curvature, and the solver's rounding (~1e-12) / 1e-6 is far below the measurement's 1e-4.
+std::vector<std::vector<double>> difference_jacobian(Problem& pb, const std::vector<double>& u,
+                                                     const std::vector<double>& r) {
+  std::vector<std::vector<double>> J(u.size());
+  for (std::size_t k = 0; k < u.size(); ++k) {
+    constexpr double h = 1e-6;
+    std::vector<double> up = u;
+    up[k] = u[k] + h <= 1.0 ? u[k] + h : u[k] - h;
+    J[k] = pb.residuals(up);
+    for (std::size_t i = 0; i < r.size(); ++i) J[k][i] = (J[k][i] - r[i]) / (up[k] - u[k]);
+  }
+  return J;
+}
+
+// The Gauss-Newton model of the sum of squares at u: A = J^T J (n x n, row-major), g = J^T r.
+struct NormalEquations {
+  int n = 0;
+  std::vector<double> A, g;
+  double largest = 0.0;  // the largest diagonal element of A
+  NormalEquations(const std::vector<std::vector<double>>& J, const std::vector<double>& r)
+      : n(static_cast<int>(J.size())), A(static_cast<std::size_t>(n) * n, 0.0), g(n, 0.0) {
+    for (int a = 0; a < n; ++a) {
+      for (std::size_t i = 0; i < r.size(); ++i) g[a] += J[a][i] * r[i];
+      for (int b = 0; b < n; ++b)
+        for (std::size_t i = 0; i < r.size(); ++i) A[a * n + b] += J[a][i] * J[b][i];
+      largest = std::max(largest, A[a * n + a]);
+    }
+  }
+  // The damped step d over the unknowns `free` (0 for the others): (A + mu D) d = -g, with D =
+  // diag(A) floored at 1e-9 of its largest (Marquardt's scaling); false if that system is not
+  // positive definite.
+  bool step(const std::vector<int>& free, double mu, std::vector<double>* d) const {
+    const int nf = static_cast<int>(free.size());
+    std::vector<double> M(static_cast<std::size_t>(nf) * nf), x(nf);
+    for (int a = 0; a < nf; ++a) {
+      for (int b = 0; b < nf; ++b) M[a * nf + b] = A[free[a] * n + free[b]];
+      M[a * nf + a] += mu * std::max(A[free[a] * n + free[a]], 1e-9 * largest);
+      x[a] = -g[free[a]];
+    }
+    if (!solve_spd(nf, M, &x)) return false;
+    d->assign(n, 0.0);
+    for (int a = 0; a < nf; ++a) (*d)[free[a]] = x[a];
+    return true;
+  }
+  // The decrease of the sum of squares the model predicts for a step s: -(2 s.g + s.A s).
+  double predicted_decrease(const std::vector<double>& s) const {
+    double p = 0.0;
+    for (int a = 0; a < n; ++a) {
+      p -= 2.0 * s[a] * g[a];
+      for (int b = 0; b < n; ++b) p -= s[a] * A[a * n + b] * s[b];
+    }
+    return p;
+  }
+};
+
 // Levenberg-Marquardt on the box [0, 1]^n (K. Madsen, H. B. Nielsen and O. Tingleff, "Methods
 // for non-linear least squares problems", 2nd ed., DTU 2004, algorithm 3.16: Marquardt's
-// damping of the Gauss-Newton step scaled by the curvature's diagonal, and Nielsen's update of
-// the damping from the gain ratio). The Jacobian by forward differences of 1e-6 in u (towards
-// the inside of the box): the residuals are smooth in the parameters, so the truncation error
-// is ~1e-6 of the curvature and the solver's rounding (~1e-12) / 1e-6 is far below the
-// measurement's 1e-4. Bounds: a step is clamped into the box, and an unknown at a bound whose
-// gradient points out of the box is held there for that iteration (the optimum is on the bound
-// in that unknown). Stops when a step moves no unknown by more than `xtol`, when the sum of
-// squares falls by less than 1e-10 of itself, or after `max_iterations` Jacobians.
+// damping of the Gauss-Newton step, and Nielsen's update of the damping mu from the gain ratio
+// rho, the actual decrease over the predicted one). Bounds: a step is clamped into the box, and
+// an unknown at a bound whose gradient points out of the box is held there for that iteration
+// (the optimum is on the bound in that unknown). Stops when a step moves no unknown by more than
+// `xtol`, when the sum of squares falls by less than 1e-10 of itself, when no damping finds a
+// decrease (a minimum to rounding), or after `max_iterations` Jacobians. *damping: mu, carried
+// from one call to the next (< 0: set from the first curvature).
 void levenberg_marquardt(Problem& pb, std::vector<double>* u_io, double* damping, double xtol, int max_iterations) {
   std::vector<double>& u = *u_io;
-  double& mu = *damping;  // < 0: set from the first curvature
-  const int n = static_cast<int>(u.size());
+  double& mu = *damping;
   std::vector<double> r = pb.residuals(u);
   double cost = sum_of_squares(r);
-  const std::size_t m = r.size();
   double nu = 2.0;  // the damping's growth after a rejected step
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    std::vector<std::vector<double>> J(static_cast<std::size_t>(n));  // columns dr/du_k
-    for (int k = 0; k < n; ++k) {
-      constexpr double h = 1e-6;
-      std::vector<double> up = u;
-      up[k] = u[k] + h <= 1.0 ? u[k] + h : u[k] - h;
-      J[k] = pb.residuals(up);
-      for (std::size_t i = 0; i < m; ++i) J[k][i] = (J[k][i] - r[i]) / (up[k] - u[k]);
-    }
-    std::vector<double> A(static_cast<std::size_t>(n) * n), g(n, 0.0);  // J^T J, J^T r
-    for (int a = 0; a < n; ++a) {
-      for (std::size_t i = 0; i < m; ++i) g[a] += J[a][i] * r[i];
-      for (int b = 0; b < n; ++b)
-        for (std::size_t i = 0; i < m; ++i) A[a * n + b] += J[a][i] * J[b][i];
-    }
+    const NormalEquations ne(difference_jacobian(pb, u, r), r);
     std::vector<int> free;  // the unknowns not held at a bound
-    double largest = 0.0;
-    for (int k = 0; k < n; ++k) {
-      largest = std::max(largest, A[k * n + k]);
-      if (!((u[k] <= 0.0 && g[k] > 0.0) || (u[k] >= 1.0 && g[k] < 0.0))) free.push_back(k);
-    }
-    if (free.empty() || !(largest > 0.0)) return;
-    if (mu < 0.0) mu = 1e-3 * largest;
-    const int nf = static_cast<int>(free.size());
-    bool accepted = false;
-    while (!accepted) {
-      // (A + mu D) d = -g over the free unknowns, D = diag(A) floored at 1e-9 of its largest.
-      std::vector<double> Af(static_cast<std::size_t>(nf) * nf), d(nf);
-      for (int a = 0; a < nf; ++a) {
-        for (int b = 0; b < nf; ++b) Af[a * nf + b] = A[free[a] * n + free[b]];
-        Af[a * nf + a] += mu * std::max(A[free[a] * n + free[a]], 1e-9 * largest);
-        d[a] = -g[free[a]];
-      }
-      if (!solve_spd(nf, Af, &d)) {
+    for (int k = 0; k < ne.n; ++k)
+      if (!((u[k] <= 0.0 && ne.g[k] > 0.0) || (u[k] >= 1.0 && ne.g[k] < 0.0))) free.push_back(k);
+    if (free.empty() || !(ne.largest > 0.0)) return;
+    if (mu < 0.0) mu = 1e-3 * ne.largest;
+    for (bool accepted = false; !accepted;) {
+      if (mu > 1e12 * ne.largest) return;  // no step decreases the sum: a minimum to rounding
+      std::vector<double> d, trial = u, step(ne.n, 0.0);
+      if (!ne.step(free, mu, &d)) {
         mu *= nu;
         nu *= 2.0;
         continue;
       }
-      std::vector<double> trial = u, step(n, 0.0);
       double moved = 0.0;
-      for (int a = 0; a < nf; ++a) {
-        const int k = free[a];
-        trial[k] = std::clamp(u[k] + d[a], 0.0, 1.0);
+      for (int k : free) {
+        trial[k] = std::clamp(u[k] + d[k], 0.0, 1.0);
         step[k] = trial[k] - u[k];
         moved = std::max(moved, std::abs(step[k]));
       }
       if (moved < xtol) return;
-      // The decrease the linear model predicts for the (clamped) step: -(2 s.g + s.A s).
-      double predicted = 0.0;
-      for (int a = 0; a < n; ++a) {
-        predicted -= 2.0 * step[a] * g[a];
-        for (int b = 0; b < n; ++b) predicted -= step[a] * A[a * n + b] * step[b];
-      }
       std::vector<double> rt = pb.residuals(trial);
       const double trial_cost = sum_of_squares(rt);
-      if (trial_cost < cost) {
-        const double rho = predicted > 0.0 ? (cost - trial_cost) / predicted : 1.0;
-        mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-        nu = 2.0;
-        const bool stalled = cost - trial_cost < 1e-10 * cost;
-        u = trial;
-        r = std::move(rt);
-        cost = trial_cost;
-        if (stalled) return;
-        accepted = true;
-      } else {
+      if (!(trial_cost < cost)) {
         mu *= nu;
         nu *= 2.0;
-        if (mu > 1e12 * largest) return;  // no step decreases the sum: a minimum to rounding
+        continue;
       }
+      const double predicted = ne.predicted_decrease(step);
+      const double rho = predicted > 0.0 ? (cost - trial_cost) / predicted : 1.0;
+      mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      nu = 2.0;
+      const bool stalled = cost - trial_cost < 1e-10 * cost;
+      u = std::move(trial);
+      r = std::move(rt);
+      cost = trial_cost;
+      if (stalled) return;
+      accepted = true;
     }
   }
 }
@@ -217,7 +240,9 @@ SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<Fit
     pb.targets.push_back(chromophore_parameter(&pb.stack, p.path));
     u[k] = std::clamp((*pb.targets.back() - p.lower) / (p.upper - p.lower), 0.0, 1.0);
   }
-  double damping = -1.0;  // carried from the coarse search: the accurate model's curvature is nearly the same
+  // The damping is carried from the coarse search to the accurate one, whose curvature is nearly
+  // the same: started afresh, the accurate search would first take the small steps of a new start.
+  double damping = -1.0;
   if (coarse_quadrature_points >= 2 && coarse_quadrature_points < settings.quadrature_points) {
     pb.coarse = true;
     pb.settings.quadrature_points = coarse_quadrature_points;
