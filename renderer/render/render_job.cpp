@@ -19,6 +19,7 @@
 #include "renderer/render/render_metadata.h"
 #include "renderer/render/render_request_check.h"
 #include "renderer/render/shading_preparation.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
@@ -114,6 +115,12 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   // Bound before the loader's warnings are printed, so that a binding error is one line.
   out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
   check_outputs_not_scene_inputs(request, desc, out->bindings);
+  if (settings.spectral)
+    for (std::size_t i = 0; i < out->bindings.by_material.size(); ++i)
+      if (out->bindings.by_material[i])
+        throw std::runtime_error(request.scene_path + ": material '" + desc.material(static_cast<int>(i)).name + "' is layered (" +
+                                 out->bindings.by_material[i]->source() + "): layered materials are not rendered spectrally yet "
+                                 "(render without " + kSpectralOption.flag + ")");
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()

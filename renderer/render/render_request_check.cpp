@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 
+#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/string_format.h"
 
@@ -42,6 +43,20 @@ void check_modes(const RenderRequest& r) {
     refuse("--table-method is only meaningful with --subsurface table or auto");
 }
 
+// The spectral mode renders plain materials only: the options of layered materials are refused
+// with it (and a scene with layered materials, once it is read: render_job.cpp).
+void check_spectral(const RenderRequest& r) {
+  if (!r.settings.spectral) return;
+  auto refuse_with_spectral = [](const std::string& flag) {
+    refuse(flag + " is not meaningful with " + kSpectralOption.flag +
+           ": layered materials are not rendered spectrally yet (render them without " + kSpectralOption.flag + ")");
+  };
+  for (const char* const* flag = kSpectralOption.layered_only; *flag; ++flag)
+    if (given(r, *flag)) refuse_with_spectral(*flag);
+  for (const WalkOptionSpec& spec : kWalkOptionTable)
+    if (given(r, spec.flag)) refuse_with_spectral(spec.flag);
+}
+
 }  // namespace
 
 void check_render_request(const RenderRequest& r) {
@@ -50,6 +65,7 @@ void check_render_request(const RenderRequest& r) {
     for (const char* png_only : {"--exposure", "--tone-curve"})
       if (given(r, png_only)) refuse(std::string(png_only) + " is only meaningful with --png (the EXR stays linear)");
   check_modes(r);
+  check_spectral(r);
 }
 
 }  // namespace lamina
