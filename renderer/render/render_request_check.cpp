@@ -64,8 +64,8 @@ void check_render_request(const RenderRequest& r) {
   if (r.png_path.empty())
     for (const char* png_only : {"--exposure", "--tone-curve"})
       if (given(r, png_only)) refuse(std::string(png_only) + " is only meaningful with --png (the EXR stays linear)");
+  check_spectral(r);  // before the modes' rules: with --spectral, the layered options' own rules do not apply
   check_modes(r);
-  check_spectral(r);
 }
 
 }  // namespace lamina
