@@ -8,6 +8,7 @@
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/layered/stack_bindings.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/surfaces/first_order_surface.h"
 #include "renderer/surfaces/metallic_roughness_surface.h"
 #include "renderer/surfaces/random_walk_surface.h"
@@ -119,6 +120,11 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   }
   const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
   ++path.walks_;
+  if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: the stack at the path's wavelengths
+    thread_local LayerStack at_wavelengths;  // like `scratch`: valid until the next hit of this thread
+    stack_at_wavelengths(stack, layered_->spectral_for(material_index), *w, &at_wavelengths);
+    return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
+  }
   return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);
 }
 

@@ -14,12 +14,12 @@
 #include "renderer/layered/subsurface_auto.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/layered/walk_cache.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/render/environment.h"
 #include "renderer/render/lights.h"
 #include "renderer/render/render_metadata.h"
 #include "renderer/render/render_request_check.h"
 #include "renderer/render/shading_preparation.h"
-#include "renderer/render/spectral_option.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/scene.h"
 #include "renderer/scene/scene_gltf.h"
@@ -115,12 +115,6 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   // Bound before the loader's warnings are printed, so that a binding error is one line.
   out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
   check_outputs_not_scene_inputs(request, desc, out->bindings);
-  if (settings.spectral)
-    for (std::size_t i = 0; i < out->bindings.by_material.size(); ++i)
-      if (out->bindings.by_material[i])
-        throw std::runtime_error(request.scene_path + ": material '" + desc.material(static_cast<int>(i)).name + "' is layered (" +
-                                 out->bindings.by_material[i]->source() + "): layered materials are not rendered spectrally yet "
-                                 "(render without " + kSpectralOption.flag + ")");
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;
   out->camera_desc = request.camera_name.empty()
@@ -309,6 +303,10 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   if (!request.cache_dir.empty()) cache.emplace(request.cache_dir);
   LoadedScene loaded;
   load_scene(request, log, &loaded);
+  // The spectral mode's chromophore layers, read (and what it cannot render refused) before the
+  // shading is prepared.
+  std::vector<std::shared_ptr<const SpectralStack>> spectral;
+  if (request.settings.spectral) spectral = spectral_stacks(loaded.bindings);
 
   ShadingInputs inputs;
   inputs.bindings = &loaded.bindings;
@@ -323,6 +321,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   inputs.cache = cache ? &*cache : nullptr;
   PreparedShading shading;
   prepare_shading(inputs, log, &shading);
+  shading.layered.spectral = std::move(spectral);
 
   RenderResult result;
   result.camera = loaded.camera_desc.name;

@@ -43,18 +43,14 @@ void check_modes(const RenderRequest& r) {
     refuse("--table-method is only meaningful with --subsurface table or auto");
 }
 
-// The spectral mode renders plain materials only: the options of layered materials are refused
-// with it (and a scene with layered materials, once it is read: render_job.cpp).
+// The spectral mode runs the random walk for layered materials (renderer/layered/wavelength_stack.h):
+// the other modes' tables and closed forms are RGB.
 void check_spectral(const RenderRequest& r) {
   if (!r.settings.spectral) return;
-  auto refuse_with_spectral = [](const std::string& flag) {
-    refuse(flag + " is not meaningful with " + kSpectralOption.flag +
-           ": layered materials are not rendered spectrally yet (render them without " + kSpectralOption.flag + ")");
-  };
-  for (const char* const* flag = kSpectralOption.layered_only; *flag; ++flag)
-    if (given(r, *flag)) refuse_with_spectral(*flag);
-  for (const WalkOptionSpec& spec : kWalkOptionTable)
-    if (given(r, spec.flag)) refuse_with_spectral(spec.flag);
+  const SubsurfaceChoice& choice = r.subsurface;
+  if (choice.automatic || choice.mode != SubsurfaceMode::RandomWalk)
+    refuse("--subsurface " + std::string(choice.automatic ? "auto" : subsurface_mode_name(choice.mode)) + " is not rendered with " +
+           kSpectralOption.flag + " yet: layered materials are rendered spectrally by the random walk only");
 }
 
 }  // namespace

@@ -11,19 +11,12 @@ struct SpectralOption {
   const char* exr_key;
   const char* exr_value;  // what a spectral render's header says of its transport
   const char* help;
-  // The options that act only on layered materials, which the spectral mode does not render yet:
-  // refused with it (render_request_check.cpp).
-  const char* const* layered_only;
 };
-
-inline constexpr const char* kLayeredOnlyFlags[] = {"--stack", "--materials", "--subsurface", "--tolerance",
-                                                    "--table-method", "--cache", nullptr};
 
 inline constexpr SpectralOption kSpectralOption{
     "--spectral", "lamina:spectral", "hero wavelength 360-830 nm; RGB uplift Mallett-Yuksel 2019; CIE 1931 2-degree to linear Rec. 709",
     "spectral transport: each path carries three wavelengths (hero-wavelength sampling, 360-830 nm), RGB inputs are "
-    "uplifted to smooth spectra and the film integrates CIE XYZ, written as linear Rec. 709 as in the RGB mode; "
-    "plain (non-layered) materials only so far",
-    kLayeredOnlyFlags};
+    "uplifted to smooth spectra, skin chromophore layers are evaluated per wavelength and the film integrates CIE XYZ, "
+    "written as linear Rec. 709 as in the RGB mode; layered materials by the random walk only"};
 
 }  // namespace lamina

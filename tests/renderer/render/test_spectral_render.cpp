@@ -3,11 +3,18 @@
 // image mean of N independent pixels has standard error s / sqrt(N); two renders' means are
 // compared within 3 standard errors of their difference, sqrt(se_a^2 + se_b^2).
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include "materials/adding_doubling/spectral_totals.h"
+#include "materials/spectral/colour.h"
+#include "materials/spectral/sampled_wavelengths.h"
+#include "materials/stack/stack_file.h"
+#include "renderer/layered/layered_shading.h"
 #include "renderer/render/film.h"
 #include "renderer/render/render_request_check.h"
 #include "tests/renderer/render_fixtures.h"
@@ -144,25 +151,111 @@ TEST(SpectralRender, DeterministicAcrossThreadCounts) {
   EXPECT_NE(0, std::memcmp(a.rgb.data(), rgb.rgb.data(), a.rgb.size() * sizeof(float)));
 }
 
-// The options of layered materials are refused with --spectral, in one line naming both.
-TEST(SpectralRender, RefusesTheOptionsOfLayeredMaterials) {
-  for (const char* flag : {"--stack", "--materials", "--subsurface", "--table-method", "--cache", "--guiding"}) {
+// ---- A flat chromophore slab against adding-doubling per wavelength ----
+
+// A two-layer skin by chromophores (docs/spectral.md's skin_spectral.json, with blood's bands and
+// melanin's slope in the visible), smooth top, semi-infinite dermis.
+const char* kSkin = R"({"lamina_material": 1, "layers": [
+    {"ior": 1.4, "thickness": 0.1, "chromophores": {"melanin": 0.05, "baseline": 0.5,
+     "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}},
+    {"ior": 1.4, "thickness": "inf", "chromophores": {"blood": 0.02, "oxygenation": 0.75, "water": 0.6, "baseline": 0.38,
+     "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}}]})";
+
+// The colour of a reflectance spectrum given on `nm` (read linearly between) under D65, as the
+// renderer integrates it: over 360-830 nm with the tables read as TabulatedSpectrum reads them
+// (trapezoid rule on 0.05-nm steps).
+Spectrum colour_of(const std::vector<double>& nm, const std::vector<double>& r) {
+  const TabulatedSpectrum refl(nm, r), d65 = illuminant_d65(), x = cie_x_bar(), y = cie_y_bar(), z = cie_z_bar();
+  const int n = 9400;
+  const double h = (kSpectralLastNm - kSpectralFirstNm) / n;
+  Xyz sum;
+  double norm = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    const double l = kSpectralFirstNm + i * h, wt = (i == 0 || i == n) ? 0.5 * h : h;
+    const double lit = d65(l) * refl(l) * wt;
+    sum.x += lit * x(l);
+    sum.y += lit * y(l);
+    sum.z += lit * z(l);
+    norm += d65(l) * y(l) * wt;
+  }
+  return xyz_to_linear_rec709({sum.x / norm, sum.y / norm, sum.z / norm});
+}
+
+// The slab under a uniform white environment (Le = 1: D65 of luminance 1), seen at 35 degrees:
+// every pixel's radiance is the directional albedo at the view, which by reciprocity is the
+// total reflectance R_specular + R_diffuse for light incident at 35 degrees (no transmission).
+// Reference: adding-doubling per wavelength (what `lamina brdf --wavelengths` prints) every
+// 2 nm, its colour integrated as the renderer's film integrates. Tolerance: 3 standard errors of
+// the image mean, plus the solver's own discretisation error (its N against N/2 estimate, as a
+// colour) and the 2-nm grid's interpolation (its difference from a 4-nm grid's colour).
+TEST(SpectralRender, FlatChromophoreSlabAgreesWithAddingDoublingPerWavelength) {
+  const SpectralStack spectral = parse_spectral_stack_json(kSkin, "skin");
+  LayeredBindings b;
+  b.by_material.push_back(std::make_shared<const LayeredMaterial>(parse_stack_json(kSkin, "skin"), "skin"));
+  LayeredShading layered;
+  layered.bindings = &b;
+  layered.spectral = {std::make_shared<const SpectralStack>(spectral)};
+  const double theta = 35.0;
+  const Scene scene{make_scene({test::slab_plane(0)})};
+  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
+  const LightSet lights(scene, env);
+  const Camera camera(test::camera_towards(test::world_dir(theta, 0.0)), 32, 32);
+  RenderSettings s;
+  s.width = s.height = 32;
+  s.spp = 16;
+  s.seed = 5;
+  s.layered = &layered;
+  s.spectral = true;
+  RenderStats stats;
+  const ImageStats rendered = stats_of(render_image(scene, lights, camera, s, &stats));
+  EXPECT_EQ(stats.invalid_samples, 0u);
+
+  const double mu = std::cos(theta * kPi / 180.0);
+  auto reference = [&](double step, Spectrum* error) {
+    const SpectralTotals t = adding_doubling_spectrum(spectral, WavelengthGrid::from_to(kSpectralFirstNm, kSpectralLastNm, step), mu);
+    std::vector<double> r, e;
+    for (const AddingDoublingEstimate& est : t.estimates) {
+      r.push_back(est.totals.R_specular[0] + est.totals.R_diffuse[0]);
+      e.push_back(est.error.R_specular[0] + est.error.R_diffuse[0]);
+    }
+    if (error) *error = colour_of(t.nm, e);
+    return colour_of(t.nm, r);
+  };
+  Spectrum solver_error;
+  const Spectrum expected = reference(2.0, &solver_error), coarser = reference(4.0, nullptr);
+  for (int c = 0; c < 3; ++c) {
+    const double tol = 3.0 * rendered.stderr_[c] + std::abs(solver_error[c]) + std::abs(expected[c] - coarser[c]);
+    if (std::getenv("LAMINA_TEST_VERBOSE"))
+      std::printf("channel %d: rendered %g +- %g, adding-doubling %g (solver error %g, grid %g)\n", c, rendered.mean[c],
+                  rendered.stderr_[c], expected[c], solver_error[c], expected[c] - coarser[c]);
+    EXPECT_NEAR(rendered.mean[c], expected[c], tol)
+        << "channel " << c << ": rendered " << rendered.mean[c] << " +- " << rendered.stderr_[c] << ", adding-doubling "
+        << expected[c] << " (solver error " << solver_error[c] << ", grid " << expected[c] - coarser[c] << ")";
+  }
+}
+
+// Layered materials are rendered spectrally by the random walk only: the other modes are refused
+// in one line naming the mode; the walk (given or the default) and its options are accepted.
+TEST(SpectralRender, RefusesTheSubsurfaceModesItDoesNotRender) {
+  for (const char* mode : {"table", "first-order", "lambert", "auto"}) {
     RenderRequest r;
     r.settings.spectral = true;
-    r.given = {"--spectral", flag};
+    r.given = {"--spectral", "--subsurface"};
+    ASSERT_TRUE(parse_subsurface_choice(mode, &r.subsurface));
+    r.subsurface.tolerance = 0.05;
     try {
       check_render_request(r);
-      ADD_FAILURE() << flag << " accepted";
+      ADD_FAILURE() << mode << " accepted";
     } catch (const RenderRequestError& e) {
       const std::string m = e.what();
       EXPECT_EQ(m.find('\n'), std::string::npos);
-      EXPECT_EQ(m.rfind(std::string(flag) + " is not meaningful with --spectral", 0), 0u) << m;
+      EXPECT_EQ(m.rfind("--subsurface " + std::string(mode) + " is not rendered with --spectral", 0), 0u) << m;
     }
   }
-  RenderRequest plain;
-  plain.settings.spectral = true;
-  plain.given = {"--spectral", "--spp"};
-  EXPECT_NO_THROW(check_render_request(plain));
+  RenderRequest walk;
+  walk.settings.spectral = true;
+  walk.given = {"--spectral", "--subsurface", "--guiding", "--stack"};
+  EXPECT_NO_THROW(check_render_request(walk));
 }
 
 }  // namespace
