@@ -11,6 +11,7 @@
 #include "materials/spectral/colour.h"
 #include "materials/spectral/sampled_wavelengths.h"
 #include "materials/spectral/uplift.h"
+#include "tests/materials/spectral/colour_quadrature.h"
 
 namespace lamina {
 namespace {
@@ -82,24 +83,10 @@ TEST(SampledWavelengths, CompanionsAreRotatedByAThird) {
   for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(w.pdf(i), visible_wavelength_pdf(w.nm(i)));
 }
 
-// The colour of the white emitter's uplifted light reflected by an uplifted reflectance rho,
-// by an independent route: X = integral D65 uplift(rho) xbar / integral D65 ybar over 360-830 nm
-// by the trapezoid rule on 0.05-nm steps (the tables read as TabulatedSpectrum reads them).
+// The colour of the white emitter's uplifted light reflected by an uplifted reflectance rho, by
+// an independent route (colour_quadrature.h).
 Spectrum colour_by_quadrature(const Spectrum& rho) {
-  const TabulatedSpectrum d65 = illuminant_d65(), x = cie_x_bar(), y = cie_y_bar(), z = cie_z_bar();
-  const int n = 9400;
-  const double h = (kSpectralLastNm - kSpectralFirstNm) / n;
-  Xyz sum;
-  double norm = 0.0;
-  for (int i = 0; i <= n; ++i) {
-    const double nm = kSpectralFirstNm + i * h, wt = (i == 0 || i == n) ? 0.5 * h : h;
-    const double lit = d65(nm) * uplift(rho, nm) * wt;
-    sum.x += lit * x(nm);
-    sum.y += lit * y(nm);
-    sum.z += lit * z(nm);
-    norm += d65(nm) * y(nm) * wt;
-  }
-  return xyz_to_linear_rec709({sum.x / norm, sum.y / norm, sum.z / norm});
+  return test::colour_by_quadrature([&](double nm) { return uplift(rho, nm); });
 }
 
 // The estimator's expectation over the hero's u (by the midpoint rule on 10^5 points, smooth in

@@ -17,25 +17,19 @@
 #include "renderer/layered/layered_shading.h"
 #include "renderer/render/film.h"
 #include "renderer/render/render_request_check.h"
+#include "tests/materials/spectral/colour_quadrature.h"
 #include "tests/renderer/render_fixtures.h"
 
 namespace lamina {
 namespace {
 
 using test::add_quad;
+using test::camera_at;
 using test::cube;
+using test::lambert_plane;
 using test::ImageStats;
 using test::make_scene;
 using test::stats_of;
-
-CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
-  CameraDesc c;
-  c.position = position;
-  c.forward = forward;
-  c.up = std::abs(forward.y) > 0.9 ? glm::dvec3(0.0, 0.0, -1.0) : glm::dvec3(0.0, 1.0, 0.0);
-  c.yfov = yfov_deg * kPi / 180.0;
-  return c;
-}
 
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp, bool spectral,
              int threads = 0) {
@@ -61,15 +55,6 @@ void expect_same_mean(const Image& rgb, const Image& spectral, const char* what)
     EXPECT_NEAR(b.mean[c], a.mean[c], 3.0 * std::hypot(a.stderr_[c], b.stderr_[c]) + 1e-9)
         << what << ", channel " << c << ": RGB " << a.mean[c] << " +- " << a.stderr_[c] << ", spectral " << b.mean[c]
         << " +- " << b.stderr_[c];
-}
-
-SceneDesc lambert_plane(const Spectrum& albedo) {
-  Material mat;
-  mat.base_color = albedo;
-  Mesh plane;
-  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
-  plane.material = 0;
-  return make_scene({plane}, {mat});
 }
 
 LightDesc sun(double theta, double irradiance) {
@@ -162,23 +147,10 @@ const char* kSkin = R"({"lamina_material": 1, "layers": [
      "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}}]})";
 
 // The colour of a reflectance spectrum given on `nm` (read linearly between) under D65, as the
-// renderer integrates it: over 360-830 nm with the tables read as TabulatedSpectrum reads them
-// (trapezoid rule on 0.05-nm steps).
+// renderer integrates it (colour_quadrature.h).
 Spectrum colour_of(const std::vector<double>& nm, const std::vector<double>& r) {
-  const TabulatedSpectrum refl(nm, r), d65 = illuminant_d65(), x = cie_x_bar(), y = cie_y_bar(), z = cie_z_bar();
-  const int n = 9400;
-  const double h = (kSpectralLastNm - kSpectralFirstNm) / n;
-  Xyz sum;
-  double norm = 0.0;
-  for (int i = 0; i <= n; ++i) {
-    const double l = kSpectralFirstNm + i * h, wt = (i == 0 || i == n) ? 0.5 * h : h;
-    const double lit = d65(l) * refl(l) * wt;
-    sum.x += lit * x(l);
-    sum.y += lit * y(l);
-    sum.z += lit * z(l);
-    norm += d65(l) * y(l) * wt;
-  }
-  return xyz_to_linear_rec709({sum.x / norm, sum.y / norm, sum.z / norm});
+  const TabulatedSpectrum refl(nm, r);
+  return test::colour_by_quadrature([&](double l) { return refl(l); });
 }
 
 // The slab under a uniform white environment (Le = 1: D65 of luminance 1), seen at 35 degrees:
