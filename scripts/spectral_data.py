@@ -19,10 +19,16 @@ Every table names its source and licence in the file it writes (docs/spectral.md
                        the absorption of fat (lipid), 450-1000 nm every 1 nm, as shipped in SIMPA
                        1.0.0 (MIT, simpa/utils/libraries/absorption_spectra_data/Fat.npz; SIMPA
                        does not name its primary source).
+  uplift_data.cpp      The three basis spectra of Mallett and Yuksel (2019), "Spectral primary
+                       decomposition for rendering with sRGB reflectance" (EGSR), 380-780 nm every
+                       5 nm, which uplift a linear Rec. 709 colour to a smooth spectrum, from
+                       colour-science 0.4.7 (BSD-3-Clause;
+                       colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019, the paper's
+                       supplemental data).
 The packages are pinned; colour-science and prosail come from scripts/setup_references.sh, the
 MNE and SIMPA wheels are downloaded with pip (no install) into build/spectral_data/.
 
-Usage: python3 scripts/spectral_data.py          writes the three files
+Usage: python3 scripts/spectral_data.py          writes the four files
        python3 scripts/spectral_data.py --check  exits 1 if a committed file differs from what
                                                  the pinned packages give (ctest spectral_data)
 """
@@ -105,6 +111,21 @@ def cie_data():
     return text + FOOTER
 
 
+def uplift_data():
+    require('colour-science', COLOUR)
+    import warnings
+    warnings.simplefilter('ignore')
+    import colour
+    basis = colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019
+    rows = [(w, *v) for w, v in zip(basis.wavelengths, basis.values)]
+    text = header(['The spectral primaries of Mallett and Yuksel (2019), "Spectral primary decomposition for',
+                   'rendering with sRGB reflectance", EGSR (basis spectra for R, G and B; at every wavelength',
+                   'they sum to 1), 380-780 nm every 5 nm, from colour-science ' + COLOUR + ' (BSD-3-Clause),',
+                   'colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019, the paper\'s supplemental data.'])
+    text += table('kMallett2019', 'BasisRow', rows)
+    return text + FOOTER
+
+
 def prospect_data():
     require('prosail', PROSAIL)
     import prosail
@@ -137,7 +158,8 @@ def chromophore_data():
     return text + FOOTER
 
 
-FILES = {'cie_data.cpp': cie_data, 'prospect_d_data.cpp': prospect_data, 'chromophore_data.cpp': chromophore_data}
+FILES = {'cie_data.cpp': cie_data, 'prospect_d_data.cpp': prospect_data, 'chromophore_data.cpp': chromophore_data,
+         'uplift_data.cpp': uplift_data}
 
 
 def write_or_check(files, folder, check, same=str.__eq__):

@@ -10,6 +10,7 @@ struct CieRow { double nm, x, y, z, d65; };
 struct ProspectRow { double nm, n, chlorophyll, carotenoids, anthocyanins, brown, water, dry_matter; };
 struct HaemoglobinRow { double nm, oxy, deoxy; };
 struct SpectrumRow { double nm, value; };
+struct BasisRow { double nm, r, g, b; };
 
 extern const CieRow kCie1931[];
 extern const int kCie1931Rows;
@@ -20,5 +21,7 @@ extern const HaemoglobinRow kHaemoglobin[];
 extern const int kHaemoglobinRows;
 extern const SpectrumRow kFat[];
 extern const int kFatRows;
+extern const BasisRow kMallett2019[];
+extern const int kMallett2019Rows;
 
 }  // namespace lamina::spectral_tables

@@ -20,6 +20,7 @@
 #include "renderer/layered/walk_cache.h"
 #include "renderer/render/render_job.h"
 #include "renderer/render/render_request_check.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/progress.h"
 #include "renderer/util/string_format.h"
@@ -291,6 +292,7 @@ int run_render(int argc, char** argv) {
       ->check(cli::real(0.0, 1e30, true, false));
   std::vector<StackAssignment> stacks;
   std::vector<std::string> extra_meta;  // e.g. lamina batch's job hash
+  app.add_flag(kSpectralOption.flag, settings.spectral, kSpectralOption.help);
   app.add_option("--meta", extra_meta, "extra EXR header attribute KEY=VALUE (repeatable)");
 
   try {

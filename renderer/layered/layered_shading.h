@@ -3,8 +3,10 @@
 // (renderer/layered/shading.h) reads it to build the surface at each hit.
 #pragma once
 
+#include <memory>
 #include <vector>
 
+#include "materials/stack/spectral_stack.h"
 #include "renderer/layered/layered_material.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/surfaces/random_walk_surface.h"
@@ -36,6 +38,12 @@ struct LayeredShading {
   // it uses (`--pool-samples`, `--similarity-after`, `--guiding`; the naive and connections-only
   // estimators of the tests), as renderer/surfaces/random_walk_surface.h defines them.
   RandomWalkOptions walk;
+  // The spectral mode: per glTF material slot, its file's chromophore layers (null: none),
+  // evaluated at each path's wavelengths (renderer/layered/wavelength_stack.h).
+  std::vector<std::shared_ptr<const SpectralStack>> spectral;
+  const SpectralStack* spectral_for(int material) const {
+    return material >= 0 && material < static_cast<int>(spectral.size()) ? spectral[material].get() : nullptr;
+  }
   ShadingTestHooks test_hooks;
 };
 

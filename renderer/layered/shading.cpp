@@ -8,6 +8,7 @@
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
 #include "renderer/layered/stack_bindings.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/surfaces/first_order_surface.h"
 #include "renderer/surfaces/metallic_roughness_surface.h"
 #include "renderer/surfaces/random_walk_surface.h"
@@ -38,11 +39,15 @@ bool shading_geometry(const SceneDesc& desc, const SurfaceHit& hit, const Materi
 
 // A material that is not layered: Lambert with the base colour (its texture and the vertex
 // colours multiplied in), or, for a glTF material, its metallic-roughness BRDF (Appendix B), with
-// the metallicRoughnessTexture's B (metalness) and G (roughness) multiplied in.
-const Surface& plain_surface(const SceneDesc& desc, const SurfaceHit& hit, const Material& mat, SurfaceStorage& storage) {
+// the metallicRoughnessTexture's B (metalness) and G (roughness) multiplied in. In the spectral
+// mode the base colour (the product of its factors, the colour the RGB mode reflects) is uplifted
+// to the path's wavelengths; the metal's Fresnel of F0 = base colour then acts per wavelength.
+const Surface& plain_surface(const SceneDesc& desc, const SurfaceHit& hit, const Material& mat,
+                             const SampledWavelengths* wavelengths, SurfaceStorage& storage) {
   Spectrum albedo = mat.base_color;
   if (mat.base_color_texture >= 0) albedo *= desc.textures[mat.base_color_texture].lookup(texture_uv(mat.base_color_uv, hit));
   albedo *= Spectrum(hit.colour.x, hit.colour.y, hit.colour.z);
+  if (wavelengths) albedo = wavelengths->reflectance(albedo);
   if (!mat.metallic_roughness) return storage.emplace<LambertSurface>(albedo);
   double metallic = mat.metallic, roughness = mat.roughness;
   if (mat.metallic_roughness_texture >= 0) {
@@ -80,6 +85,8 @@ PathShading Shading::start_path(std::uint64_t seed, std::uint64_t pixel, std::ui
   path.strata_ = HeroStrata{seed, pixel, sample};
   path.stratified_ = layered_ && layered_->test_hooks.stratified_hero;
   path.events_ = events;
+  path.spectral_ = spectral_;
+  if (spectral_) path.wavelengths_ = SampledWavelengths::for_sample(seed, pixel, sample);
   return path;
 }
 
@@ -90,7 +97,7 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   const Material& mat = desc_.material(material_index);
   const bool back_side = shading_geometry(desc_, hit, mat, wo_world, geometry);
   const LayeredMaterial* lm = layered_ && layered_->bindings ? layered_->bindings->get(material_index) : nullptr;
-  if (!lm) return plain_surface(desc_, hit, mat, storage);
+  if (!lm) return plain_surface(desc_, hit, mat, path.wavelengths(), storage);
   const SubsurfaceMode mode = layered_->mode_for(material_index);
   if (mode == SubsurfaceMode::Lambert) return storage.emplace<LambertSurface>(lm->lambert_albedo_at(hit.uv));
   // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
@@ -113,6 +120,11 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   }
   const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
   ++path.walks_;
+  if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: the stack at the path's wavelengths
+    thread_local LayerStack at_wavelengths;  // like `scratch`: valid until the next hit of this thread
+    stack_at_wavelengths(stack, layered_->spectral_for(material_index), *w, &at_wavelengths);
+    return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
+  }
   return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);
 }
 

@@ -9,6 +9,7 @@
 
 #include <glm/vec3.hpp>
 
+#include "materials/spectral/sampled_wavelengths.h"
 #include "renderer/layered/hero_strata.h"
 #include "renderer/scene/scene.h"
 #include "renderer/surfaces/frame.h"
@@ -27,21 +28,30 @@ struct ShadingGeometry {
   glm::dvec3 wo{0.0};  // towards the viewer, in the frame
 };
 
-// The shading state of one path: the random walks' hero strata and how many walks the path has
-// run. Made by Shading::start_path; the integrator only passes it on.
+// The shading state of one path: the random walks' hero strata, how many walks the path has
+// run and, in the spectral mode, the path's wavelengths. Made by Shading::start_path.
 class PathShading {
+ public:
+  // The path's wavelengths in the spectral mode (Spectrum's channels are then these three
+  // wavelengths), null in the RGB mode.
+  const SampledWavelengths* wavelengths() const { return spectral_ ? &wavelengths_ : nullptr; }
+
  private:
   friend class Shading;
   HeroStrata strata_;
   bool stratified_ = false;
   int walks_ = 0;                       // random walks run so far on this path (index of the next one)
   std::uint64_t* events_ = nullptr;     // counts the walks' scattering events
+  bool spectral_ = false;
+  SampledWavelengths wavelengths_;
 };
 
 class Shading {
  public:
-  // layered: null when no material is layered.
-  Shading(const SceneDesc& desc, const LayeredShading* layered) : desc_(desc), layered_(layered) {}
+  // layered: null when no material is layered. spectral: paths carry wavelengths
+  // (materials/spectral/sampled_wavelengths.h) and RGB inputs are uplifted to them.
+  Shading(const SceneDesc& desc, const LayeredShading* layered, bool spectral = false)
+      : desc_(desc), layered_(layered), spectral_(spectral) {}
 
   // The state of the path of sample `sample` of pixel `pixel` (the full image's row-major index);
   // events, if not null, counts the scattering events of its random walks.
@@ -55,6 +65,7 @@ class Shading {
  private:
   const SceneDesc& desc_;
   const LayeredShading* layered_;
+  bool spectral_ = false;
 };
 
 }  // namespace lamina

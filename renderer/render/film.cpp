@@ -161,7 +161,7 @@ Film::Film(const Scene& scene, const LightSet& lights, const Camera& camera, con
     : camera_(camera),
       s_(s),
       progress_(progress),
-      shading_(scene.desc(), s.layered),
+      shading_(scene.desc(), s.layered, s.spectral),
       tracer_{scene, lights, shading_, s.max_depth},
       arena_(arena_threads(s)),
       workers_(initialized_workers(arena_)),
@@ -191,6 +191,10 @@ void Film::sample_pixel(int x, int y, int first, int count, PixelSums* acc, RayC
     PathShading path = shading_.start_path(s_.seed, pixel, index, &rays.scatter_events);
     FirstHit hit;
     Spectrum l = path_radiance(tracer_, ray, rng, path, &rays, first_hits_ ? &hit : nullptr);
+    if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: to colour, through XYZ
+      l = w->radiance_to_rgb(l);
+      hit.albedo = w->reflectance_to_rgb(hit.albedo);
+    }
     ++acc->count;
     if (!l.is_finite()) {
       ++*bad;

@@ -70,6 +70,9 @@ struct RenderSettings {
   // --clamp: BIASED firefly suppression (0: off). A path sample whose largest channel exceeds it
   // is scaled down to it (hue kept); the light removed is lost, not redistributed.
   double clamp = 0.0;
+  // The spectral mode (renderer/render/spectral_option.h): each path carries three sampled
+  // wavelengths and the film converts its radiance to linear Rec. 709 through CIE XYZ.
+  bool spectral = false;
   RenderTestHooks test_hooks;
 };
 

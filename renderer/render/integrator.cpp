@@ -49,13 +49,22 @@ bool light_visible(const Scene& scene, const glm::dvec3& p, const glm::dvec3& ng
   return !scene.occluded(shadow, tmax, *rays);
 }
 
+// The radiance of an emitter (a light, an emissive surface, the environment: all given in RGB)
+// as the path carries it: unchanged in the RGB mode, at the path's wavelengths in the spectral
+// mode (SampledWavelengths::illuminant).
+Spectrum emitted(const SampledWavelengths* wavelengths, const Spectrum& rgb) {
+  return wavelengths ? wavelengths->illuminant(rgb) : rgb;
+}
+
 // Light samples of the pool drawn one at a time for the events of a layered walk
 // (LightSampler), each with its own shadow ray.
 class PoolSampler final : public LightSampler {
  public:
   PoolSampler(const Scene& scene, const LightSet& lights, const glm::dvec3& p, const glm::dvec3& ng,
-              const Frame& frame, const Spectrum& beta, Spectrum* radiance, RayCounters* rays)
-      : scene_(scene), lights_(lights), p_(p), ng_(ng), frame_(frame), beta_(beta), radiance_(radiance), rays_(rays) {}
+              const Frame& frame, const Spectrum& beta, const SampledWavelengths* wavelengths, Spectrum* radiance,
+              RayCounters* rays)
+      : scene_(scene), lights_(lights), p_(p), ng_(ng), frame_(frame), beta_(beta), wavelengths_(wavelengths),
+        radiance_(radiance), rays_(rays) {}
 
   bool draw(Rng& rng, LightDirection* light) override {
     const Light* chosen = lights_.choose(rng.uniform(), &pmf_);
@@ -63,7 +72,8 @@ class PoolSampler final : public LightSampler {
     return chosen && sample_light_direction(*chosen, pmf_, u, p_, ng_, frame_, &sample_, light);
   }
   void add(const Spectrum& f_cos) override {
-    if (light_visible(scene_, p_, ng_, sample_, rays_)) *radiance_ += beta_ * f_cos * sample_.li / (pmf_ * sample_.pdf);
+    if (light_visible(scene_, p_, ng_, sample_, rays_))
+      *radiance_ += beta_ * f_cos * emitted(wavelengths_, sample_.li) / (pmf_ * sample_.pdf);
   }
 
  private:
@@ -73,6 +83,7 @@ class PoolSampler final : public LightSampler {
   const glm::dvec3& ng_;
   const Frame& frame_;
   const Spectrum& beta_;
+  const SampledWavelengths* wavelengths_;
   Spectrum* radiance_;
   RayCounters* rays_;
   LightSample sample_;
@@ -101,12 +112,13 @@ struct PathState {
   Spectrum radiance{0.0}, beta{1.0};
   bool unweighted = true;  // camera ray, or the last bounce was a delta lobe
   double bsdf_pdf = 0.0;   // density of the last BSDF sample
+  const SampledWavelengths* wavelengths = nullptr;  // the spectral mode's (PathShading::wavelengths)
 };
 
 // The environment's light, found by a ray that leaves the scene.
 void add_environment(const LightSet& lights, const Ray& ray, PathState* path) {
   if (const Light* env = lights.environment())
-    path->radiance += path->beta * lights.environment_map().eval(ray.direction) *
+    path->radiance += path->beta * emitted(path->wavelengths, lights.environment_map().eval(ray.direction)) *
                       emission_weight(lights, env, path->unweighted, path->bsdf_pdf, ray.origin, ray.direction, nullptr);
 }
 
@@ -114,7 +126,7 @@ void add_environment(const LightSet& lights, const Ray& ray, PathState* path) {
 void add_emission(const Scene& scene, const LightSet& lights, const SurfaceHit& hit, const Ray& ray, PathState* path) {
   const Spectrum le = emitted_radiance(scene, hit, -ray.direction);
   if (!le.is_black())
-    path->radiance += path->beta * le *
+    path->radiance += path->beta * emitted(path->wavelengths, le) *
                       emission_weight(lights, lights.triangle_light(hit.mesh, hit.triangle), path->unweighted,
                                       path->bsdf_pdf, ray.origin, ray.direction, &hit);
 }
@@ -139,7 +151,7 @@ void add_light_connections(const Scene& scene, const LightSamples& nee, const gl
   for (int k = 0; k < nee.count; ++k) {
     const Spectrum& f_cos = nee.direction[k].f_cos;
     if (!f_cos.is_black() && light_visible(scene, p, ng, nee.sample[k], rays))
-      path->radiance += path->beta * f_cos * nee.sample[k].li / (nee.pmf[k] * nee.sample[k].pdf);
+      path->radiance += path->beta * f_cos * emitted(path->wavelengths, nee.sample[k].li) / (nee.pmf[k] * nee.sample[k].pdf);
   }
 }
 
@@ -180,6 +192,7 @@ Spectrum path_radiance(const PathTracer& tracer, Ray ray, Rng& rng, PathShading&
   const Scene& scene = tracer.scene;
   const LightSet& lights = tracer.lights;
   PathState path;
+  path.wavelengths = shading_state.wavelengths();
   for (int depth = 0;; ++depth) {
     SurfaceHit hit;
     if (!scene.intersect(ray, &hit, *rays)) {
@@ -202,7 +215,7 @@ Spectrum path_radiance(const PathTracer& tracer, Ray ray, Rng& rng, PathShading&
     LightSamples nee;
     const bool per_event = surface.draws_per_event() && !lights.pool_empty();
     draw_light_samples(lights, surface, per_event, hit.p, g, rng, &nee);
-    PoolSampler pool(scene, lights, hit.p, g.ng, g.frame, path.beta, &path.radiance, rays);
+    PoolSampler pool(scene, lights, hit.p, g.ng, g.frame, path.beta, path.wavelengths, &path.radiance, rays);
     SurfaceScatter next;
     const bool continues = surface.scatter(g.wo, rng, nee.direction, nee.count, per_event ? &pool : nullptr, &next);
     add_light_connections(scene, nee, hit.p, g.ng, rays, &path);

@@ -39,7 +39,9 @@ struct PathTracer {
 };
 
 // Radiance arriving at ray.origin along -ray.direction, estimated by one path. path: the path's
-// shading state (Shading::start_path); first_hit: null, or filled for the AOVs.
+// shading state (Shading::start_path); first_hit: null, or filled for the AOVs. In the spectral
+// mode (path.wavelengths()) the radiance and the first hit's albedo are at the path's three
+// wavelengths (SampledWavelengths::radiance_to_rgb makes them colours).
 Spectrum path_radiance(const PathTracer& tracer, Ray ray, Rng& rng, PathShading& path, RayCounters* rays,
                        FirstHit* first_hit = nullptr);
 

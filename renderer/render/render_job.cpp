@@ -14,6 +14,7 @@
 #include "renderer/layered/subsurface_auto.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/layered/walk_cache.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/render/environment.h"
 #include "renderer/render/lights.h"
 #include "renderer/render/render_metadata.h"
@@ -302,6 +303,10 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   if (!request.cache_dir.empty()) cache.emplace(request.cache_dir);
   LoadedScene loaded;
   load_scene(request, log, &loaded);
+  // The spectral mode's chromophore layers, read (and what it cannot render refused) before the
+  // shading is prepared.
+  std::vector<std::shared_ptr<const SpectralStack>> spectral;
+  if (request.settings.spectral) spectral = spectral_stacks(loaded.bindings);
 
   ShadingInputs inputs;
   inputs.bindings = &loaded.bindings;
@@ -316,6 +321,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   inputs.cache = cache ? &*cache : nullptr;
   PreparedShading shading;
   prepare_shading(inputs, log, &shading);
+  shading.layered.spectral = std::move(spectral);
 
   RenderResult result;
   result.camera = loaded.camera_desc.name;

@@ -3,6 +3,7 @@
 #include <sstream>
 #include <string>
 
+#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/string_format.h"
 #include "renderer/util/version.h"
@@ -76,6 +77,7 @@ Metadata render_metadata(const HeaderInputs& in, const Metadata& similarity_bias
   Metadata meta = identity_metadata(in);
   add_keys(kRequestKeys, in, &meta);
   for (const WalkOptionSpec& spec : kWalkOptionTable) meta.emplace_back(spec.exr_key, walk_option_text(spec, in.request.walk));
+  if (settings(in).spectral) meta.emplace_back(kSpectralOption.exr_key, kSpectralOption.exr_value);
   add_keys(kSamplingKeys, in, &meta);
   if (!in.request.stacks.empty()) meta.emplace_back(kStackExrKey, stack_assignments_text(in.request.stacks));
   const PixelRegion& crop = settings(in).crop;

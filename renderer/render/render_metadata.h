@@ -21,7 +21,8 @@ struct HeaderInputs {
 // The keys that name the image (version, command, scene, camera): the previews' header is these
 // and lamina:preview.
 Metadata identity_metadata(const HeaderInputs& in);
-// The whole header: the table's keys, then lamina:crop (a crop), the similarity biases and the
+// The whole header: the table's keys (lamina:spectral after the walk's in the spectral mode only:
+// renderer/render/spectral_option.h), then lamina:crop (a crop), the similarity biases and the
 // ignored maps (`prepared`: lamina:similarity_bias:*, lamina:ignored:*), lamina:tolerance and
 // auto's choices (result.auto_choices: lamina:auto:*, lamina:auto_mode:*), and the request's
 // extra metadata.

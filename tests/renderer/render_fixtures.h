@@ -79,6 +79,26 @@ inline SceneDesc make_scene(std::vector<Mesh> meshes, int material_count = 1) {
   return make_scene(std::move(meshes), std::vector<Material>(static_cast<std::size_t>(material_count)));
 }
 
+// A camera at `position` looking along `forward` with a vertical field of view in degrees.
+inline CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
+  CameraDesc c;
+  c.position = position;
+  c.forward = forward;
+  c.up = std::abs(forward.y) > 0.9 ? glm::dvec3(0.0, 0.0, -1.0) : glm::dvec3(0.0, 1.0, 0.0);
+  c.yfov = yfov_deg * kPi / 180.0;
+  return c;
+}
+
+// A Lambert plane y = 0 of the given colour (200 x 200 around the origin).
+inline SceneDesc lambert_plane(const Spectrum& albedo) {
+  Material mat;
+  mat.base_color = albedo;
+  Mesh plane;
+  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
+  plane.material = 0;
+  return make_scene({plane}, {mat});
+}
+
 // Per channel, the mean of an image's pixels and its standard error s / sqrt(N), s the pixels'
 // sample standard deviation (each pixel an independent estimate of the same expected value).
 struct ImageStats {

@@ -182,3 +182,24 @@ TEST_F(CliSpectral, FitErrorsAreOneLine) {
 }
 
 }  // namespace
+
+namespace {
+
+// `lamina render --spectral` end to end: the header says so (and an RGB render's has no such
+// key), and what it does not render is refused in one line.
+TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
+  const std::string src = LAMINA_SOURCE_DIR;
+  const std::string box = src + "/scenes/cornell_box/CornellBox.glb --width 8 --height 8 --spp 2 ";
+  ASSERT_EQ(run("render " + box + "--spectral -o " + dir_ + "/spectral.exr").exit_code, 0);
+  ASSERT_EQ(run("render " + box + "-o " + dir_ + "/rgb.exr").exit_code, 0);
+  EXPECT_NE(lamina::test::slurp(dir_ + "/spectral.exr").find("lamina:spectral"), std::string::npos);
+  EXPECT_EQ(lamina::test::slurp(dir_ + "/rgb.exr").find("lamina:spectral"), std::string::npos);
+  expect_one_line_error("render " + box + "--spectral --subsurface table -o " + dir_ + "/x.exr", 2,
+                        "--subsurface table is not rendered with --spectral");
+  expect_one_line_error("render " + box + "--spectral --stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
+                        "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
+  // A skin by chromophores renders (the stack at each path's wavelengths).
+  EXPECT_EQ(run("render " + box + "--spectral --stack " + skin_ + " -o " + dir_ + "/skin.exr").exit_code, 0);
+}
+
+}  // namespace

@@ -20,20 +20,13 @@ namespace lamina {
 namespace {
 
 using test::add_quad;
+using test::camera_at;
 using test::cube;
+using test::lambert_plane;
 using test::ImageStats;
 using test::make_scene;
 using test::sphere;
 using test::stats_of;
-
-CameraDesc camera_at(glm::dvec3 position, glm::dvec3 forward, double yfov_deg) {
-  CameraDesc c;
-  c.position = position;
-  c.forward = forward;
-  c.up = std::abs(forward.y) > 0.9 ? glm::dvec3(0.0, 0.0, -1.0) : glm::dvec3(0.0, 1.0, 0.0);
-  c.yfov = yfov_deg * kPi / 180.0;
-  return c;
-}
 
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp,
              int max_depth = 1000, int threads = 0, RenderStats* stats_out = nullptr,
@@ -67,16 +60,6 @@ SceneDesc lit_box() {
   add_quad(&light, {-0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, -0.3f}, {0.3f, 0.99f, 0.3f}, {-0.3f, 0.99f, 0.3f});
   light.material = 1;
   return make_scene({cube(0), light}, {wall, lamp});
-}
-
-// A Lambert plane y = 0 of the given colour (200 x 200 around the origin).
-SceneDesc lambert_plane(const Spectrum& albedo) {
-  Material mat;
-  mat.base_color = albedo;
-  Mesh plane;
-  add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
-  plane.material = 0;
-  return make_scene({plane}, {mat});
 }
 
 // Closed Lambert enclosure of albedo a whose walls all emit Le: L = Le + a L everywhere (the

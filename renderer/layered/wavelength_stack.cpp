@@ -1,0 +1,81 @@
+#include "renderer/layered/wavelength_stack.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "materials/stack/stack_file.h"
+
+namespace lamina {
+namespace {
+
+// An RGB coefficient at the wavelengths: grey stays exactly grey (the basis sums to 1 only to
+// the published data's 1e-5).
+Spectrum uplifted_coefficient(const SampledWavelengths& w, const Spectrum& rgb) {
+  return rgb.is_grey() ? rgb : w.reflectance(rgb);
+}
+
+// Whether a material file gives some layer by chromophores or leaf contents (the keys of
+// docs/spectral.md); false for anything that is not such a JSON file.
+bool gives_spectral_layers(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, false);
+  if (!j.is_object() || !j.contains("layers") || !j["layers"].is_array()) return false;
+  for (const nlohmann::json& layer : j["layers"])
+    if (layer.is_object() && (layer.contains("chromophores") || layer.contains("leaf"))) return true;
+  return false;
+}
+
+}  // namespace
+
+void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromophores, const SampledWavelengths& w,
+                          LayerStack* out) {
+  *out = stack;
+  for (std::size_t i = 0; i < out->layers.size(); ++i) {
+    Layer& layer = out->layers[i];
+    const SkinChromophores* c =
+        chromophores && i < chromophores->chromophores.size() && chromophores->chromophores[i] ? &*chromophores->chromophores[i]
+                                                                                              : nullptr;
+    if (c) {
+      Spectrum sigma_s;
+      for (int k = 0; k < kChannels; ++k) {
+        layer.sigma_a[k] = c->absorption(w.nm(k));
+        sigma_s[k] = c->scattering_coefficient(w.nm(k));
+      }
+      layer.lobes.assign(1, PhaseLobe{sigma_s, Spectrum(c->g)});
+      continue;
+    }
+    layer.sigma_a = uplifted_coefficient(w, layer.sigma_a);
+    for (PhaseLobe& lobe : layer.lobes) {
+      lobe.sigma_s = uplifted_coefficient(w, lobe.sigma_s);
+      lobe.g = uplifted_coefficient(w, lobe.g);
+    }
+  }
+  if (out->below.kind == Below::Kind::Lambert) out->below.albedo = uplifted_coefficient(w, out->below.albedo);
+}
+
+std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredBindings& bindings) {
+  std::vector<std::shared_ptr<const SpectralStack>> out(bindings.by_material.size());
+  for (std::size_t m = 0; m < out.size(); ++m) {
+    const LayeredMaterial* lm = bindings.by_material[m].get();
+    if (!lm || !gives_spectral_layers(lm->source())) continue;
+    auto spectral = std::make_shared<SpectralStack>(load_spectral_stack(lm->source()));
+    const std::string why = lm->source() + ": not rendered spectrally yet (render without --spectral): ";
+    for (const auto& leaf : spectral->leaves)
+      if (leaf) throw std::runtime_error(why + "a leaf layer (its index varies with the wavelength)");
+    if (spectral->stack.transmits()) throw std::runtime_error(why + "chromophore layers in a stack that transmits");
+    if (lm->bindings() && !lm->bindings()->empty())
+      throw std::runtime_error(why + "chromophore layers with parameters bound to maps");
+    out[m] = std::move(spectral);
+  }
+  return out;
+}
+
+}  // namespace lamina
