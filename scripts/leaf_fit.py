@@ -10,8 +10,8 @@ mesophyll (the rest); the cuticle holds none. Four numbers are fitted per leaf: 
 share, the palisade's and the spongy mesophyll's plates (their scattering) and the scattering's
 wavelength power b of both; the Henyey-Greenstein g of both is G (only the reduced scattering
 matters: g 0.95 to 0.98 at the same reduced scattering moves R and T by at most 0.001). The
-model's R and T are `lamina brdf --method adding-doubling --wavelengths` averaged over PROSPECT's incident cone (isotropic light within 40
-degrees: three Gauss-Legendre nodes in sin^2 theta). The fit minimises the squared deviations of
+model's R and T are `lamina brdf --method adding-doubling --wavelengths` averaged over PROSPECT's
+incident cone (isotropic light within 40 degrees: three Gauss-Legendre nodes in sin^2 theta). The fit minimises the squared deviations of
 R and T every 10 nm (SciPy's least_squares), then their largest absolute value (Nelder-Mead from
 there); the fitted leaf is evaluated at every nanometre, lit on its upper (adaxial) face as
 fitted and on its lower (abaxial) face (the same stack seen from below; PROSPECT has no sides, so
