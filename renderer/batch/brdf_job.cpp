@@ -118,6 +118,12 @@ BrdfResult adding_doubling(const LayerStack& stack, const BrdfRequest& request) 
   const double cos_theta_i = incident_direction(options.theta_i_deg, options.phi_i_deg).z;  // as the other methods
   BrdfResult result;
   result.adding_doubling = adding_doubling_with_error(stack, cos_theta_i, settings);
+  if (result.adding_doubling.extrapolated)
+    result.notes.push_back(string_printf(
+        "at %d quadrature points delta-M puts %.0f%% of a scattering in the forward peak: the discretisation error "
+        "is extrapolated from %d, %d and %d points (it falls slowly); raise --quadrature-points to shrink it",
+        request.quadrature_points / 2, 100.0 * result.adding_doubling.forward_truncation, request.quadrature_points,
+        std::max(2, request.quadrature_points / 2), std::max(2, request.quadrature_points / 4)));
   result.has_table = request.table;
   if (!request.table) {
     result.table.options = options;

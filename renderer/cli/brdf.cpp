@@ -13,13 +13,16 @@
 //                        were lost). Printed to stdout if omitted.
 //                        adding-doubling: the same keys (standard errors 0), "quadrature_points",
 //                        "discretisation_error" (the five keys and the three below: |value at N -
-//                        value at N/2| nodes) and R/T/absorbed_hemispherical (diffuse incidence);
+//                        value at N/2| nodes; for a heavily truncated forward peak extrapolated
+//                        from N, N/2, N/4, said by "discretisation_error_extrapolated") and
+//                        R/T/absorbed_hemispherical (diffuse incidence);
 //                        with --out also R/T_forward_peak (the delta-M peak's power in the
 //                        mirror / ballistic bins).
 // Files are written all or none (renderer/cli/outputs.h): each to a temporary in the same folder,
 // renamed into place once both are written. Every number is checked by renderer/cli/options.h.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <cstdio>
@@ -177,6 +180,10 @@ std::string adding_doubling_json(const lamina::AddingDoublingEstimate& e, const 
   err["T_hemispherical"] = rgb(d.T_hemispherical);
   err["absorbed_hemispherical"] = rgb(d.absorbed_hemispherical);
   j["discretisation_error"] = err;
+  if (e.extrapolated)  // a heavily truncated forward peak (adding_doubling.h)
+    j["discretisation_error_extrapolated"] = {{"points", {quadrature_points, std::max(2, quadrature_points / 2),
+                                                          std::max(2, quadrature_points / 4)}},
+                                              {"delta_m_forward_peak", e.forward_truncation}};
   if (with_table) {
     j["R_forward_peak"] = rgb(t.R_forward_peak);
     j["T_forward_peak"] = rgb(t.T_forward_peak);
