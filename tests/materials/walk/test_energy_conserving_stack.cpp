@@ -25,6 +25,7 @@
 #include "materials/walk/random_walk.h"
 #include "materials/walk/walk_estimator.h"
 #include "materials/base/sampling.h"
+#include "tests/materials/walk/straight_exits.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
@@ -258,29 +259,13 @@ TEST(EnergyConservingStack, StraightExitsThroughTheTopHaveTheConnectionsDensity)
   // W_exit exit_pdf / |w.z| equals the event's connection weight through that direction, to
   // rounding: the density ratio (n_out / n_layer)^2 |w.z| / mu that reciprocity gives, the Fresnel
   // terms and the attenuations must be the connections'.
-  WalkOptions no_roulette;
-  no_roulette.roulette_threshold = 0.0;
-  no_roulette.compute_exit_pdf = true;
   int checked = 0;
   for (double alpha : {0.05, 0.3, 0.9}) {
     const LayerStack stack = rough_skin_like(alpha);
-    for (double theta : {0.0, 45.0, 80.0})
-      for (int i = 0; i < 3000; ++i) {
-        Rng rng(61, static_cast<std::uint64_t>(i));
-        ScatterEvent last;
-        const WalkResult r = random_walk(stack, from_angle(theta, 1.0), rng, [&](const ScatterEvent& e) { last = e; },
-                                         no_roulette);
-        if (!r.straight_from_last_event || r.side != WalkResult::Side::Top) continue;
-        ASSERT_FALSE(r.crossed_rough);
-        ASSERT_GT(r.exit_pdf, 0.0);
-        ExitDirection exit;
-        prepare_exit_through(stack, r.direction, r.top_inside, &exit);
-        const DirectExit d = connect_direct(stack, last, exit);
-        const double lhs = r.weight[0] * r.exit_pdf / r.direction.z;
-        const double rhs = (last.throughput * d.weight)[0];
-        ASSERT_NEAR(lhs, rhs, 1e-9 * (1.0 + rhs)) << alpha << " " << theta << " walk " << i;
-        ++checked;
-      }
+    for (double theta : {0.0, 45.0, 80.0}) {
+      SCOPED_TRACE(testing::Message() << "alpha " << alpha << ", theta " << theta);
+      checked += test::check_straight_top_exits(stack, from_angle(theta, 1.0), 3000, 61);
+    }
   }
   EXPECT_GT(checked, 2000);
 }
