@@ -16,7 +16,9 @@
 # the seed pairs measure each build's variance without the reference), EQ_REF_SPP (default
 # 4096), EQ_TARGET (default 0.05),
 # EQ_OUT (default out/equal_error), EQ_ARGS (extra arguments for the NEW build only, e.g.
-# "--similarity-after 0" to measure an approximate option against the exact old one).
+# "--similarity-after 0" to measure an approximate option against the exact old one),
+# EQ_COMMON_ARGS (extra arguments for both builds and the reference, e.g. "--env 0.05"; they
+# name the outputs, so references with other arguments are not reused).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
@@ -29,6 +31,8 @@ REPEAT=${EQ_REPEAT:-2}
 REF_SPP=${EQ_REF_SPP:-4096}
 TARGET=${EQ_TARGET:-0.05}
 read -r -a NEW_ARGS <<< "${EQ_ARGS:-}"
+read -r -a COMMON_ARGS <<< "${EQ_COMMON_ARGS:-}"
+TAG=$(printf '%s' "${EQ_COMMON_ARGS:-}" | tr -c 'A-Za-z0-9.' '_')  # names the outputs
 mkdir -p "$OUT"
 
 OLD=${1:-}
@@ -61,22 +65,22 @@ scene_path() {
 
 for scene in $SCENES; do
   path=$(scene_path "$scene")
-  scene=$(basename "${scene%.*}")  # a glTF path: its file name names the outputs
+  scene=$(basename "${scene%.*}")${TAG:+_$TAG}  # a glTF path: its file name names the outputs
   ref="$OUT/ref_${scene}_${W}x${H}_${REF_SPP}.exr"
   if [ ! -f "$ref" ]; then
     echo "equal_error: reference $ref ($REF_SPP spp, new build)" >&2
-    "$NEW" render "$path" --width "$W" --height "$H" --spp "$REF_SPP" --seed 1000 -o "$ref" >/dev/null
+    "$NEW" render "$path" --width "$W" --height "$H" --spp "$REF_SPP" --seed 1000 ${COMMON_ARGS[@]+"${COMMON_ARGS[@]}"} -o "$ref" >/dev/null
   fi
   old_images=(); new_images=()
   for ((r = 0; r < REPEAT; ++r)); do
     for spp in $SPPS; do
       seed=$((2 * (spp + 1000 * r) + 1)); tag=$spp; [ "$r" -eq 0 ] || tag=${spp}_$r
       o="$OUT/${scene}_old_$tag.exr"; n="$OUT/${scene}_new_$tag.exr"
-      "$OLD" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" -o "$o" >/dev/null
-      "$NEW" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" "${NEW_ARGS[@]}" -o "$n" >/dev/null
+      "$OLD" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" ${COMMON_ARGS[@]+"${COMMON_ARGS[@]}"} -o "$o" >/dev/null
+      "$NEW" render "$path" --width "$W" --height "$H" --spp "$spp" --seed "$seed" ${COMMON_ARGS[@]+"${COMMON_ARGS[@]}"} "${NEW_ARGS[@]}" -o "$n" >/dev/null
       old_images+=("$o"); new_images+=("$n")
     done
   done
-  echo "== $scene ${W}x${H}, spp $SPPS x $REPEAT, reference $REF_SPP spp ${EQ_ARGS:+(new: $EQ_ARGS)}"
+  echo "== $scene ${W}x${H}, spp $SPPS x $REPEAT, reference $REF_SPP spp ${EQ_COMMON_ARGS:+(both: $EQ_COMMON_ARGS) }${EQ_ARGS:+(new: $EQ_ARGS)}"
   "$METRIC" --target "$TARGET" "$ref" "${old_images[@]}" -- "${new_images[@]}"
 done

@@ -151,6 +151,9 @@ struct RoughCrossing {
   glm::dvec3 inside{0.0};
   double radiance_scale = 0.0;  // f_t(w, t) |t.z| / p(t | w)
   double jacobian = 0.0;        // pdf_walk(w | t) / p(t | w)
+  // An energy-conserving top crossed along `inside` (prepare_exit_through): radiance_scale is
+  // (n_above / n_0)^2 and the jacobian follows from reciprocity (prepare_exit_impl).
+  bool energy_conserving = false;
 };
 RoughCrossing cross_rough_top(const RoughDielectric& top, const glm::dvec3& w, const glm::dvec3& t) {
   RoughCrossing c;
@@ -187,6 +190,10 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
   double mu_ref = through_rough ? rough->inside.z : mu_out;
   double sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
   bool crossed_microsurface = false;  // an energy-conserving rough interface lies between here and w
+  // ... and the walk's density of the exit through it is known: it is the top, the only one
+  // crossed (below).
+  bool microsurface_density = through_rough && rough->energy_conserving;
+  if (microsurface_density) crossed_microsurface = true;
   const double top_scale = through_rough ? rough->radiance_scale : 1.0;
   const double top_jacobian = through_rough ? rough->jacobian : 1.0;
   out->layers.resize(n_layers);
@@ -202,7 +209,7 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
     // on their microsurface, from the direction beyond (w, or the outer layer's inside).
     bool sampled_here = through_rough && l == 0;
     const int k_out = up ? l : l + 1;
-    const double alpha = reachable ? stack.energy_conserving_alpha(k_out) : 0.0;
+    const double alpha = reachable && !sampled_here ? stack.energy_conserving_alpha(k_out) : 0.0;
     if (alpha > 0.0) {
       const glm::dvec3 beyond = step == 0 ? w : out->layers[up ? l - 1 : l + 1].inside;
       const MicrosurfaceDielectric surface{{alpha}, stack.ior_above_interface(k_out), stack.ior_below_interface(k_out)};
@@ -216,6 +223,7 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
       ty = -t.y;
       mu_ref = std::abs(t.z);
       sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+      microsurface_density = !crossed_microsurface && up && k_out == 0;
       sampled_here = crossed_microsurface = true;
     }
     const double r = n_ref / layer.ior;
@@ -235,7 +243,12 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
       // The n^2 law from this layer to w, the microsurfaces' transmissions being sampled (random_walk.h).
       const double q = n_out / layer.ior;
       e.radiance_scale = fresnel_t * q * q;
-      e.jacobian = 0.0;
+      // The walk's density of leaving through the top's microsurface along w from its inside
+      // direction t, over the connection's density of sampling t from w, P(w | t) / P(t | w),
+      // is (n_out / n_0)^2 |w.z| / |t.z| by the microsurface's reciprocity (microsurface.h:
+      // P(to | from) / (|to.z| n_to^2) is symmetric); times layer 0's refraction Jacobian to
+      // this layer, (n_0 / n_l)^2 |t.z| / mu: the smooth interface's Jacobian, whatever t.
+      e.jacobian = microsurface_density ? q * q * mu_out / mu : 0.0;
     } else {
       e.radiance_scale = fresnel_t * r * r * top_scale;
       e.jacobian = top_jacobian * r * r * mu_ref / mu;
@@ -285,6 +298,15 @@ void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* o
 
 void prepare_exit_through(const LayerStack& stack, const glm::dvec3& w, const glm::dvec3& inside_up,
                           ExitDirection* out, double guiding) {
+  if (stack.energy_conserving_alpha(0) > 0.0 && w.z > 0.0) {
+    RoughCrossing crossing;
+    crossing.energy_conserving = crossing.exists = inside_up.z > 0.0;
+    crossing.inside = inside_up;
+    const double q = stack.above_ior / stack.layers[0].ior;
+    crossing.radiance_scale = q * q;
+    prepare_exit_impl(stack, w, out, guiding, &crossing);
+    return;
+  }
   if (!stack.single_scattering_top() || !(w.z > 0.0)) {
     prepare_exit_impl(stack, w, out, guiding, nullptr);
     return;

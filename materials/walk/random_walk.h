@@ -105,9 +105,11 @@ struct WalkResult {
   // entry_reflection: the rough top reflected the light at its entry (the glossy lobe: an exit at
   //   the top with scatter_count 0 and weight 1; with a smooth or single-scattering top the walk
   //   never reflects at entry, the caller adds that part);
-  // crossed_rough: the walk's straight exit (straight_from_last_event) crossed such an interface.
-  //   The light connections through one are sampled (prepare_exit with an Rng) and have no MIS
-  //   density: they alone estimate such exits, whose exit_pdf stays 0.
+  // crossed_rough: the walk's straight exit (straight_from_last_event) crossed such an interface
+  //   other than the top on its way out (an inner one, or the bottom). The light connections
+  //   through one are sampled (prepare_exit with an Rng) and have no MIS density there: they
+  //   alone estimate such exits, whose exit_pdf stays 0. An exit through the top alone has its
+  //   density (from top_inside, prepare_exit_through), and the connections through it theirs.
   bool entry_reflection = false;
   bool crossed_rough = false;
 };
@@ -235,17 +237,22 @@ struct ExitDirection {
 // if it reflects the layers behind cannot be reached this time. Its estimate of the interface's
 // transmission for radiance, f_t(w, t) |t.z| / P(t | w) = (n_beyond / n_layer)^2 by
 // reciprocity (microsurface.h), is what the n^2 law gives anyway: radiance_scale keeps its form.
-// No closed-form density of the walk's own exits exists there: such layers get jacobian 0 (so
-// pdf_for_mis 0: the connections estimate those exits alone, WalkResult::crossed_rough). Without
-// an rng, the layers behind such an interface are unreachable.
+// Through the top alone the MIS density ratio is known in closed form although P is not: the
+// walk's exit density P(w | t) over the connection's P(t | w) is (n_above / n_0)^2 |w.z| / |t.z|
+// by the same reciprocity, so `jacobian` is the smooth interface's (n_out / n_layer)^2 mu_out /
+// mu (for w.z > 0, with prepare_exit_through's top_inside on the walk's side). Behind any other
+// such interface no closed-form density of the walk's own exits exists: those layers get
+// jacobian 0 (so pdf_for_mis 0: the connections estimate those exits alone,
+// WalkResult::crossed_rough). Without an rng, the layers behind such an interface are unreachable.
 void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0,
                   glm::dvec2 u_interface = {0.5, 0.5}, Rng* rng = nullptr);
 // The stack's top interface as a rough dielectric (+z outside, -z layer 0); meaningful when
 // stack.rough_top().
 RoughDielectric top_interface(const LayerStack& stack);
 ExitDirection prepare_exit(const LayerStack& stack, const glm::dvec3& w, double guiding = 0.0);
-// Rough top: the same for a given inside direction, `inside_up` the propagation direction in
-// layer 0 towards the top (z > 0), e.g. WalkResult::top_inside, to weight the walk's own exit.
+// Rough top (single-scattering or energy-conserving): the same for a given inside direction,
+// `inside_up` the propagation direction in layer 0 towards the top (z > 0), e.g.
+// WalkResult::top_inside, to weight the walk's own exit.
 void prepare_exit_through(const LayerStack& stack, const glm::dvec3& w, const glm::dvec3& inside_up,
                           ExitDirection* out, double guiding = 0.0);
 

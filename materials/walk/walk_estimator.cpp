@@ -15,7 +15,7 @@ double transmission_radiance_factor(const LayerStack& stack) {
 
 double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding,
                         const glm::dvec3& inside_up) {
-  if (stack.single_scattering_top() && w.z > 0.0) {
+  if ((stack.single_scattering_top() || stack.energy_conserving_alpha(0) > 0.0) && w.z > 0.0) {
     ExitDirection exit;
     prepare_exit_through(stack, w, inside_up, &exit, guiding);
     return connect_direct(stack, event, exit).pdf_for_mis;

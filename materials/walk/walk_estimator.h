@@ -29,8 +29,9 @@ double transmission_radiance_factor(const LayerStack& stack);
 // which hero drew it (then the hero average of each technique is the technique's full integral
 // times its weight). The hero's own pdf breaks the second condition for coloured media.
 // guiding: the walk's WalkOptions::guiding (its exits' density is then the mixture's).
-// inside_up: for a rough top interface, the walk's direction in layer 0 at its exit
-// (WalkResult::top_inside), which the pdf depends on (prepare_exit_through); ignored if smooth.
+// inside_up: for a rough top interface (single-scattering or energy-conserving), the walk's
+// direction in layer 0 at its exit (WalkResult::top_inside), which the pdf depends on
+// (prepare_exit_through); ignored if smooth.
 double exit_pdf_for_mis(const LayerStack& stack, const ScatterEvent& event, const glm::dvec3& w, double guiding = 0.0,
                         const glm::dvec3& inside_up = {0.0, 0.0, 1.0});
 

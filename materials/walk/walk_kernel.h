@@ -224,7 +224,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       result.crossed_rough = crossed_rough_since_event;
       if (!settings.compute_exit_pdf || crossed_rough_since_event) return;
       const LayerStack& last_stack = stack_of_event(stack, settings, last_event);
-      if (rough && side == WalkResult::Side::Top) {
+      if ((rough || plan.rough_at(0)) && side == WalkResult::Side::Top) {
         ExitDirection exit;
         prepare_exit_through(last_stack, out, result.top_inside, &exit, settings.guiding);
         result.exit_pdf = connect_direct(last_stack, last_event, exit).pdf_hero;
@@ -388,8 +388,10 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       } else if (microsurface && (k_interface == 0 || k_interface == n_layers)) {  // out of the stack
         if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
         else flight_escaped(&pw, tau, hero);
+        // Through the top the walk's density of this exit is known (prepare_exit_through, from
+        // top_inside); through the bottom it is not.
         if (k_interface == 0) result.top_inside = d;
-        crossed_rough_since_event = true;
+        else crossed_rough_since_event = true;
         finish_exit(k_interface == 0 ? WalkResult::Side::Top : WalkResult::Side::Bottom, crossed);
         return result;
       } else if (microsurface) {  // into the next layer

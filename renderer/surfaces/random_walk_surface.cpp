@@ -320,8 +320,9 @@ bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count
     next->delta = false;
     next->pdf = MicrosurfaceDielectric{{stack_.top_roughness}, stack_.above_ior, stack_.layers[0].ior}.density_single(wo, walk.direction);
   } else if (walk.straight_from_last_event && walk.crossed_rough) {
-    // Through energy-conserving rough interfaces the light connections estimate the direct light
-    // alone (WalkResult::crossed_rough): pdf 0 gives this exit weight 0 on an emitter.
+    // Through energy-conserving rough interfaces other than the top the light connections
+    // estimate the direct light alone (WalkResult::crossed_rough): pdf 0 gives this exit weight 0
+    // on an emitter. (Through the top alone, the branch below weights it by its density.)
     next->delta = false;
   } else if (walk.straight_from_last_event && !options_.test_hooks.naive) {
     next->delta = false;

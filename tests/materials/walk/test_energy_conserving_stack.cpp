@@ -8,6 +8,9 @@
 //  * the smooth limit: alpha 0.01 against the smooth stack;
 //  * a rough transmitting stack seen from both sides: its bihemispherical transmittance is the
 //    same (reciprocity of T), its reflectance is not (the test can fail);
+//  * the walk's exits straight through the rough top have the density that the connections' MIS
+//    weights assume (exactly, walk by walk), and under a sky the MIS of connections and exits
+//    reproduces the reflectance with less noise than the connections alone;
 //  * the material file's keys, flipping and validation.
 #include <cmath>
 #include <string>
@@ -20,13 +23,16 @@
 #include "materials/interfaces/microsurface.h"
 #include "materials/stack/stack_file.h"
 #include "materials/walk/random_walk.h"
+#include "materials/walk/walk_estimator.h"
 #include "materials/base/sampling.h"
+#include "tests/materials/walk/straight_exits.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
 namespace {
 
 using test::RunningStats;
+using test::WithinKSigma;
 
 glm::dvec3 from_angle(double theta_degrees, double phi = 0.0) {
   const double t = theta_degrees * kPi / 180.0;
@@ -230,6 +236,84 @@ TEST(EnergyConservingStack, ConnectionsMatchTheStraightExitsThroughEveryRoughInt
     EXPECT_NEAR(exits.mean(), connections.mean(), 4.0 * se) << "side " << side;
     EXPECT_GT(exits.mean(), 30.0 * se) << "side " << side;
   }
+}
+
+// A grey absorbing skin-like stack under a rough top, with a smooth inner interface.
+LayerStack rough_skin_like(double alpha) {
+  LayerStack s;
+  s.interface_model = InterfaceModel::EnergyConserving;
+  s.top_roughness = alpha;
+  s.layers.push_back(make_layer("oil", 1.5, 0.05, Spectrum(0.0), Spectrum(0.0), Spectrum(0.0)));
+  s.layers.push_back(make_layer("skin", 1.4, 1.0, Spectrum(0.3), Spectrum(10.0), Spectrum(0.8)));
+  s.below.kind = Below::Kind::Lambert;
+  s.below.albedo = Spectrum(0.5);
+  EXPECT_EQ(validate_stack(s), "");
+  return s;
+}
+
+double power_heuristic(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
+
+TEST(EnergyConservingStack, StraightExitsThroughTheTopHaveTheConnectionsDensity) {
+  // A grey walk that leaves straight from its last event through the top's microsurface (weight
+  // 1) has the density exit_pdf of prepare_exit_through from its inside direction; then
+  // W_exit exit_pdf / |w.z| equals the event's connection weight through that direction, to
+  // rounding: the density ratio (n_out / n_layer)^2 |w.z| / mu that reciprocity gives, the Fresnel
+  // terms and the attenuations must be the connections'.
+  int checked = 0;
+  for (double alpha : {0.05, 0.3, 0.9}) {
+    const LayerStack stack = rough_skin_like(alpha);
+    for (double theta : {0.0, 45.0, 80.0}) {
+      SCOPED_TRACE(testing::Message() << "alpha " << alpha << ", theta " << theta);
+      checked += test::check_straight_top_exits(stack, from_angle(theta, 1.0), 3000, 61);
+    }
+  }
+  EXPECT_GT(checked, 2000);
+}
+
+TEST(EnergyConservingStack, MisOfConnectionsAndExitsUnderASky) {
+  // Light of unit radiance from the whole upper hemisphere, sampled by the cosine: the stack's
+  // reflectance three ways. Its exits alone; the connections (through sampled microsurface
+  // crossings) combined by the power heuristic with the straight exits through the top; and the
+  // connections alone standing for those exits (what they did before the exits had a density).
+  // A wrong density on either side biases the combination; the combination must also be the less
+  // noisy of the two connection estimators (the exits find the bright directions of the sky that
+  // one light sample per walk misses).
+  const LayerStack stack = rough_skin_like(0.3);
+  const glm::dvec3 wi = from_angle(25.0);
+  WalkOptions settings;
+  settings.compute_exit_pdf = true;
+  RunningStats exits_only, combined, connections_only;
+  Rng rng(62, 0);
+  ExitDirection exit;
+  for (int k = 0; k < 100000; ++k) {
+    const glm::dvec3 wl = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    const double p_light = wl.z * kInvPi;
+    prepare_exit(stack, wl, &exit, 0.0, {0.5, 0.5}, &rng);
+    double mis_sum = 0.0, plain_sum = 0.0;
+    const WalkResult r = random_walk(stack, wi, rng, [&](const ScatterEvent& e) {
+      const DirectExit d = connect_direct(stack, e, exit);
+      const double c = (e.throughput * d.weight)[0] * wl.z / p_light;
+      mis_sum += c * power_heuristic(p_light, d.pdf_for_mis);
+      plain_sum += c;
+    }, settings);
+    const double exit_weight = r.side == WalkResult::Side::Top ? r.weight[0] : 0.0;
+    exits_only.add(exit_weight);
+    if (exit_weight > 0.0) {
+      if (r.straight_from_last_event) {
+        mis_sum += exit_weight * power_heuristic(r.exit_pdf, r.direction.z * kInvPi);
+      } else {
+        mis_sum += exit_weight;  // the glossy reflection at entry, or after an internal reflection
+        plain_sum += exit_weight;
+      }
+    }
+    combined.add(mis_sum);
+    connections_only.add(plain_sum);
+  }
+  const double se = std::hypot(exits_only.standard_error(), combined.standard_error());
+  EXPECT_TRUE(WithinKSigma(combined.mean(), exits_only.mean(), se));
+  EXPECT_TRUE(WithinKSigma(connections_only.mean(), exits_only.mean(),
+                           std::hypot(exits_only.standard_error(), connections_only.standard_error())));
+  EXPECT_LT(combined.standard_error(), 0.7 * connections_only.standard_error());
 }
 
 TEST(EnergyConservingStack, MaterialFileKeys) {

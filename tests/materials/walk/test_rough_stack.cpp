@@ -29,6 +29,7 @@
 #include "materials/stack/stack_file.h"
 #include "materials/walk/walk_estimator.h"
 #include "tests/materials/stack_fixtures.h"
+#include "tests/materials/walk/straight_exits.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
@@ -183,28 +184,14 @@ TEST(RoughStack, StraightExitsMatchTheConnectionThroughTheirFacet) {
   // exactly the connection's weight through that inside direction:
   // W_exit pdf / |w.z| = W_e connection weight (to rounding; the n^2 factors, the facet
   // densities and the Fresnel terms cancel only if prepare_exit's are the walk's).
-  WalkOptions no_roulette;
-  no_roulette.roulette_threshold = 0.0;
-  no_roulette.compute_exit_pdf = true;
   int checked = 0;
   for (double alpha : {0.05, 0.3, 0.9}) {
     LayerStack stack = rough_stack(alpha);
     stack.layers.push_back(make_layer("under", 1.5, 0.3, Spectrum(0.2), Spectrum(4.0), Spectrum(0.3)));
-    for (double theta : {0.0, 45.0, 80.0})
-      for (int i = 0; i < 3000; ++i) {
-        Rng rng(28, static_cast<std::uint64_t>(i));
-        ScatterEvent last;
-        const WalkResult r = random_walk(stack, from_angle(theta, 1.0), rng, [&](const ScatterEvent& e) { last = e; },
-                                         no_roulette);
-        if (!r.straight_from_last_event || r.side != WalkResult::Side::Top) continue;
-        ExitDirection exit;
-        prepare_exit_through(stack, r.direction, r.top_inside, &exit);
-        const DirectExit d = connect_direct(stack, last, exit);
-        const double lhs = r.weight[0] * r.exit_pdf / r.direction.z;
-        const double rhs = (last.throughput * d.weight)[0];
-        ASSERT_NEAR(lhs, rhs, 1e-9 * (1.0 + rhs)) << alpha << " " << theta << " walk " << i;
-        ++checked;
-      }
+    for (double theta : {0.0, 45.0, 80.0}) {
+      SCOPED_TRACE(testing::Message() << "alpha " << alpha << ", theta " << theta);
+      checked += test::check_straight_top_exits(stack, from_angle(theta, 1.0), 3000, 28);
+    }
   }
   EXPECT_GT(checked, 3000);
 }
