@@ -3,10 +3,12 @@
 
     bench/face.py [--lamina build/renderer/lamina] [--out out/face] [--scenes head_skin,leaves_back]
                   [--methods walk,auto] [--tolerance 0.01] [--ref-spp 1024] [--scale 1] [--quick]
+                  [--references REF1.exr REF2.exr]
 
 For each scene it renders two long walk references once (kept in OUT/, their file names carry
-their settings; their difference measures the reference's own noise, which every relative RMSE
-has taken out) and then each method at 1, 2, 4, ... spp until its relative RMSE over the subject (a crop
+their settings; only the crop and a 4-pixel margin are rendered; or takes them from
+--references, walk renders of the same size, e.g. time-limited ones; their difference measures
+the reference's own noise, which every relative RMSE has taken out) and then each method at 1, 2, 4, ... spp until its relative RMSE over the subject (a crop
 around the face or the leaves) is below the target (default 5 %) or --max-spp is reached. A
 method is `walk` (--subsurface random-walk, the unbiased reference technique) or `auto`
 (--subsurface auto --tolerance T: tables, lambert or the walk per material, its precomputation
@@ -18,8 +20,10 @@ Per method it prints and writes to OUT/face.md and OUT/face.csv:
   seconds to the target   interpolated log-log between the two runs around it
   mean bias               mean(method) / mean(reference) - 1 over the crop, at the last run
   smoothed pixel bias     `lamina compare --smooth 1` (a Gaussian of sigma 1 pixel, about 5 x 5):
-                          the RMS relative difference at the last run; it holds the residual noise
-                          of both images too, so it bounds the bias from above
+                          the RMS relative difference at the last run, and the same with the
+                          reference's own smoothed noise (from the two references) taken out in
+                          quadrature; the test image's residual noise is still in, so both
+                          bound the bias from above
 Python does no image maths: every figure comes from `lamina compare --json` (the mean of an image
 over the crop is its guard floor divided by the guard epsilon).
 Exits non-zero if a render or a comparison fails.
@@ -58,12 +62,16 @@ def run(cmd):
     return p
 
 
-def render(args, scene, method, spp, seed, exr, size):
+def render(args, scene, method, spp, seed, exr, size, region=None, cache=None):
     gltf, extra, _ = SCENES[scene]
     mode = ["--subsurface", "random-walk"] if method == "walk" else \
         ["--subsurface", "auto", "--tolerance", str(args.tolerance)]
     cmd = [args.lamina, "render", gltf, *extra, *mode, "--width", str(size[0]), "--height", str(size[1]),
            "--spp", str(spp), "--seed", str(seed), "--threads", str(args.threads), "-o", exr]
+    if region:
+        cmd += ["--crop", *map(str, region)]
+    if cache:
+        cmd += ["--cache", cache]
     t0 = time.monotonic()
     run(cmd)
     return time.monotonic() - t0
@@ -73,6 +81,12 @@ def crop_arguments(scene, size):
     fx, fy, fw, fh = SCENES[scene][2]
     w, h = size
     return ["--crop", str(round(fx * w)), str(round(fy * h)), str(max(1, round(fw * w))), str(max(1, round(fh * h)))]
+
+
+def reference_region(crop, size, margin=4):
+    """`lamina render --crop X0 Y0 X1 Y1` of the compared crop (x, y, w, h) and a margin for --smooth."""
+    x, y, w, h = (int(v) for v in crop[1:])
+    return [max(0, x - margin), max(0, y - margin), min(size[0], x + w + margin), min(size[1], y + h + margin)]
 
 
 def compare(args, ref, test, crop, smooth=None):
@@ -101,6 +115,7 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--scale", type=float, default=1.0, help="image size as a fraction of 480x600 (head) and 320x240 (leaves)")
     ap.add_argument("--quick", action="store_true", help="pipeline check: 1/8 size, reference 16 spp, max 4 spp")
+    ap.add_argument("--references", nargs=2, metavar="EXR", help="two walk references of the one scene (instead of rendering them)")
     args = ap.parse_args()
     args.lamina = os.path.abspath(args.lamina)
     args.out = os.path.abspath(args.out)
@@ -113,6 +128,8 @@ def main():
     for m in methods:
         if m not in ("walk", "auto"):
             fail(f"unknown method {m!r} (known: walk, auto)")
+    if args.references and len(scenes) != 1:
+        fail("--references needs exactly one scene (--scenes)")
     if args.quick:
         args.ref_spp, args.max_spp, args.scale = 16, 4, 0.125
     os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
@@ -123,22 +140,35 @@ def main():
         # Two independent references: the first is the reference, their difference measures its own
         # noise, which is taken out of every comparison (MSE(test, ref) - var(ref), unbiased when
         # the test and the reference are independent), so a short reference does not hide the target.
-        refs = []
+        refs = [os.path.abspath(r) for r in args.references] if args.references else []
         for k, seed in enumerate((1000, 2000)):
-            ref = os.path.join(args.out, f"ref{k}-{scene}-{size[0]}x{size[1]}-{args.ref_spp}spp.exr")
+            if args.references:
+                break
+            ref = os.path.join(args.out, f"ref{k}-{scene}-{size[0]}x{size[1]}-{args.ref_spp}spp-crop.exr")
             if not os.path.exists(ref):
                 print(f"{scene}: reference {k + 1} of 2, random-walk {args.ref_spp} spp at {size[0]}x{size[1]} ...", flush=True)
-                secs = render(args, scene, "walk", args.ref_spp, seed, ref + ".tmp.exr", size)
+                secs = render(args, scene, "walk", args.ref_spp, seed, ref + ".tmp.exr", size, reference_region(crop, size))
                 os.replace(ref + ".tmp.exr", ref)
                 print(f"{scene}: reference in {secs:.0f} s", flush=True)
             refs.append(ref)
         ref = refs[0]
+        # References and the compared renders hold the region only: the crop relative to it.
+        region = reference_region(crop, size)
+        crop = ["--crop", str(int(crop[1]) - region[0]), str(int(crop[2]) - region[1]), crop[3], crop[4]]
         ref_var = compare(args, refs[0], refs[1], crop)["rmse"] ** 2 / 2.0
+        # The reference's own noise after smoothing, per image: the two references' smoothed RMS
+        # relative difference over sqrt(2).
+        ref_smooth_var = compare(args, refs[0], refs[1], crop, smooth=1)["rms_relative"] ** 2 / 2.0
         for method in methods:
             rows, spp = [], 1
             while spp <= args.max_spp:
+                # The timed render is the whole image (tables included); the comparison renders
+                # the region again, pixel for pixel the same (`lamina render --crop`), reusing the
+                # tables from a cache.
+                full = os.path.join(args.out, "runs", f"{scene}-{method}-{spp}-full.exr")
                 exr = os.path.join(args.out, "runs", f"{scene}-{method}-{spp}.exr")
-                secs = render(args, scene, method, spp, 1, exr, size)
+                secs = render(args, scene, method, spp, 1, full, size)
+                render(args, scene, method, spp, 1, exr, size, region, cache=os.path.join(args.out, "cache"))
                 j = compare(args, ref, exr, crop)
                 self_j = compare(args, exr, exr, crop)
                 ref_mean, test_mean = image_mean(j), image_mean(self_j)
@@ -161,18 +191,21 @@ def main():
             t, _ = time_to([dict(rmse=r["rel_rmse"], seconds=r["seconds"]) for r in rows], args.target)
             results.append(dict(scene=scene, method=method, spp=rows[-1]["spp"], seconds=rows[-1]["seconds"],
                                 rel_rmse=rows[-1]["rel_rmse"], seconds_to_target=t,
-                                mean_bias=rows[-1]["mean_bias"], smoothed_pixel_bias=smooth["rms_relative"]))
+                                mean_bias=rows[-1]["mean_bias"], smoothed_pixel_bias=smooth["rms_relative"],
+                                smoothed_pixel_bias_less_reference_noise=math.sqrt(max(0.0, smooth["rms_relative"] ** 2 - ref_smooth_var)),
+                                reference_smoothed_noise=math.sqrt(ref_smooth_var)))
     with open(os.path.join(args.out, "face.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(results[0]))
         w.writeheader()
         w.writerows(results)
     lines = [f"| scene | method | seconds to {args.target:.0%} relative RMSE | last run: spp, seconds, relative RMSE "
-             "| mean bias | smoothed pixel bias |", "| --- | --- | --- | --- | --- | --- |"]
+             "| mean bias | smoothed pixel bias (less the reference's own smoothed noise) |", "| --- | --- | --- | --- | --- | --- |"]
     for r in results:
         t = f"{r['seconds_to_target']:.1f}" if r["seconds_to_target"] is not None else f"not reached by {r['spp']} spp"
         name = r["method"] if r["method"] == "walk" else f"auto --tolerance {args.tolerance:g}"
         lines.append(f"| {r['scene']} | {name} | {t} | {r['spp']}, {r['seconds']:.1f}, {r['rel_rmse']:.4f} "
-                     f"| {r['mean_bias']:+.2%} | {r['smoothed_pixel_bias']:.2%} |")
+                     f"| {r['mean_bias']:+.2%} | {r['smoothed_pixel_bias']:.2%} ({r['smoothed_pixel_bias_less_reference_noise']:.2%}; "
+                     f"reference {r['reference_smoothed_noise']:.2%}) |")
     with open(os.path.join(args.out, "face.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))

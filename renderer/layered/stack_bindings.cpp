@@ -230,6 +230,7 @@ StackBindings::Source StackBindings::parse_source(const json& j, const std::stri
     if (!std::filesystem::is_regular_file(path, ec)) fail("texture", "file '" + t.get<std::string>() + "' not found (" + path + ")");
     s.map = std::make_shared<const ParameterMap>(read_parameter_map(path));
     map_files_.push_back(path);
+    s.key = "file " + path;
   } else if (t.is_number_integer()) {
     const int index = t.get<int>();
     auto it = scene_->gltf_textures.find(index);
@@ -246,6 +247,7 @@ StackBindings::Source StackBindings::parse_source(const json& j, const std::stri
     for (std::size_t i = 0; i < tex.rgb.size(); ++i) m.values[i] = static_cast<float>(srgb_encode(tex.rgb[i]));
     s.map = std::make_shared<const ParameterMap>(std::move(m));
     gltf = true;
+    s.key = "glTF texture " + std::to_string(index);
   } else {
     fail("texture", "expected a file path (string) or a glTF texture index (integer)");
   }
@@ -262,6 +264,7 @@ StackBindings::Source StackBindings::parse_source(const json& j, const std::stri
   } else if (channel == "luminance") s.channel = kLuminance;
   else if (channel == "rgb" && allow_rgb) s.channel = kRgb;
   else fail("channel", "'" + channel + "': expected r, g, b, a, luminance" + std::string(allow_rgb ? " or rgb" : ""));
+  s.key += " channel " + std::to_string(s.channel);
   return s;
 }
 
@@ -404,16 +407,30 @@ StackBindings::Nodes StackBindings::nodes(std::size_t k, int count) const {
     if (hi[c] - lo[c] > hi[n.channel] - lo[n.channel]) n.channel = c;
   if (k < bindings_.size() && !(has_freckles_ && static_cast<int>(k) == freckle_parameter_)) {
     const Binding& b = bindings_[k];
-    std::vector<double> t = map_nodes(b.source.texel_values(n.channel), count);
+    std::vector<double> texels = b.source.texel_values(n.channel);
+    std::vector<double> t = map_nodes(texels, count);
     // Increasing in the channel's value: a binding whose range runs downwards reverses them.
     if (b.hi[n.channel] < b.lo[n.channel]) std::reverse(t.begin(), t.end());
     for (double tj : t) n.values.push_back(b.lo + (b.hi - b.lo) * tj);
     n.even = false;
+    n.source = b.source.key + " (channel " + std::to_string(n.channel) + ")";
+    n.t = t;
+    if (!texels.empty()) {
+      auto median = texels.begin() + static_cast<std::ptrdiff_t>(texels.size() / 2);
+      std::nth_element(texels.begin(), median, texels.end());
+      for (std::size_t j = 1; j < t.size(); ++j)
+        if (std::abs(t[j] - *median) < std::abs(t[n.central] - *median)) n.central = j;
+    }
     return n;
   }
   const int m = hi[n.channel] > lo[n.channel] ? count : 1;
   for (int j = 0; j < m; ++j) n.values.push_back(lo + (hi - lo) * (m > 1 ? static_cast<double>(j) / (m - 1) : 0.0));
   return n;
+}
+
+std::vector<double> StackBindings::texel_values(std::size_t k, int c) const {
+  if (k >= bindings_.size()) return {};
+  return bindings_[k].source.texel_values(c);
 }
 
 void StackBindings::Nodes::bracket(double x, std::size_t* j, double* t) const {

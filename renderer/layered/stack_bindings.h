@@ -158,12 +158,21 @@ class StackBindings {
     int channel = 0;
     std::vector<Spectrum> values;  // increasing in `channel`
     bool even = true;              // evenly spaced (bracket's arithmetic shortcut)
+    // A parameter driven by a map alone: which map and channel drive it (parameters with the same
+    // source move together, at the same map values t), the nodes' map values (values[j] at t[j]),
+    // and the node nearest the texels' median map value. Empty source otherwise.
+    std::string source;
+    std::vector<double> t;
+    std::size_t central = 0;
     // Where a hit's value x (of `channel`) falls: between node j and j + 1 with weight t on
     // j + 1, clamped at the ends (at least two nodes).
     void bracket(double x, std::size_t* j, double* t) const;
   };
   Nodes nodes(std::size_t k, int count) const;
   const StackTemplate& stack_template() const { return *template_; }
+  // The map value driving channel c of parameter k at every texel of its map (empty for a
+  // parameter only the freckles drive).
+  std::vector<double> texel_values(std::size_t k, int c) const;
   // The bound maps, for checks (their paths, resolved; empty for glTF textures).
   const std::vector<std::string>& map_files() const { return map_files_; }
 
@@ -172,6 +181,7 @@ class StackBindings {
     std::shared_ptr<const ParameterMap> map;
     int channel = 0;  // 0..3, kLuminance, or kRgb
     bool srgb_encoded = false;  // a glTF texture decoded by the loader: re-encode
+    std::string key;            // the file or glTF texture, and the channel
     double sample(glm::dvec2 uv, int c) const;  // the value driving colour channel c
     std::vector<double> texel_values(int c) const;  // sample's value at every texel's centre
     // The value driving colour channel c from the map's channels as `get` reads them (a

@@ -12,7 +12,7 @@ namespace lamina {
 class SurfaceStorage {
  public:
   // The largest surface with its data (a table surface with its factors) fits.
-  static constexpr std::size_t kBytes = 1024;
+  static constexpr std::size_t kBytes = 1280;
 
   SurfaceStorage() = default;
   SurfaceStorage(const SurfaceStorage&) = delete;

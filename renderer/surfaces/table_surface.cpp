@@ -39,19 +39,37 @@ TableSurface::TableSurface(const LayeredTable& table, const LayerStack& hit_stac
   }
 }
 
-Spectrum TableSurface::value(int node, int bin) const {
-  Spectrum f = table_.at(node, bin);
-  for (int k = 0; k < factor_count_; ++k) {
-    const TableFactor& a = factors_[k];
+Spectrum table_model_value(const LayeredTable& base_table, const TableFactor* factors, int factor_count, int node, int bin) {
+  Spectrum f = base_table.at(node, bin);
+  const Spectrum& base = base_table.at(node, bin);
+  // A bin that T_0 leaves (nearly) empty, below 1e-12 times the node's diffuse power, keeps T_0;
+  // one that a node table leaves empty is interpolated linearly (layered_tables.h).
+  const double floor = 1e-12 * base_table.power[node] + 1e-300;
+  for (int k = 0; k < factor_count; ++k) {
+    const TableFactor& a = factors[k];
     const Spectrum& lo = a.lo->at(node, bin);
     const Spectrum& hi = a.hi->at(node, bin);
-    const Spectrum& base = table_.at(node, bin);
-    // T_k(x) / T_0 per channel; a bin that T_0 leaves (nearly) empty, below 1e-12 times the node's
-    // diffuse power, keeps T_0 (layered_tables.h).
-    for (int c = 0; c < kChannels; ++c)
-      if (base[c] > 1e-12 * table_.power[node] + 1e-300) f[c] *= ((1.0 - a.t) * lo[c] + a.t * hi[c]) / base[c];
+    for (int c = 0; c < kChannels; ++c) {
+      if (!(base[c] > floor)) continue;
+      double lo2 = 0.0, hi2 = 0.0;
+      if (a.lo2) lo2 = a.lo2->at(node, bin)[c], hi2 = a.hi2->at(node, bin)[c];
+      const bool positive = lo[c] > floor && hi[c] > floor && (!a.lo2 || (lo2 > floor && hi2 > floor));
+      if (positive) {  // T_a(x) / T_0 = exp of the (bi)linear interpolation of ln(T / T_0)
+        double l = (1.0 - a.t) * std::log(lo[c] / base[c]) + a.t * std::log(hi[c] / base[c]);
+        if (a.lo2) l = (1.0 - a.t2) * l + a.t2 * ((1.0 - a.t) * std::log(lo2 / base[c]) + a.t * std::log(hi2 / base[c]));
+        f[c] *= std::exp(l);
+      } else {
+        double x = (1.0 - a.t) * lo[c] + a.t * hi[c];
+        if (a.lo2) x = (1.0 - a.t2) * x + a.t2 * ((1.0 - a.t) * lo2 + a.t * hi2);
+        f[c] *= x / base[c];
+      }
+    }
   }
   return f;
+}
+
+Spectrum TableSurface::value(int node, int bin) const {
+  return table_model_value(table_, factors_, factor_count_, node, bin);
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {

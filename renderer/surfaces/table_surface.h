@@ -14,13 +14,20 @@
 
 namespace lamina {
 
-// One texture-driven parameter's factor T_k(x) / T_0 (renderer/layered/layered_tables.h): the
-// tables at the nodes below and above x, and x's weight t towards the upper one.
+// One axis's factor T_a(x) / T_0 (renderer/layered/layered_tables.h): on a line, the tables at the
+// nodes below and above x and x's weight t towards the upper one; in a plane, also the tables at
+// the second dimension's upper node (lo2, hi2) and the weight t2 towards them (bilinear).
 struct TableFactor {
   const LayeredTable* lo = nullptr;
   const LayeredTable* hi = nullptr;
   double t = 0.0;
+  const LayeredTable* lo2 = nullptr;  // null on a line
+  const LayeredTable* hi2 = nullptr;
+  double t2 = 0.0;
 };
+
+// The model's bin: T_0's bin (node, bin) times the factors (renderer/layered/layered_tables.h).
+Spectrum table_model_value(const LayeredTable& base, const TableFactor* factors, int factor_count, int node, int bin);
 
 class TableSurface final : public Bsdf {
  public:
