@@ -99,11 +99,6 @@ void check_wavelengths(const std::string& text) { parse_grid(text); }
 int run_brdf_spectral(const SpectralBrdfRequest& r) {
   try {
     const SpectralStack stack = load_spectral_stack(r.stack_path);
-    if (stack.stack.rough_top()) {
-      std::fprintf(stderr, "lamina brdf: %s: roughness: the adding-doubling solution is for a smooth top interface\n",
-                   r.stack_path.c_str());
-      return 1;
-    }
     check_output_paths({{"--summary", r.summary_path}});
     AddingDoublingSettings settings;
     settings.quadrature_points = r.quadrature_points;

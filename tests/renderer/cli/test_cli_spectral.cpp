@@ -87,6 +87,35 @@ TEST_F(CliSpectral, GreyMaterialEqualsTheRgbSolutionAtEveryWavelength) {
     for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(b[key][i].get<double>(), a[key][0].get<double>(), 1e-12) << key;
 }
 
+// Rough interfaces (single-scattering top; energy-conserving top and inner interface): each
+// wavelength is the same solver on the same stack as the RGB method, so a grey rough material's
+// totals are the RGB totals at every wavelength, and every wavelength conserves energy.
+TEST_F(CliSpectral, GreyRoughMaterialsEqualTheRgbSolutionAtEveryWavelength) {
+  const std::string layers = R"("layers": [
+      {"ior": 1.4, "thickness": 0.2, "sigma_a": 0.4, "sigma_s": 6.0, "g": 0.6, "bottom_roughness": 0.3},
+      {"ior": 1.5, "thickness": 0.3, "sigma_a": 0.2, "sigma_s": 4.0, "g": 0.3}]})";
+  const std::string single = dir_ + "/rough_single.json", conserving = dir_ + "/rough_conserving.json";
+  std::ofstream(single) << R"({"lamina_material": 1, "roughness": 0.3, "layers": [
+      {"ior": 1.4, "thickness": "inf", "sigma_a": 0.4, "sigma_s": 6.0, "g": 0.6}]})";
+  std::ofstream(conserving) << R"({"lamina_material": 1, "roughness": 0.5, "interface_model": "energy_conserving", )" + layers;
+  for (const std::string& file : {single, conserving}) {
+    const CliResult rgb = run("brdf " + file + " --theta-i 30 --method adding-doubling");
+    const CliResult spectral = run("brdf " + file + " --theta-i 30 --method adding-doubling --wavelengths 500:700:100");
+    ASSERT_EQ(rgb.exit_code, 0) << file << ": " << rgb.err;
+    ASSERT_EQ(spectral.exit_code, 0) << file << ": " << spectral.err;
+    const nlohmann::json a = nlohmann::json::parse(rgb.out), b = nlohmann::json::parse(spectral.out);
+    for (std::size_t i = 0; i < 3; ++i) {
+      double sum = 0.0;
+      for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed"}) {
+        EXPECT_NEAR(b[key][i].get<double>(), a[key][0].get<double>(), 1e-12) << file << " " << key;
+        sum += b[key][i].get<double>();
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-9) << file << " " << i;
+    }
+    EXPECT_GT(b["R_diffuse"][0].get<double>(), 0.0) << file;
+  }
+}
+
 TEST_F(CliSpectral, BrdfErrorsAreOneLine) {
   expect_one_line_error("brdf " + skin_ + " --theta-i 8 --method adding-doubling --wavelengths 400:700", 2,
                         "--wavelengths: expected FIRST:LAST:STEP");
