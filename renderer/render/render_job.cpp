@@ -303,6 +303,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   if (!request.cache_dir.empty()) cache.emplace(request.cache_dir);
   LoadedScene loaded;
   load_scene(request, log, &loaded);
+  check_table_method(request, loaded.bindings, loaded.material_names);
   // The spectral mode's chromophore layers, read (and what it cannot render refused) before the
   // shading is prepared.
   std::vector<std::shared_ptr<const SpectralStack>> spectral;

@@ -64,4 +64,18 @@ void check_render_request(const RenderRequest& r) {
   check_modes(r);
 }
 
+void check_table_method(const RenderRequest& r, const LayeredBindings& bindings, const std::vector<std::string>& names) {
+  const SubsurfaceChoice& choice = r.subsurface;
+  if (r.table_method != TableSettings::Method::MonteCarlo || r.settings.spectral) return;
+  if (!choice.automatic && choice.mode != SubsurfaceMode::Table) return;
+  for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
+    const LayeredMaterial* m = bindings.by_material[i].get();
+    if (!m || !m->base_stack().energy_conserving_rough()) continue;
+    const std::string name = i < names.size() ? names[i] : std::to_string(i);
+    refuse("--table-method walk: material " + name + " (" + m->source() +
+           ") has energy-conserving rough interfaces, whose walk-built tables would hold only the scattered light; "
+           "use the default --table-method adding-doubling");
+  }
+}
+
 }  // namespace lamina

@@ -6,6 +6,10 @@
 
 #include <stdexcept>
 
+#include <string>
+#include <vector>
+
+#include "renderer/layered/layered_material.h"
 #include "renderer/render/render_job.h"
 
 namespace lamina {
@@ -21,5 +25,13 @@ inline constexpr double kMaxPathSamples = 1e12;
 // are refused, not recorded in the header as if they had: what the caller set is
 // RenderRequest::given.
 void check_render_request(const RenderRequest& request);
+
+// The rule that needs the scene's materials, checked once they are loaded: walk-built tables
+// (`--table-method walk`) of a stack with energy-conserving rough interfaces would hold only the
+// light that scattered in it (the walk's unscattered light through rough facets is not
+// tabulated), so such a request is refused, naming the material; the default adding-doubling
+// tables take these stacks. The walk that table building falls back to on its own (for lobes
+// adding-doubling cannot resolve) is not a request and is not affected.
+void check_table_method(const RenderRequest& request, const LayeredBindings& bindings, const std::vector<std::string>& material_names);
 
 }  // namespace lamina

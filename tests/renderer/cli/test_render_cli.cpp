@@ -18,6 +18,7 @@
 
 #include "renderer/image/image_io.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/render_request_check.h"
 #include "tests/renderer/cli/cli_runner.h"
 #include "tests/renderer/gltf_fixture.h"
 
@@ -356,6 +357,72 @@ TEST(RenderCliLayered, TableCacheBuildsOnceThenLoads) {
   expect_failure(run(dir, dir / "ink.gltf --materials " + dir / "map.json" + " --subsurface table --cache " +
                               dir / "plain/cache -o " + dir / "x.exr"),
                  dir / "plain/cache", "cache directory", dir / "x.exr");
+}
+
+// A thin absorbing layer under an energy-conserving rough top (its tables, walk-built, would hold
+// only the scattered light), and a smooth layer with a backward lobe (g = -0.9) that adding-
+// doubling's truncated series cannot resolve, so table building falls back to the walk itself.
+constexpr const char* kConservingStack =
+    R"({"lamina_material": 1, "roughness": 0.4, "interface_model": "energy_conserving",
+        "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 2, "sigma_s": 6, "g": 0.8}]})";
+constexpr const char* kBackwardLobeStack =
+    R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.3, "sigma_s": 6, "g": -0.9}]})";
+
+// --table-method walk on a stack with energy-conserving rough interfaces is refused in one line
+// naming the material, the reason and the alternative, before anything is built or written, in
+// the table mode and in auto; the default adding-doubling tables render it.
+TEST(RenderCliLayered, WalkTablesOfEnergyConservingStacksAreRefused) {
+  TempDir dir("cli-ec-walk-table");
+  write_layered_quad(dir, "skin.gltf", "cheek", "cheek.json", kConservingStack);
+  const std::string common = dir / "skin.gltf" + " --materials " + dir / "map.json" + " --width 6 --height 4 --spp 2 --env 1";
+  for (const char* mode : {"--subsurface table", "--subsurface auto --tolerance 0.05"}) {
+    const Result r = run(dir, common + " " + mode + " --table-method walk -o " + dir / "x.exr");
+    expect_failure(r, "cheek", "--table-method walk: material cheek", dir / "x.exr");
+    EXPECT_NE(r.err.find("energy-conserving rough interfaces"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--table-method adding-doubling"), std::string::npos) << r.err;
+  }
+  const Result ok = run(dir, common + " --subsurface table -o " + dir / "ok.exr");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.out.find(" 0 by the walk;"), std::string::npos) << ok.out;
+  EXPECT_EQ(ok.out.find("(0 by adding-doubling"), std::string::npos) << ok.out;
+}
+
+// The library refuses the same request (the message the CLI prints): render_job, which batch and
+// the Python package call, throws RenderRequestError before rendering.
+TEST(RenderCliLayered, RenderJobRefusesWalkTablesOfEnergyConservingStacks) {
+  TempDir dir("lib-ec-walk-table");
+  write_layered_quad(dir, "skin.gltf", "cheek", "cheek.json", kConservingStack);
+  RenderRequest request;
+  request.scene_path = dir / "skin.gltf";
+  request.out_path = dir / "x.exr";
+  request.materials_map_path = dir / "map.json";
+  request.subsurface = SubsurfaceChoice::fixed(SubsurfaceMode::Table);
+  request.table_method = TableSettings::Method::MonteCarlo;
+  request.given = {"--subsurface", "--table-method"};
+  request.settings.width = 6;
+  request.settings.height = 4;
+  request.settings.spp = 2;
+  try {
+    render_job(request);
+    ADD_FAILURE() << "walk-built tables of an energy-conserving stack accepted";
+  } catch (const RenderRequestError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("material cheek"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.exr"));
+}
+
+// The walk that table building takes on its own for a lobe adding-doubling cannot resolve is
+// untouched by the refusal: the default method builds that stack's table by the walk.
+TEST(RenderCliLayered, TablesFallBackToTheWalkForABackwardLobe) {
+  TempDir dir("cli-walk-fallback");
+  write_layered_quad(dir, "ink.gltf", "ink", "ink.json", kBackwardLobeStack);
+  const Result r = run(dir, dir / "ink.gltf --materials " + dir / "map.json" +
+                                " --width 6 --height 4 --spp 2 --env 1 --subsurface table -o " + dir / "x.exr");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(0 by adding-doubling, "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find(" 0 by the walk;"), std::string::npos) << r.out;
+  for (float v : read_image(dir / "x.exr").rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
 }  // namespace
