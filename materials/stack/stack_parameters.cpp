@@ -218,21 +218,14 @@ void mix_layer(const LayerDesc& desc, Layer* layer) {
   }
 }
 
-namespace {
-
-// A chromophore layer with the chromophores bound in it set (ps[first] the first naming the layer):
-// its RGB absorption recomputed as the file reader computes it (the same function of the same
-// numbers, so a map holding the file's value gives the file's stack bit for bit). A bound volume
-// fraction x takes its difference from the template's x0 out of the baseline, b = max(0, b0 - (x -
-// x0)), as Donner and Jensen's bloodless tissue fills what melanin and blood leave.
-void apply_chromophores(const StackTemplate& t, const std::vector<StackParameter>& ps, const Spectrum* values,
-                        std::size_t first, LayerStack* out) {
-  const int l = ps[first].layer;
-  for (std::size_t e = 0; e < first; ++e)
-    if (ps[e].layer == l && ps[e].kind == Kind::kChromophore) return;  // done with the first
+// A chromophore layer with the chromophores bound in it set. A bound volume fraction x takes its
+// difference from the template's x0 out of the baseline, b = max(0, b0 - (x - x0)), as Donner
+// and Jensen's bloodless tissue fills what melanin and blood leave.
+SkinChromophores bound_chromophores(const StackTemplate& t, const std::vector<StackParameter>& ps,
+                                    const Spectrum* values, int l) {
   const SkinChromophores& c0 = *t.layers[l].chromophores;
   SkinChromophores c = c0;
-  for (std::size_t e = first; e < ps.size(); ++e) {
+  for (std::size_t e = 0; e < ps.size(); ++e) {
     const StackParameter& p = ps[e];
     if (p.layer != l || p.kind != Kind::kChromophore) continue;
     const ChromophoreKey& key = chromophore_keys()[p.chromophore];
@@ -241,7 +234,20 @@ void apply_chromophores(const StackTemplate& t, const std::vector<StackParameter
     if (key.volume_fraction && key.member != &SkinChromophores::baseline)
       c.baseline = std::max(0.0, c0.baseline - (x - c0.*key.member));
   }
-  out->layers[l].sigma_a = c.absorption_rgb();
+  return c;
+}
+
+namespace {
+
+// ps[first] the first parameter naming the layer: its RGB absorption recomputed as the file
+// reader computes it (the same function of the same numbers, so a map holding the file's value
+// gives the file's stack bit for bit).
+void apply_chromophores(const StackTemplate& t, const std::vector<StackParameter>& ps, const Spectrum* values,
+                        std::size_t first, LayerStack* out) {
+  const int l = ps[first].layer;
+  for (std::size_t e = 0; e < first; ++e)
+    if (ps[e].layer == l && ps[e].kind == Kind::kChromophore) return;  // done with the first
+  out->layers[l].sigma_a = bound_chromophores(t, ps, values, l).absorption_rgb();
 }
 
 }  // namespace

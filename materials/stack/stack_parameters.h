@@ -98,6 +98,13 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
 void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>& parameters,
                       const Spectrum* values, LayerStack* out);
 
+// Layer l's chromophores (a layer given by chromophores) with the kChromophore parameters naming
+// it set to their values, clamped as apply_parameters does; a bound volume fraction takes its
+// change from the baseline. apply_parameters sets the layer's sigma_a from these (RGB); the
+// spectral mode evaluates them at its wavelengths.
+SkinChromophores bound_chromophores(const StackTemplate& t, const std::vector<StackParameter>& parameters,
+                                    const Spectrum* values, int l);
+
 // Throws StackParameterError if the set is ambiguous: the same path twice, or two fractions of
 // one layer (each would renormalise the other away).
 void check_parameter_set(const std::vector<StackParameter>& parameters);

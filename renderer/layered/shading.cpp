@@ -122,7 +122,13 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   ++path.walks_;
   if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: the stack at the path's wavelengths
     thread_local LayerStack at_wavelengths;  // like `scratch`: valid until the next hit of this thread
-    stack_at_wavelengths(stack, layered_->spectral_for(material_index), *w, &at_wavelengths);
+    const SpectralStack* spectral = layered_->spectral_for(material_index);
+    if (const StackBindings* b = lm->bindings(); spectral && b && !b->empty()) {
+      thread_local SpectralStack bound;  // the chromophores bound at this hit
+      bind_chromophores(*spectral, *b, sp.uv, &bound);
+      spectral = &bound;
+    }
+    stack_at_wavelengths(stack, spectral, *w, &at_wavelengths);
     return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
   }
   return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);

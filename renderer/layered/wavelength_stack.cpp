@@ -61,6 +61,18 @@ void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromoph
   if (out->below.kind == Below::Kind::Lambert) out->below.albedo = uplifted_coefficient(w, out->below.albedo);
 }
 
+void bind_chromophores(const SpectralStack& spectral, const StackBindings& bindings, glm::dvec2 uv,
+                       SpectralStack* out) {
+  *out = spectral;
+  const std::vector<StackParameter>& ps = bindings.parameters();
+  ParameterValues values(ps.size());
+  bindings.values(uv, values.data());
+  for (const StackParameter& p : ps)
+    if (p.kind == StackParameter::Kind::kChromophore && p.layer >= 0 &&
+        static_cast<std::size_t>(p.layer) < out->chromophores.size() && out->chromophores[p.layer])
+      out->chromophores[p.layer] = bound_chromophores(bindings.stack_template(), ps, values.data(), p.layer);
+}
+
 std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredBindings& bindings) {
   std::vector<std::shared_ptr<const SpectralStack>> out(bindings.by_material.size());
   for (std::size_t m = 0; m < out.size(); ++m) {
@@ -71,8 +83,6 @@ std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredB
     for (const auto& leaf : spectral->leaves)
       if (leaf) throw std::runtime_error(why + "a leaf layer (its index varies with the wavelength)");
     if (spectral->stack.transmits()) throw std::runtime_error(why + "chromophore layers in a stack that transmits");
-    if (lm->bindings() && !lm->bindings()->empty())
-      throw std::runtime_error(why + "chromophore layers with parameters bound to maps");
     out[m] = std::move(spectral);
   }
   return out;

@@ -16,6 +16,7 @@
 #include "materials/stack/spectral_stack.h"
 #include "materials/stack/stack.h"
 #include "renderer/layered/layered_material.h"
+#include "renderer/layered/stack_bindings.h"
 
 namespace lamina {
 
@@ -24,11 +25,16 @@ namespace lamina {
 void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromophores, const SampledWavelengths& w,
                           LayerStack* out);
 
+// The chromophore layers of `spectral` with the values `bindings` give at uv (the RGB mode's
+// binding semantics, bound_chromophores in materials/stack/stack_parameters.h) into *out
+// (reusing its storage); `bindings` is the material's, over the same file as `spectral`.
+void bind_chromophores(const SpectralStack& spectral, const StackBindings& bindings, glm::dvec2 uv,
+                       SpectralStack* out);
+
 // Per glTF material slot, its file's chromophore layers (null: none, or not layered), read for the
 // spectral mode. Throws std::runtime_error, one line naming the file, for what the spectral mode
 // does not render yet: leaf layers (their index varies with the wavelength; a stack has one index
-// per layer for all channels), chromophore layers in a stack that transmits or whose parameters
-// are bound to maps.
+// per layer for all channels), chromophore layers in a stack that transmits.
 std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredBindings& bindings);
 
 }  // namespace lamina

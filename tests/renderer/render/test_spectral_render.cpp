@@ -9,12 +9,14 @@
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
 
 #include "materials/adding_doubling/spectral_totals.h"
 #include "materials/spectral/colour.h"
 #include "materials/spectral/sampled_wavelengths.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/layered/layered_shading.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/render/film.h"
 #include "renderer/render/render_request_check.h"
 #include "tests/materials/spectral/colour_quadrature.h"
@@ -204,6 +206,73 @@ TEST(SpectralRender, FlatChromophoreSlabAgreesWithAddingDoublingPerWavelength) {
         << "channel " << c << ": rendered " << rendered.mean[c] << " +- " << rendered.stderr_[c] << ", adding-doubling "
         << expected[c] << " (solver error " << solver_error[c] << ", grid " << expected[c] - coarser[c] << ")";
   }
+}
+
+// A chromophore layer bound to a map (docs/stack_bindings.md) in the spectral mode: a plane whose
+// melanin map has two constant halves (melanin 0.01 where u < 0.5, 0.3 beyond) renders, at each
+// half, as the same plane given that melanin in its file, within 3 standard errors of the two
+// image means' difference. The map is 4 x 1 texels, so around u = 0.25 and 0.75 its bilinear
+// lookup reads one half's value alone. The two melanins differ by far more than the errors, so a
+// binding that were ignored (or applied to the other half) fails.
+TEST(SpectralRender, MelaninMapHalvesRenderAsTheirConstantMelanin) {
+  // The file with that melanin, its baseline giving way as a bound fraction's does.
+  auto skin_with = [](double melanin) {
+    std::string t = kSkin;
+    const std::string key = "\"melanin\": 0.05, \"baseline\": 0.5";
+    t.replace(t.find(key), key.size(),
+              "\"melanin\": " + std::to_string(melanin) + ", \"baseline\": " + std::to_string(0.5 - (melanin - 0.05)));
+    return t;
+  };
+  Mesh plane;
+  plane.material = 0;
+  add_quad(&plane, {-1000, 0, 1000}, {1000, 0, 1000}, {1000, 0, -1000}, {-1000, 0, -1000});
+  plane.texcoords = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // u = (x + 1000) / 2000
+  SceneDesc desc = make_scene({plane});
+  Texture tex;
+  tex.width = 4;
+  tex.height = 1;
+  for (int k : {0, 0, 1, 1})
+    for (int c = 0; c < 3; ++c) tex.rgb.push_back(static_cast<float>(k));
+  desc.textures.push_back(tex);
+  desc.gltf_textures[0] = static_cast<int>(desc.textures.size()) - 1;
+  auto t = std::make_shared<const StackTemplate>(parse_stack_template_json(kSkin, "skin"));
+  const nlohmann::json spec = nlohmann::json::parse(R"({"bind": [{"parameter": "layers[0].chromophores.melanin",
+      "texture": 0, "channel": "r", "range": [0.01, 0.3]}]})");
+  auto bound = std::make_shared<const StackBindings>(spec, t, desc, "scene.gltf", "skin", "scene.gltf");
+  const Scene scene{SceneDesc(desc)};
+  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
+  const LightSet lights(scene, env);
+  auto render_at = [&](double x, const std::shared_ptr<const LayeredMaterial>& m, const SpectralStack& spectral) {
+    LayeredBindings b;
+    b.by_material.push_back(m);
+    LayeredShading layered;
+    layered.bindings = &b;
+    layered.spectral = {std::make_shared<const SpectralStack>(spectral)};
+    CameraDesc cam = test::camera_towards(test::world_dir(35.0, 0.0));
+    cam.position += glm::dvec3(x, 0.0, 0.0);
+    const Camera camera(cam, 24, 24);
+    RenderSettings s;
+    s.width = s.height = 24;
+    s.spp = 8;
+    s.seed = 9;
+    s.layered = &layered;
+    s.spectral = true;
+    RenderStats stats;
+    const Image im = render_image(scene, lights, camera, s, &stats);
+    EXPECT_EQ(stats.invalid_samples, 0u);
+    return im;
+  };
+  const SpectralStack spectral = parse_spectral_stack_json(kSkin, "skin");
+  const auto mapped = std::make_shared<const LayeredMaterial>(t->stack, "skin", bound);
+  for (const auto& [x, melanin] : {std::pair{-500.0, 0.01}, std::pair{500.0, 0.3}}) {
+    const std::string file = skin_with(melanin);
+    const auto given = std::make_shared<const LayeredMaterial>(parse_stack_json(file, "skin"), "skin");
+    const Image a = render_at(x, mapped, spectral), b = render_at(x, given, parse_spectral_stack_json(file, "skin"));
+    expect_same_mean(b, a, melanin < 0.1 ? "melanin 0.01 half" : "melanin 0.3 half");
+  }
+  // The halves differ (the test can tell a binding from none).
+  const ImageStats light = stats_of(render_at(-500.0, mapped, spectral)), dark = stats_of(render_at(500.0, mapped, spectral));
+  EXPECT_GT(light.mean[0] - dark.mean[0], 10.0 * std::hypot(light.stderr_[0], dark.stderr_[0]));
 }
 
 // Layered materials are rendered spectrally by the random walk only: the other modes are refused
