@@ -25,6 +25,7 @@
 #include "materials/tables/layered_table.h"
 #include "materials/stack/stack_file.h"
 #include "tests/materials/stack_fixtures.h"
+#include "tests/support/reference_csv.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
@@ -74,18 +75,11 @@ TEST(AddingDoubling, SemiInfiniteMatchesGiovanelli) {
 // one between glass slides (clear layers of index 1.5, which also traps directions between two
 // totally reflecting interfaces), normal and diffuse incidence, within 2e-4 in every total.
 TEST(AddingDoubling, MatchesIadpython) {
-  std::ifstream in(std::string(LAMINA_SOURCE_DIR) + "/tests/data/iad_reference.csv");
-  ASSERT_TRUE(in) << "tests/data/iad_reference.csv";
-  std::string line;
-  std::getline(in, line);
   int cases = 0;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string name, tok;
-    std::getline(ss, name, ',');
-    std::vector<double> v;
-    while (std::getline(ss, tok, ',')) v.push_back(std::stod(tok));
-    ASSERT_EQ(v.size(), 12u) << line;
+  for (const test::ReferenceRow& row : test::read_reference_csv(LAMINA_SOURCE_DIR, "tests/data/iad_reference.csv")) {
+    const std::string& name = row.name;
+    const std::vector<double>& v = row.v;
+    ASSERT_EQ(v.size(), 12u) << row.line;
     const double n = v[0], n_above = v[1], n_below = v[2], sa = v[3], ss_ = v[4], g = v[5], d = v[6];
     std::vector<Layer> layers;
     const Spectrum zero(0.0);

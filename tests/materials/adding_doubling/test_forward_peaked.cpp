@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/materials/stack_fixtures.h"
+#include "tests/support/reference_csv.h"
 
 namespace lamina {
 namespace {
@@ -43,18 +44,11 @@ LayerStack slab(double g) {
 // 0.999, at 0 and 60 degrees. Every total within our estimate plus iadpython's own (the change
 // from half its points), at 16 points (the default) and 32.
 TEST(ForwardPeaked, MatchesIadpythonWithinBothErrorEstimates) {
-  std::ifstream in(std::string(LAMINA_SOURCE_DIR) + "/tests/data/iad_forward_peaked_reference.csv");
-  ASSERT_TRUE(in) << "tests/data/iad_forward_peaked_reference.csv";
-  std::string line;
-  std::getline(in, line);
   int cases = 0;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string name, tok;
-    std::getline(ss, name, ',');
-    std::vector<double> v;
-    while (std::getline(ss, tok, ',')) v.push_back(std::stod(tok));
-    ASSERT_EQ(v.size(), 14u) << line;
+  for (const test::ReferenceRow& row : test::read_reference_csv(LAMINA_SOURCE_DIR, "tests/data/iad_forward_peaked_reference.csv")) {
+    const std::string& name = row.name;
+    const std::vector<double>& v = row.v;
+    ASSERT_EQ(v.size(), 14u) << row.line;
     const LayerStack s = test::one_layer(v[0], v[4], Spectrum(v[1]), Spectrum(v[2]), Spectrum(v[3]));
     const double mu = std::cos(v[5] * kPiHere / 180.0);
     for (int q : {16, 32}) {
