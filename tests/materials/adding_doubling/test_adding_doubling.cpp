@@ -184,21 +184,8 @@ TEST(AddingDoubling, ConvergesInQuadratureOrder) {
 constexpr double kWalkZ = 4.3;
 void expect_matches_walk(const LayerStack& s, double theta_deg, std::uint64_t samples) {
   const test::WalkAndSolver both = test::walk_and_solver(s, theta_deg, samples);
-  const BrdfTable& mc = both.walk;
-  const AddingDoublingEstimate& ad = both.solver;
-  for (int c = 0; c < kChannels; ++c) {
-    const EnergyTotals& m = mc.totals;
-    const double unresolved = m.unresolved.value[c];
-    auto near = [&](double a, double e, const Estimate& x, const char* what) {
-      EXPECT_NEAR(a, x.value[c], kWalkZ * x.stderr_[c] + e + unresolved)
-          << s.name << " theta " << theta_deg << " channel " << c << " " << what << " stderr " << x.stderr_[c];
-    };
-    near(ad.totals.R_diffuse[c], ad.error.R_diffuse[c], m.R_diffuse, "R_diffuse");
-    near(ad.totals.T_diffuse[c], ad.error.T_diffuse[c], m.T_diffuse, "T_diffuse");
-    near(ad.totals.absorbed[c], ad.error.absorbed[c], m.absorbed, "absorbed");
-    EXPECT_NEAR(ad.totals.R_specular[c], m.R_specular.value[c], 1e-12);
-    EXPECT_NEAR(ad.totals.T_ballistic[c], m.T_ballistic.value[c], 1e-12);
-  }
+  for (int c = 0; c < kChannels; ++c)
+    test::expect_totals_agree(both, c, kWalkZ, s.name + " theta " + std::to_string(theta_deg) + " channel " + std::to_string(c));
 }
 
 TEST(AddingDoublingVsWalk, MatchedSlabForwardPeaked) {

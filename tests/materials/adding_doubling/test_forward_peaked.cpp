@@ -73,19 +73,8 @@ TEST(ForwardPeaked, MatchesTheWalkWithinTheErrorEstimate) {
     for (double theta : {0.0, 60.0}) {
       const LayerStack s = slab(g);
       const test::WalkAndSolver both = test::walk_and_solver(s, theta, 200000);
-      const EnergyTotals& m = both.walk.totals;
-      const AddingDoublingEstimate& ad = both.solver;
-      constexpr int c = 0;  // one channel: the three are the same stack
-      const double unresolved = m.unresolved.value[c];
-      auto near = [&](double a, double e, const Estimate& x, const char* what) {
-        EXPECT_NEAR(a, x.value[c], 3.0 * x.stderr_[c] + e + unresolved)
-            << s.name << " theta " << theta << " " << what << " stderr " << x.stderr_[c] << " estimate " << e;
-      };
-      near(ad.totals.R_diffuse[c], ad.error.R_diffuse[c], m.R_diffuse, "R_diffuse");
-      near(ad.totals.T_diffuse[c], ad.error.T_diffuse[c], m.T_diffuse, "T_diffuse");
-      near(ad.totals.absorbed[c], ad.error.absorbed[c], m.absorbed, "absorbed");
-      EXPECT_NEAR(ad.totals.R_specular[c], m.R_specular.value[c], 1e-12);
-      EXPECT_NEAR(ad.totals.T_ballistic[c], m.T_ballistic.value[c], 1e-12);
+      // One channel: the three are the same stack.
+      test::expect_totals_agree(both, 0, 3.0, s.name + " theta " + std::to_string(theta));
     }
 }
 

@@ -28,6 +28,24 @@ inline WalkAndSolver walk_and_solver(const LayerStack& s, double theta_deg, std:
   return {brdf_table_monte_carlo(s, o), adding_doubling_with_error(s, std::cos(theta_deg * M_PI / 180.0))};
 }
 
+// The walk's totals against the solver's, one channel: R_diffuse, T_diffuse and absorbed within z
+// of the walk's standard errors plus the solver's estimate and the walk's unresolved share; the
+// unscattered parts are the same exact zeroth order in both.
+inline void expect_totals_agree(const WalkAndSolver& both, int c, double z, const std::string& where) {
+  const EnergyTotals& m = both.walk.totals;
+  const AddingDoublingEstimate& ad = both.solver;
+  const double unresolved = m.unresolved.value[c];
+  auto near = [&](double a, double e, const Estimate& x, const char* what) {
+    EXPECT_NEAR(a, x.value[c], z * x.stderr_[c] + e + unresolved)
+        << where << " " << what << " stderr " << x.stderr_[c] << " estimate " << e;
+  };
+  near(ad.totals.R_diffuse[c], ad.error.R_diffuse[c], m.R_diffuse, "R_diffuse");
+  near(ad.totals.T_diffuse[c], ad.error.T_diffuse[c], m.T_diffuse, "T_diffuse");
+  near(ad.totals.absorbed[c], ad.error.absorbed[c], m.absorbed, "absorbed");
+  EXPECT_NEAR(ad.totals.R_specular[c], m.R_specular.value[c], 1e-12) << where;
+  EXPECT_NEAR(ad.totals.T_ballistic[c], m.T_ballistic.value[c], 1e-12) << where;
+}
+
 // Adding-doubling's bins against the walk's, one channel: each bin's z-score within 4.5 (Bonferroni
 // over ~100 bins: P(|z| > 4.5) = 7e-6 each), and the chi-square of all of them consistent with
 // their count (p > 1e-3, expect_consistent).
