@@ -3,7 +3,7 @@
 
     bench/face.py [--lamina build/renderer/lamina] [--out out/face] [--scenes head_skin,leaves_back]
                   [--methods walk,auto] [--tolerance 0.01] [--ref-spp 1024] [--scale 1] [--quick]
-                  [--references REF1.exr REF2.exr]
+                  [--references REF1.exr REF2.exr] [--bias-spp N]
 
 For each scene it renders two long walk references once (kept in OUT/, their file names carry
 their settings; only the crop and a 4-pixel margin are rendered; or takes them from
@@ -19,13 +19,18 @@ order of magnitude and compare methods within one run of this script.
 Per method it prints and writes to OUT/face.md and OUT/face.csv:
   seconds to the target   interpolated log-log between the two runs around it
   mean bias               mean(method) / mean(reference) - 1 over the crop, at the last run
-  smoothed pixel bias     `lamina compare --smooth 1` (a Gaussian of sigma 1 pixel, about 5 x 5):
-                          the RMS relative difference at the last run, and the same with the
-                          reference's own smoothed noise (from the two references) taken out in
-                          quadrature; the test image's residual noise is still in, so both
-                          bound the bias from above
-Python does no image maths: every figure comes from `lamina compare --json` (the mean of an image
-over the crop is its guard floor divided by the guard epsilon).
+  smoothed RMS difference `lamina compare --smooth 1` (a Gaussian of sigma 1 pixel) at the last
+                          run: the bias and both images' noise together
+  smoothed pixel bias     B, the RMS relative bias after smoothing (a Gaussian of sigma 1 pixel,
+                          and a 5 x 5 box), with its standard error: two renders of the method
+                          (seeds 1 and 2, at --bias-spp, default the last run's spp) against the
+                          two references, the noise of both taken out (bench/smoothed_bias.py,
+                          which says how). B is 0 where no bias is resolved; read it with its
+                          standard error
+Python does no image maths for the RMSE and the mean: those come from `lamina compare --json`
+(the mean of an image over the crop is its guard floor divided by the guard epsilon); the bias
+estimate reads the EXRs with the lamina Python package (built beside the executable,
+LAMINA_BUILD_PYTHON) into numpy.
 Exits non-zero if a render or a comparison fails.
 """
 
@@ -41,6 +46,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 from tradeoff import time_to  # noqa: E402 (the speed-accuracy report's log-log interpolation)
+from smoothed_bias import smoothed_bias  # noqa: E402 (bench/smoothed_bias.py, beside this file)
 
 # name -> (glTF, extra render arguments, crop as fractions x, y, w, h of the image)
 SCENES = {
@@ -97,6 +103,30 @@ def compare(args, ref, test, crop, smooth=None):
         return json.load(f)
 
 
+def read_rgb(path):
+    """An EXR's RGB as a numpy array (height, width, 3), through the lamina Python package."""
+    import lamina
+    return lamina.Image.read(path).rgb
+
+
+def import_lamina(executable):
+    """The lamina Python package of the build the executable belongs to (BUILD/python), else
+    whatever PYTHONPATH gives."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(executable)), "python"))
+    try:
+        import lamina  # noqa: F401
+    except ImportError as e:
+        fail(f"the bias estimate reads EXRs with the lamina Python package, not found beside {executable} "
+             f"(build it: LAMINA_BUILD_PYTHON=ON, the default; or set PYTHONPATH): {e}")
+
+
+def bias_estimates(refs, tests, crop):
+    """B for the Gaussian of sigma 1 and the 5 x 5 box (bench/smoothed_bias.py) over the crop."""
+    r, t = [read_rgb(p) for p in refs], [read_rgb(p) for p in tests]
+    box = tuple(int(v) for v in crop[1:])
+    return {k: smoothed_bias(r, t, k, crop=box) for k in ("gaussian1", "box5")}
+
+
 def image_mean(j):
     """The mean of the reference image over the crop: compare's guard floor is epsilon * mean(REF)."""
     return j["guard_floor"] / j["guard_epsilon"]
@@ -116,6 +146,8 @@ def main():
     ap.add_argument("--scale", type=float, default=1.0, help="image size as a fraction of 480x600 (head) and 320x240 (leaves)")
     ap.add_argument("--quick", action="store_true", help="pipeline check: 1/8 size, reference 16 spp, max 4 spp")
     ap.add_argument("--references", nargs=2, metavar="EXR", help="two walk references of the one scene (instead of rendering them)")
+    ap.add_argument("--bias-spp", type=int, default=0,
+                    help="spp of the two renders (seeds 1, 2) the smoothed bias is measured on (default: the last run's)")
     args = ap.parse_args()
     args.lamina = os.path.abspath(args.lamina)
     args.out = os.path.abspath(args.out)
@@ -132,6 +164,7 @@ def main():
         fail("--references needs exactly one scene (--scenes)")
     if args.quick:
         args.ref_spp, args.max_spp, args.scale = 16, 4, 0.125
+    import_lamina(args.lamina)
     os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
     results = []
     for scene in scenes:
@@ -156,9 +189,6 @@ def main():
         region = reference_region(crop, size)
         crop = ["--crop", str(int(crop[1]) - region[0]), str(int(crop[2]) - region[1]), crop[3], crop[4]]
         ref_var = compare(args, refs[0], refs[1], crop)["rmse"] ** 2 / 2.0
-        # The reference's own noise after smoothing, per image: the two references' smoothed RMS
-        # relative difference over sqrt(2).
-        ref_smooth_var = compare(args, refs[0], refs[1], crop, smooth=1)["rms_relative"] ** 2 / 2.0
         for method in methods:
             rows, spp = [], 1
             while spp <= args.max_spp:
@@ -188,24 +218,42 @@ def main():
             if not rows:
                 fail(f"{scene} {method}: already at 1 spp within the references' own noise (a longer --ref-spp would resolve it)")
             smooth = compare(args, ref, rows[-1]["exr"], crop, smooth=1)
+            # The bias: two seeds of the method at --bias-spp, the same region and tables.
+            bias_spp = args.bias_spp or rows[-1]["spp"]
+            tests = []
+            for seed in (1, 2):
+                exr = os.path.join(args.out, "runs", f"{scene}-{method}-{bias_spp}" + ("" if seed == 1 else f"-seed{seed}") + ".exr")
+                if not os.path.exists(exr):
+                    render(args, scene, method, bias_spp, seed, exr, size, region, cache=os.path.join(args.out, "cache"))
+                tests.append(exr)
+            bias = bias_estimates(refs, tests, crop)
+            for k, e in bias.items():
+                print(f"{scene} {method} {bias_spp} spp x 2 seeds, {k}: smoothed pixel bias {e['bias']:.4f} +- {e['bias_se']:.4f} "
+                      f"(RMS difference of the means {e['difference']:.4f}, their smoothed noise: reference "
+                      f"{e['reference_noise']:.4f}, test {e['test_noise']:.4f})", flush=True)
             t, _ = time_to([dict(rmse=r["rel_rmse"], seconds=r["seconds"]) for r in rows], args.target)
+            g, b = bias["gaussian1"], bias["box5"]
             results.append(dict(scene=scene, method=method, spp=rows[-1]["spp"], seconds=rows[-1]["seconds"],
                                 rel_rmse=rows[-1]["rel_rmse"], seconds_to_target=t,
-                                mean_bias=rows[-1]["mean_bias"], smoothed_pixel_bias=smooth["rms_relative"],
-                                smoothed_pixel_bias_less_reference_noise=math.sqrt(max(0.0, smooth["rms_relative"] ** 2 - ref_smooth_var)),
-                                reference_smoothed_noise=math.sqrt(ref_smooth_var)))
+                                mean_bias=rows[-1]["mean_bias"], smoothed_rms_difference=smooth["rms_relative"],
+                                bias_spp=bias_spp, smoothed_pixel_bias=g["bias"], smoothed_pixel_bias_se=g["bias_se"],
+                                box5_pixel_bias=b["bias"], box5_pixel_bias_se=b["bias_se"],
+                                reference_smoothed_noise=g["reference_noise"], test_smoothed_noise=g["test_noise"]))
     with open(os.path.join(args.out, "face.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(results[0]))
         w.writeheader()
         w.writerows(results)
     lines = [f"| scene | method | seconds to {args.target:.0%} relative RMSE | last run: spp, seconds, relative RMSE "
-             "| mean bias | smoothed pixel bias (less the reference's own smoothed noise) |", "| --- | --- | --- | --- | --- | --- |"]
+             "| mean bias | smoothed RMS difference | smoothed pixel bias: Gaussian sigma 1, 5 x 5 box (spp x 2 seeds; "
+             "smoothed noise of the mean reference, test) |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         t = f"{r['seconds_to_target']:.1f}" if r["seconds_to_target"] is not None else f"not reached by {r['spp']} spp"
         name = r["method"] if r["method"] == "walk" else f"auto --tolerance {args.tolerance:g}"
         lines.append(f"| {r['scene']} | {name} | {t} | {r['spp']}, {r['seconds']:.1f}, {r['rel_rmse']:.4f} "
-                     f"| {r['mean_bias']:+.2%} | {r['smoothed_pixel_bias']:.2%} ({r['smoothed_pixel_bias_less_reference_noise']:.2%}; "
-                     f"reference {r['reference_smoothed_noise']:.2%}) |")
+                     f"| {r['mean_bias']:+.2%} | {r['smoothed_rms_difference']:.2%} "
+                     f"| {r['smoothed_pixel_bias']:.2%} +- {r['smoothed_pixel_bias_se']:.2%}, "
+                     f"{r['box5_pixel_bias']:.2%} +- {r['box5_pixel_bias_se']:.2%} ({r['bias_spp']} x 2; "
+                     f"{r['reference_smoothed_noise']:.2%}, {r['test_smoothed_noise']:.2%}) |")
     with open(os.path.join(args.out, "face.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
