@@ -160,6 +160,8 @@ def main():
     for m in methods:
         if m not in ("walk", "auto"):
             fail(f"unknown method {m!r} (known: walk, auto)")
+    if args.bias_spp < 0:
+        fail(f"--bias-spp {args.bias_spp}: must be at least 1 (or 0: the last run's spp)")
     if args.references and len(scenes) != 1:
         fail("--references needs exactly one scene (--scenes)")
     if args.quick:
@@ -223,7 +225,7 @@ def main():
             tests = []
             for seed in (1, 2):
                 exr = os.path.join(args.out, "runs", f"{scene}-{method}-{bias_spp}" + ("" if seed == 1 else f"-seed{seed}") + ".exr")
-                if not os.path.exists(exr):
+                if not (seed == 1 and bias_spp == rows[-1]["spp"]):  # else rendered just now
                     render(args, scene, method, bias_spp, seed, exr, size, region, cache=os.path.join(args.out, "cache"))
                 tests.append(exr)
             bias = bias_estimates(refs, tests, crop)
