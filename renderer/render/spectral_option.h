@@ -19,4 +19,8 @@ inline constexpr SpectralOption kSpectralOption{
     "uplifted to smooth spectra, skin chromophore layers are evaluated per wavelength and the film integrates CIE XYZ, "
     "written as linear Rec. 709 as in the RGB mode; layered materials by the random walk only"};
 
+// The option's name without the flag's dashes: the batch manifest's key ("settings" and each
+// scene, docs/batch.md) and the Python keyword of lamina.render (docs/python.md).
+constexpr const char* spectral_option_key() { return kSpectralOption.flag + 2; }
+
 }  // namespace lamina

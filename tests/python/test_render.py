@@ -39,6 +39,27 @@ def test_render_equals_the_command_line(cli, source, tmp_path):
     assert np.array_equal(back.rgb, ref.rgb) and back.metadata == im.metadata
 
 
+def test_spectral_equals_the_command_line(cli, source, tmp_path):
+    # lamina.render(spectral=True) is lamina render --spectral: the same image and header.
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--spectral")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, spectral=True, progress=False)
+    assert np.array_equal(im.rgb, ref.rgb)
+    assert not np.array_equal(im.rgb, exr_of_cli(cli, source, tmp_path, "rgb.exr").rgb)
+    differ = {k for k in set(im.metadata) | set(ref.metadata) if im.metadata.get(k) != ref.metadata.get(k)}
+    assert differ <= {"lamina:command", "lamina:seconds"}, differ
+    assert "lamina:spectral" in im.metadata and "spectral=True" in im.metadata["lamina:command"]
+
+
+def test_spectral_keyword_is_the_flags_declaration():
+    # The keyword, its flag and its help come from the one C++ declaration (spectral_option.h).
+    import inspect
+    from lamina import _lamina
+    keyword, flag, help = _lamina.SPECTRAL_OPTION
+    assert flag == "--" + keyword
+    assert inspect.signature(lamina.render).parameters[keyword].default is False
+    assert help in lamina.render.__doc__
+
+
 def test_out_writes_the_files_as_the_cli(cli, source, tmp_path):
     ref = exr_of_cli(cli, source, tmp_path, "cli.exr")
     lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, out=tmp_path / "py.exr",
@@ -108,7 +129,7 @@ def test_ctrl_c_stops_and_writes_nothing(source, tmp_path, width, height, spp, s
 @pytest.mark.parametrize("kwargs,error", [
     ({"width": 0}, ValueError), ({"width": "40"}, TypeError), ({"spp": 2.5}, TypeError),
     ({"clamp": float("nan")}, ValueError), ({"subsurface": "magic"}, ValueError), ({"aovs": "colour"}, ValueError),
-    ({"walk": {"no-such-option": 1}}, ValueError),
+    ({"walk": {"no-such-option": 1}}, ValueError), ({"spectral": 1}, TypeError), ({"spectral": "yes"}, TypeError),
 ])
 def test_bad_arguments_raise(source, kwargs, error):
     args = {"width": 8, "height": 8, "spp": 1, "progress": False, **kwargs}
@@ -171,6 +192,7 @@ def test_crop_and_png_options_equal_the_command_line(cli, source, tmp_path):
     (["--crop", "10,5,50,25"], {"crop": (10, 5, 50, 25)}),
     (["--crop", "0,0,0,0"], {"crop": (0, 0, 0, 0)}),
     (["--width", "16384", "--height", "16384", "--spp", "1048576"], {"width": 16384, "height": 16384, "spp": 1 << 20}),
+    (["--spectral", "--subsurface", "first-order"], {"spectral": True, "subsurface": "first-order"}),
 ])
 def test_bad_combinations_give_the_clis_message(cli, source, tmp_path, args, kwargs):
     size = [] if "--width" in args else ["--width", "40", "--height", "30", "--spp", "4"]
