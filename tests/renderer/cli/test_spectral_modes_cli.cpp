@@ -13,6 +13,7 @@
 #include "renderer/image/image_io.h"
 #include "tests/renderer/batch_fixture.h"
 #include "tests/renderer/cli/cli_runner.h"
+#include "tests/renderer/gltf_fixture.h"
 
 namespace lamina {
 namespace {
@@ -104,6 +105,30 @@ TEST(SpectralModesCli, HashChangesOnlyWhenSpectral) {
   EXPECT_EQ(b.hash(b.manifest(false, true)), spectral);
 }
 
+// A skin by chromophores whose melanin a map sets (docs/stack_bindings.md), on a quad with UVs.
+void write_melanin_mapped_quad(const TempDir& dir, const std::string& gltf) {
+  std::ofstream(dir / "c.json") << R"({"lamina_material": 1, "layers": [
+      {"ior": 1.4, "thickness": 0.1, "chromophores": {"melanin": 0.05, "baseline": 0.5,
+       "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}},
+      {"ior": 1.4, "thickness": "inf", "chromophores": {"blood": 0.02, "water": 0.6, "baseline": 0.38,
+       "scattering": {"reduced_500": 4.6, "f_rayleigh": 0.409, "b_mie": 0.702}, "g": 0.8}}]})";
+  Image map(2, 2);
+  for (float& v : map.rgb) v = 0.5f;
+  write_png(dir / "melanin.png", map);
+  testing::GltfBuilder b;
+  nlohmann::json& j = b.json();
+  j["materials"].push_back({{"name", "skin"},
+                            {"extras",
+                             {{"lamina",
+                               {{"stack", "c.json"},
+                                {"bind", {{{"parameter", "layers[0].chromophores.melanin"}, {"texture", "melanin.png"},
+                                           {"channel", "r"}, {"range", {0.01, 0.3}}}}}}}}}});
+  const int mesh = b.add_mesh({-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, {0, 1, 2, 0, 2, 3}, {}, 0);
+  j["meshes"][mesh]["primitives"][0]["attributes"]["TEXCOORD_0"] = b.add_floats({0, 0, 1, 0, 1, 1, 0, 1}, 2);
+  b.add_node({{"mesh", mesh}});
+  b.write_gltf(dir / gltf);
+}
+
 TEST(SpectralModesCli, BadValuesAndRefusalsAreTheCommandLines) {
   SpectralBatch b("spectral-batch-bad");
   const Result word = b.batch(b.manifest("yes", nullptr), "--list");
@@ -112,15 +137,26 @@ TEST(SpectralModesCli, BadValuesAndRefusalsAreTheCommandLines) {
   const Result number = b.batch(b.manifest(nullptr, 1), "--list");
   EXPECT_EQ(number.exit_code, 2);
   EXPECT_NE(number.err.find("m.json: scenes[0].spectral: expected true or false, got 1"), std::string::npos) << number.err;
-  // A mode the spectral mode does not render: the batch's job fails with the command line's line.
-  const Result cli = b.render(b.dir / "x.exr", "--spectral --subsurface first-order");
-  EXPECT_EQ(cli.exit_code, 2);
+  // What the spectral mode refuses (chromophores bound to a map in the table mode,
+  // renderer/layered/spectral_tables.h): the batch's job fails with the command line's line.
+  write_melanin_mapped_quad(b.dir, "m.gltf");
+  const Result cli = run(b.dir, "render " + b.dir / "m.gltf" + " --width 8 --height 6 --spp 2 --seed 3 --max-depth 8 --env 1 "
+                                "--spectral --subsurface table -o " + b.dir / "x.exr");
+  EXPECT_EQ(cli.exit_code, 1);
   const std::string line = cli.err.substr(cli.err.rfind("lamina render: "));
-  EXPECT_NE(line.find("--subsurface first-order"), std::string::npos) << line;
-  const Result r = b.batch(b.manifest(true, nullptr, "first-order"), "--out " + b.dir / "out");
+  EXPECT_NE(line.find("chromophore layers bound to maps are not tabulated per wavelength"), std::string::npos) << line;
+  json m = b.manifest(true, nullptr, "table");
+  m["settings"].erase("stack");
+  m["scenes"][0]["file"] = "m.gltf";
+  const Result r = b.batch(m, "--out " + b.dir / "out");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find(line), std::string::npos) << r.err << "\nexpected: " << line;
   EXPECT_FALSE(std::filesystem::exists(b.dir / "x.exr"));
+  // auto renders such a material by the walk instead, and says so.
+  const Result a = run(b.dir, "render " + b.dir / "m.gltf" + " --width 8 --height 6 --spp 1 --env 1 --spectral --subsurface auto "
+                              "--tolerance 0.5 -o " + b.dir / "a.exr");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  EXPECT_EQ(header(b.dir / "a.exr", "lamina:auto_mode:skin"), "random-walk");
 }
 
 }  // namespace
