@@ -11,7 +11,8 @@
 #
 #   bench/spectral_cost.sh [SCENE.gltf]      default scenes/head_skin/head_skin.gltf
 # Environment: SC_SIZE (WxH, default 64x80), SC_SPP (default 64), SC_SEEDS (default 4),
-# SC_THREADS (default 1), SC_OUT (default out/spectral_cost).
+# SC_THREADS (default 1), SC_OUT (default out/spectral_cost), SC_ARGS (more `lamina render`
+# arguments for both modes, e.g. "--subsurface auto --tolerance 0.05 --cache out/spectral_cost/cache").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${LAMINA_BUILD_DIR:-build}
@@ -24,6 +25,7 @@ SPP=${SC_SPP:-64}
 SEEDS=${SC_SEEDS:-4}
 THREADS=${SC_THREADS:-1}
 OUT=${SC_OUT:-out/spectral_cost}
+read -r -a EXTRA <<< "${SC_ARGS:-}"
 mkdir -p "$OUT"
 for exe in "$LAMINA" "$NOISE"; do
   [ -x "$exe" ] || { echo "spectral_cost: $exe is not built (cmake --build $BUILD_DIR --target lamina colour_noise)" >&2; exit 2; }
@@ -35,7 +37,7 @@ for seed in $(seq 1 "$SEEDS"); do
     args=()
     [ "$mode" = spectral ] && args=(--spectral)
     line=$("$LAMINA" render "$SCENE" --width "$W" --height "$H" --spp "$SPP" --seed "$seed" --threads "$THREADS" \
-      "${args[@]}" -o "$OUT/${mode}_$seed.exr" 2>/dev/null | grep -- ' -> ')
+      "${args[@]}" "${EXTRA[@]}" -o "$OUT/${mode}_$seed.exr" 2>/dev/null | grep -- ' -> ')
     # "... WxH, N spp, S s; rays ..."
     s=$(sed -E 's/.* spp, ([0-9.e+-]+) s;.*/\1/' <<< "$line")
     seconds[$mode]=$(python3 -c "print(${seconds[$mode]} + $s)")

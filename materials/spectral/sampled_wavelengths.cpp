@@ -66,12 +66,21 @@ double sample_visible_wavelength(double u) {
 }
 
 SampledWavelengths SampledWavelengths::from_uniform(double u) {
-  static const double inv_luminance = 1.0 / d65_luminance();
-  SampledWavelengths w;
+  double nm[kChannels];
   for (int i = 0; i < kChannels; ++i) {
     double ui = u + static_cast<double>(i) / kChannels;
     if (ui >= 1.0) ui -= 1.0;
-    w.nm_[i] = sample_visible_wavelength(ui);
+    nm[i] = sample_visible_wavelength(ui);
+  }
+  return at(nm[0], nm[1], nm[2]);
+}
+
+SampledWavelengths SampledWavelengths::at(double nm0, double nm1, double nm2) {
+  static const double inv_luminance = 1.0 / d65_luminance();
+  SampledWavelengths w;
+  const double nm[kChannels] = {nm0, nm1, nm2};
+  for (int i = 0; i < kChannels; ++i) {
+    w.nm_[i] = nm[i];
     w.pdf_[i] = visible_wavelength_pdf(w.nm_[i]);
     const std::array<double, 3> b = rgb_basis(w.nm_[i]);
     std::copy(b.begin(), b.end(), w.basis_[i]);

@@ -28,6 +28,9 @@ class SampledWavelengths {
   // The hero from u in [0, 1), the companions from u + 1/3 and u + 2/3 (mod 1), each through
   // sample_visible_wavelength: each of the three is distributed with visible_wavelength_pdf.
   static SampledWavelengths from_uniform(double u);
+  // Three given wavelengths in [360, 830] nm (the spectral tables' grid, renderer/layered/
+  // spectral_tables.h), with the densities and weights a path drawing them would have.
+  static SampledWavelengths at(double nm0, double nm1, double nm2);
   // The wavelengths of sample `sample` of pixel `pixel`: u = frac(o + sample phi), phi the golden
   // ratio's fraction, o uniform from a stream of its own keyed by (seed, pixel) (the .cpp has why).
   static SampledWavelengths for_sample(std::uint64_t seed, std::uint64_t pixel, std::uint64_t sample);

@@ -445,7 +445,8 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
            table_method: Optional[str] = None, noise_threshold: float = 0.0, pilot_spp: Optional[int] = None,
            clamp: float = 0.0, time_limit: float = 0.0, crop: Optional[Sequence[int]] = None,
            walk: Optional[Mapping[str, Any]] = None, out: Optional[PathLike] = None, png: Optional[PathLike] = None,
-           exposure: Optional[float] = None, tone_curve: Optional[str] = None, progress: Progress = None) -> Image:
+           exposure: Optional[float] = None, tone_curve: Optional[str] = None, spectral: bool = False,
+           progress: Progress = None) -> Image:
     """Renders a glTF scene, as ``lamina render SCENE --width W --height H --spp N --seed S ...``:
     the same image bit for bit. materials: a material map file, or {glTF material name: Stack or
     path}. aovs: "albedo,normal" or a list. walk: the walk's options by flag without dashes,
@@ -468,6 +469,8 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     tl = _number(time_limit, "time_limit", 0.0, 1e9)
     ex = 0.0 if exposure is None else _number(exposure, "exposure", -20.0, 20.0)
     region = [] if crop is None else [_integer(v, "crop", 0, 16384) for v in crop]
+    if not isinstance(spectral, bool):
+        raise TypeError(f"spectral: expected a bool, got {type(spectral).__name__}")
     # The options set, by their command-line flags: the library refuses those that would not act.
     given = [flag for flag, value in (("--tolerance", tolerance), ("--pilot-spp", pilot_spp), ("--crop", crop),
                                       ("--exposure", exposure), ("--tone-curve", tone_curve),
@@ -488,18 +491,23 @@ def render(scene: PathLike, *, width: int = 640, height: int = 480, spp: int = 1
     if png_path and not out_path:
         raise ValueError("png: only with out (the EXR and the PNG are written together)")
     command = (f"lamina.render({s!r}, width={w}, height={h}, spp={n}, seed={sd}, subsurface={subsurface!r}"
-               f"{', materials=...' if materials else ''})")
+               f"{', materials=...' if materials else ''}{', spectral=True' if spectral else ''})")
     cache_dir = "" if cache is None else _path(cache, "cache")
     d = _run(lambda state: _lamina.render(s, out_path, png_path, w, h, n, sd, th, subsurface, tol, camera, map_path,
                                            env_text, depth, aov_list, cache_dir, table_method or "adding-doubling",
                                            nt, ps, cl, tl, region, ex, tone_curve or "filmic", walk_options, inline,
-                                           command, given, state),
+                                           spectral, command, given, state),
              progress, "render")
     for line in d["warnings"]:
         import warnings
         warnings.warn(line, RuntimeWarning, stacklevel=2)
     info = {k: d[k] for k in ("seconds", "camera", "invalid_samples", "clamped_samples", "layered_materials", "info")}
     return Image(d["rgb"], dict(d["channels"]), dict(d["metadata"]), d["window"], info)
+
+
+# The spectral keyword is lamina render's --spectral, declared once in C++ (SPECTRAL_OPTION).
+_keyword, _flag, _help = _lamina.SPECTRAL_OPTION
+render.__doc__ = (render.__doc__ or "") + f"\n\n    ``{_keyword}``: {_help} (``lamina render {_flag}``)."
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,6 +33,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/version.h"
 
@@ -441,7 +442,7 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
                 const std::string& cache, const std::string& table_method, double noise_threshold, int pilot_spp,
                 double clamp, double time_limit, const std::vector<int>& crop, double exposure,
                 const std::string& tone_curve, const std::vector<std::pair<std::string, std::string>>& walk_options,
-                const std::vector<std::tuple<std::string, std::string, std::string>>& inline_stacks,
+                const std::vector<std::tuple<std::string, std::string, std::string>>& inline_stacks, bool spectral,
                 const std::string& command_line, const std::vector<std::string>& given, JobState* state) {
   RenderRequest request;
   RenderSettings& s = request.settings;
@@ -473,6 +474,8 @@ nb::dict render(const std::string& scene, const std::string& out, const std::str
   request.cache_dir = cache;
   request.command_line = command_line;
   request.given = given;  // the combinations are checked by render_job (renderer/render/render_request_check.h)
+  s.spectral = spectral;
+  if (spectral) request.given.push_back(kSpectralOption.flag);
   std::vector<std::string> info, warnings;
   std::mutex lines;
   RenderLog log;
@@ -638,7 +641,7 @@ NB_MODULE(_lamina, m) {
         "coarse_quadrature_points"_a);
   m.def("render", &render, "lamina render without its argument parsing (renderer/render/render_job.h).", "scene"_a, "out"_a, "png"_a, "width"_a, "height"_a, "spp"_a, "seed"_a, "threads"_a,
         "subsurface"_a, "tolerance"_a, "camera"_a, "materials"_a, "env"_a, "max_depth"_a, "aovs"_a, "cache"_a,
-        "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "time_limit"_a, "crop"_a, "exposure"_a, "tone_curve"_a, "walk_options"_a, "inline_stacks"_a, "command_line"_a,
+        "table_method"_a, "noise_threshold"_a, "pilot_spp"_a, "clamp"_a, "time_limit"_a, "crop"_a, "exposure"_a, "tone_curve"_a, "walk_options"_a, "inline_stacks"_a, "spectral"_a, "command_line"_a,
         "given"_a, "state"_a.none());
   m.def("write_exr", &write_exr_file, "A float EXR with extra channels and header, atomically.", "path"_a, "rgb"_a, "metadata"_a, "channels"_a, "window"_a);
   m.def("read_exr", &read_exr_file, "Every channel of an EXR and its header.", "path"_a);
@@ -647,4 +650,7 @@ NB_MODULE(_lamina, m) {
   m.def("relative_luminance_difference", &relative_luminance, "The relative difference of luminance per pixel.", "reference"_a, "test"_a, "epsilon"_a);
   m.def("denoise", &denoise_image, "Open Image Denoise (renderer/image/denoise.h): image, library, version.", "colour"_a, "albedo"_a.none(), "normal"_a.none(), "threads"_a);
   m.attr("DEFAULT_GUARD_EPSILON") = kDefaultGuardEpsilon;
+  // lamina render's --spectral (renderer/render/spectral_option.h): lamina.render's keyword, the
+  // flag it stands for and its help.
+  m.attr("SPECTRAL_OPTION") = nb::make_tuple(spectral_option_key(), kSpectralOption.flag, kSpectralOption.help);
 }

@@ -31,6 +31,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/image/tone_map.h"
 #include "renderer/render/render_job.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/atomic_file.h"
 #include "renderer/util/finite_output.h"
@@ -175,6 +176,11 @@ std::optional<RenderResult> render_batch_job(const std::string& out, const Batch
   }
   for (const StackAssignment& a : job.stacks) args.insert(args.end(), {kStackFlag, stack_assignment_text(a)});
   r.stacks = job.stacks;
+  if (job.spectral) {
+    r.settings.spectral = true;
+    args.push_back(kSpectralOption.flag);
+    r.given.push_back(kSpectralOption.flag);
+  }
   if (!job.materials.empty()) {
     // The stacks are rendered from memory; the files are the record (docs/batch.md).
     const std::string map_path = write_material_map(out, job, &r.inline_stacks);

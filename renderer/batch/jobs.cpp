@@ -11,6 +11,7 @@
 #include "materials/stack/json_limits.h"
 #include "materials/stack/stack_parameters.h"
 #include "materials/stack/text_file.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/scene/gltf_document.h"
 #include "renderer/util/version.h"
@@ -163,6 +164,7 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
             job.scene_file = scene.file;
             job.materials = binding_list;
             job.stacks = scene.stacks;
+            job.spectral = scene.spectral;
             job.inputs = variant_inputs;
             if (lighting.env_is_file) job.inputs.push_back({"the environment", lighting.env});
             job.env = lighting.env;
@@ -185,6 +187,8 @@ std::vector<BatchJob> expand_jobs(const Manifest& m) {
             if (mode.subsurface.automatic) job.description["tolerance"] = mode.subsurface.tolerance;
             // Only with --stack, so that the hashes of other jobs are those they always were.
             if (!stacks_desc.empty()) job.description["stack"] = stacks_desc;
+            // Likewise only in the spectral mode.
+            if (scene.spectral) job.description[spectral_option_key()] = true;
             job.hash = content_hash(job.description.dump());
             jobs.push_back(std::move(job));
           }

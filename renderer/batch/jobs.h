@@ -37,6 +37,7 @@ struct BatchJob {
   std::string scene_file;
   std::vector<MaterialBinding> materials;  // sorted by material name; none a stack assignment covers
   std::vector<StackAssignment> stacks;     // --stack: the scene's assignments (SceneSpec::stacks)
+  bool spectral = false;                   // --spectral (SceneSpec::spectral)
   // Every file the job reads, which no output of the batch may be: the scene, the buffers and
   // images it names, the stack files and the environment map.
   std::vector<JobInput> inputs;

@@ -13,6 +13,7 @@
 #include "materials/stack/stack_parameters.h"
 #include "renderer/batch/manifest_where.h"
 #include "renderer/image/image_compare.h"
+#include "renderer/render/spectral_option.h"
 #include "renderer/scene/gltf_document.h"
 #include "materials/stack/json_keys.h"
 #include "materials/stack/decimal.h"
@@ -223,6 +224,12 @@ std::vector<StackAssignment> parse_stacks(const json& j, const Where& where, con
   return out;
 }
 
+// A "spectral" value: true or false, as the flag is given or not.
+bool get_spectral(const json& j, const Where& where) {
+  if (!j.is_boolean()) where.fail("expected true or false, got " + j.dump());
+  return j.get<bool>();
+}
+
 void check_setting_value(const json& v, const Where& where) {
   auto finite = [](const json& x) { return x.is_number() && std::isfinite(x.get<double>()); };
   const bool ok = finite(v) || (v.is_string() && v.get<std::string>() == "inf") ||
@@ -246,7 +253,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   if (j.contains("settings")) {
     const Where w = root.key("settings");
     const json& s = j["settings"];
-    check_keys(s, w, {"width", "height", "seed", "max_depth", "stack"});
+    check_keys(s, w, {"width", "height", "seed", "max_depth", "stack", spectral_option_key()});
     if (s.contains("width")) m.settings.width = static_cast<int>(get_integer(s["width"], w.key("width"), 1, 16384));
     if (s.contains("height")) m.settings.height = static_cast<int>(get_integer(s["height"], w.key("height"), 1, 16384));
     if (s.contains("seed")) m.settings.seed = static_cast<std::uint64_t>(get_integer(s["seed"], w.key("seed"), 0, 1ll << 62));
@@ -261,7 +268,7 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
   for (std::size_t i = 0; i < j["scenes"].size(); ++i) {
     const json& s = j["scenes"][i];
     const Where w = ws.at(i);
-    check_keys(s, w, {"name", "file", "materials", "stack"});
+    check_keys(s, w, {"name", "file", "materials", "stack", spectral_option_key()});
     if (!s.contains("name")) w.fail("missing \"name\"");
     if (!s.contains("file")) w.fail("missing \"file\"");
     SceneSpec scene;
@@ -293,6 +300,10 @@ Manifest parse_manifest(const json& j, const std::string& path, const std::strin
       const std::vector<StackAssignment> own = parse_stacks(s[stack_key()], w.key(stack_key()), directory, this_scene);
       scene.stacks.insert(scene.stacks.end(), own.begin(), own.end());
     }
+    const char* spectral = spectral_option_key();
+    if (j.contains("settings") && j["settings"].contains(spectral))
+      scene.spectral = get_spectral(j["settings"][spectral], root.key("settings").key(spectral));
+    if (s.contains(spectral)) scene.spectral = get_spectral(s[spectral], w.key(spectral));
     for (const SceneSpec& other : m.scenes)
       if (other.name == scene.name) w.key("name").fail("duplicate scene name '" + scene.name + "'");
     m.scenes.push_back(std::move(scene));

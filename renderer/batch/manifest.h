@@ -50,6 +50,9 @@ struct SceneSpec {
   // `lamina render --stack` (renderer/layered/stack_assignment.h) for this scene's jobs: the
   // settings' assignments, then the scene's own, files absolute. They win over `materials`.
   std::vector<StackAssignment> stacks;
+  // `lamina render --spectral` (renderer/render/spectral_option.h) for this scene's jobs: the
+  // scene's own "spectral", else the settings'.
+  bool spectral = false;
   // Whether `stacks` covers a glTF material (named, or FILE for all).
   bool stack_assigned(const std::string& material) const {
     for (const StackAssignment& a : stacks)

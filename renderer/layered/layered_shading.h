@@ -14,6 +14,7 @@
 namespace lamina {
 
 class LayeredTables;
+class SpectralTables;
 
 // Switches for tests and noise measurements only; production leaves them as they are.
 struct ShadingTestHooks {
@@ -44,6 +45,9 @@ struct LayeredShading {
   const SpectralStack* spectral_for(int material) const {
     return material >= 0 && material < static_cast<int>(spectral.size()) ? spectral[material].get() : nullptr;
   }
+  // The spectral mode's tables and Lambert albedos on a wavelength grid (table and lambert
+  // modes; renderer/layered/spectral_tables.h).
+  const SpectralTables* spectral_tables = nullptr;
   ShadingTestHooks test_hooks;
 };
 

@@ -7,6 +7,7 @@
 #include "materials/walk/random_walk.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
+#include "renderer/layered/spectral_tables.h"
 #include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/wavelength_stack.h"
 #include "renderer/surfaces/first_order_surface.h"
@@ -58,15 +59,20 @@ const Surface& plain_surface(const SceneDesc& desc, const SurfaceHit& hit, const
   return storage.emplace<MetallicRoughnessSurface>(albedo, metallic, roughness);
 }
 
-// A table surface with the factors of its texture-driven parameters (they live as long as it).
+// A table surface with the factors of its texture-driven parameters and, in the spectral mode,
+// its grid tables at the path's wavelengths (they live as long as it).
 struct FactoredTable {
   TableFactor factors[LayeredTables::kMaxFactors];
+  SpectralTableChannels spectral;
   std::optional<TableSurface> surface;
 };
 
-// table mode: texture-driven parameters scale the table's bins (renderer/layered/layered_tables.h).
-const Surface& table_surface(const LayeredTables& tables, const LayeredMaterial& lm, const ShadingPoint& sp,
-                             const LayerStack& stack, const glm::dvec3& wo, SurfaceStorage& storage) {
+// table mode: texture-driven parameters scale the table's bins (renderer/layered/layered_tables.h);
+// in the spectral mode (w not null) the grid tables give the bins (renderer/layered/spectral_tables.h).
+const Surface& table_surface(const LayeredShading& layered, const LayeredMaterial& lm, const ShadingPoint& sp,
+                             const LayerStack& stack, const glm::dvec3& wo, const SampledWavelengths* w,
+                             SurfaceStorage& storage) {
+  const LayeredTables& tables = *layered.tables;
   FactoredTable& t = storage.emplace<FactoredTable>();
   int factor_count = 0;
   if (const StackBindings* b = lm.bindings(); b && !b->empty()) {
@@ -74,7 +80,8 @@ const Surface& table_surface(const LayeredTables& tables, const LayeredMaterial&
     b->values(sp.uv, values.data());
     factor_count = tables.factors(&lm, sp.from_below, values.data(), t.factors);
   }
-  return t.surface.emplace(tables.get(&lm, sp.from_below), stack, wo, t.factors, factor_count);
+  if (w) layered.spectral_tables->channels(&lm, sp.from_below, *w, &t.spectral);
+  return t.surface.emplace(tables.get(&lm, sp.from_below), stack, wo, t.factors, factor_count, w ? &t.spectral : nullptr);
 }
 
 }  // namespace
@@ -99,7 +106,9 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   const LayeredMaterial* lm = layered_ && layered_->bindings ? layered_->bindings->get(material_index) : nullptr;
   if (!lm) return plain_surface(desc_, hit, mat, path.wavelengths(), storage);
   const SubsurfaceMode mode = layered_->mode_for(material_index);
-  if (mode == SubsurfaceMode::Lambert) return storage.emplace<LambertSurface>(lm->lambert_albedo_at(hit.uv));
+  const SampledWavelengths* w = path.wavelengths();
+  if (mode == SubsurfaceMode::Lambert)
+    return storage.emplace<LambertSurface>(w ? layered_->spectral_tables->lambert_albedo(*lm, hit.uv, *w) : lm->lambert_albedo_at(hit.uv));
   // The top faces the viewer: a transmitting stack seen from behind is flipped; any other
   // stack is seen from its top from either side (closed meshes).
   ShadingPoint sp;
@@ -108,19 +117,8 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   sp.mesh = hit.mesh;
   sp.triangle = hit.triangle;
   sp.from_below = back_side && lm->transmits();
-  const LayerStack& stack = lm->stack_at(sp, scratch);
-  switch (mode) {
-    case SubsurfaceMode::FirstOrder:
-      return storage.emplace<FirstOrderSurface>(stack, geometry->wo);
-    case SubsurfaceMode::Table:
-      return table_surface(*layered_->tables, *lm, sp, stack, geometry->wo, storage);
-    case SubsurfaceMode::RandomWalk:
-    case SubsurfaceMode::Lambert:
-      break;
-  }
-  const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
-  ++path.walks_;
-  if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: the stack at the path's wavelengths
+  const LayerStack* stack = &lm->stack_at(sp, scratch);
+  if (w) {  // the spectral mode: the stack at the path's wavelengths
     thread_local LayerStack at_wavelengths;  // like `scratch`: valid until the next hit of this thread
     const SpectralStack* spectral = layered_->spectral_for(material_index);
     if (const StackBindings* b = lm->bindings(); spectral && b && !b->empty()) {
@@ -128,10 +126,21 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
       bind_chromophores(*spectral, *b, sp.uv, &bound);
       spectral = &bound;
     }
-    stack_at_wavelengths(stack, spectral, *w, &at_wavelengths);
-    return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
+    stack_at_wavelengths(*stack, spectral, *w, &at_wavelengths);
+    stack = &at_wavelengths;
   }
-  return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);
+  switch (mode) {
+    case SubsurfaceMode::FirstOrder:
+      return storage.emplace<FirstOrderSurface>(*stack, geometry->wo);
+    case SubsurfaceMode::Table:
+      return table_surface(*layered_, *lm, sp, *stack, geometry->wo, w, storage);
+    case SubsurfaceMode::RandomWalk:
+    case SubsurfaceMode::Lambert:
+      break;
+  }
+  const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
+  ++path.walks_;
+  return storage.emplace<RandomWalkSurface>(*stack, hero, layered_->walk, path.events_);
 }
 
 }  // namespace lamina

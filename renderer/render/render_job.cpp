@@ -320,6 +320,7 @@ RenderResult render_job(const RenderRequest& request, const RenderLog& log) {
   inputs.table_method = request.table_method;
   inputs.walk = request.walk;
   inputs.cache = cache ? &*cache : nullptr;
+  if (request.settings.spectral) inputs.spectral = &spectral;
   PreparedShading shading;
   prepare_shading(inputs, log, &shading);
   shading.layered.spectral = std::move(spectral);

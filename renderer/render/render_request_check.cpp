@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <string>
 
-#include "renderer/render/spectral_option.h"
 #include "renderer/render/walk_option_table.h"
 #include "renderer/util/string_format.h"
 
@@ -43,16 +42,6 @@ void check_modes(const RenderRequest& r) {
     refuse("--table-method is only meaningful with --subsurface table or auto");
 }
 
-// The spectral mode runs the random walk for layered materials (renderer/layered/wavelength_stack.h):
-// the other modes' tables and closed forms are RGB.
-void check_spectral(const RenderRequest& r) {
-  if (!r.settings.spectral) return;
-  const SubsurfaceChoice& choice = r.subsurface;
-  if (choice.automatic || choice.mode != SubsurfaceMode::RandomWalk)
-    refuse("--subsurface " + std::string(choice.automatic ? "auto" : subsurface_mode_name(choice.mode)) + " is not rendered with " +
-           kSpectralOption.flag + " yet: layered materials are rendered spectrally by the random walk only");
-}
-
 }  // namespace
 
 void check_render_request(const RenderRequest& r) {
@@ -60,13 +49,12 @@ void check_render_request(const RenderRequest& r) {
   if (r.png_path.empty())
     for (const char* png_only : {"--exposure", "--tone-curve"})
       if (given(r, png_only)) refuse(std::string(png_only) + " is only meaningful with --png (the EXR stays linear)");
-  check_spectral(r);  // before the modes' rules: with --spectral, the layered options' own rules do not apply
   check_modes(r);
 }
 
 void check_table_method(const RenderRequest& r, const LayeredBindings& bindings, const std::vector<std::string>& names) {
   const SubsurfaceChoice& choice = r.subsurface;
-  if (r.table_method != TableSettings::Method::MonteCarlo || r.settings.spectral) return;
+  if (r.table_method != TableSettings::Method::MonteCarlo) return;
   if (!choice.automatic && choice.mode != SubsurfaceMode::Table) return;
   for (std::size_t i = 0; i < bindings.by_material.size(); ++i) {
     const LayeredMaterial* m = bindings.by_material[i].get();

@@ -75,6 +75,44 @@ void build_tables(const ShadingInputs& in, const RenderLog& log, PreparedShading
                               t.bytes() / 1024.0));
 }
 
+// The spectral mode under auto: a material whose chromophores are bound to maps is not tabulated
+// per wavelength (renderer/layered/spectral_tables.h), so where auto chose table or lambert for it
+// (or left it hidden, as lambert) the walk renders it.
+void walk_untabulated_chromophores(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
+  const auto& by_material = in.bindings->by_material;
+  for (std::size_t i = 0; i < by_material.size(); ++i) {
+    SubsurfaceMode& mode = out->layered.per_material[i];
+    if (!by_material[i] || !binds_chromophores(*by_material[i]) || mode == SubsurfaceMode::RandomWalk ||
+        mode == SubsurfaceMode::FirstOrder)
+      continue;
+    mode = SubsurfaceMode::RandomWalk;
+    AutoChoice& c = out->choices[i];
+    c.mode = mode;
+    c.visible = true;
+    c.reason += "; random-walk in the spectral mode (chromophores bound to maps are not tabulated per wavelength)";
+    say(log.info, "auto: material " + (*in.material_names)[i] + ": " + c.reason);
+  }
+}
+
+// The spectral mode's tables and Lambert albedos on its wavelength grid, of the materials that
+// use them (renderer/layered/spectral_tables.h).
+void build_spectral_tables(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
+  const auto& by_material = in.bindings->by_material;
+  std::vector<bool> tables(by_material.size()), albedos(by_material.size());
+  for (std::size_t i = 0; i < by_material.size(); ++i) {
+    tables[i] = by_material[i] && mode_of(in, *out, i) == SubsurfaceMode::Table;
+    albedos[i] = by_material[i] && mode_of(in, *out, i) == SubsurfaceMode::Lambert;
+  }
+  TableSettings table_settings;
+  table_settings.method = in.table_method;
+  out->spectral_tables = std::make_unique<SpectralTables>(*in.bindings, *in.spectral, out->tables.get(), tables, albedos,
+                                                          table_settings, in.cache);
+  const SpectralTables& s = *out->spectral_tables;
+  say(log.info, string_printf("spectral mode: tables and albedos on %d wavelengths (360-830 nm every %.1f nm): %d table(s) "
+                              "(%d loaded from the cache) in %.2f s",
+                              s.grid().count, s.grid().nm(1) - s.grid().nm(0), s.tables(), s.tables_loaded(), s.seconds()));
+}
+
 // The lambert mode's albedos, computed before rendering so that the render's time is the render's.
 void compute_lambert_albedos(const ShadingInputs& in, const RenderLog& log) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -153,15 +191,19 @@ void prepare_shading(const ShadingInputs& in, const RenderLog& log, PreparedShad
     for (const auto& m : bindings.by_material)
       if (m) load_lambert_albedo(*in.cache, *m);
   if (in.subsurface.automatic) choose_modes(in, log, out);
+  if (in.subsurface.automatic && in.spectral) walk_untabulated_chromophores(in, log, out);
   const bool any = bindings.count() > 0;
   if (any && uses(in, *out, SubsurfaceMode::Table)) build_tables(in, log, out);
   if (any && !in.subsurface.automatic && in.subsurface.mode == SubsurfaceMode::Lambert) compute_lambert_albedos(in, log);
+  if (any && in.spectral && (uses(in, *out, SubsurfaceMode::Table) || uses(in, *out, SubsurfaceMode::Lambert)))
+    build_spectral_tables(in, log, out);
   report_ignored(in, log, out);
   if (in.walk.similarity_after >= 0 && any && uses(in, *out, SubsurfaceMode::RandomWalk)) measure_similarity_bias(in, log, out);
   out->layered.walk = in.walk;
   out->layered.bindings = &bindings;
   out->layered.mode = in.subsurface.mode;
   out->layered.tables = out->tables.get();
+  out->layered.spectral_tables = out->spectral_tables.get();
 }
 
 }  // namespace lamina

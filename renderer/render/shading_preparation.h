@@ -13,6 +13,7 @@
 #include "renderer/image/image_io.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/layered_tables.h"
+#include "renderer/layered/spectral_tables.h"
 #include "renderer/layered/subsurface_auto.h"
 #include "renderer/layered/subsurface_mode.h"
 #include "renderer/surfaces/random_walk_surface.h"
@@ -35,11 +36,15 @@ struct ShadingInputs {
   TableSettings::Method table_method = TableSettings::Method::AddingDoubling;
   RandomWalkOptions walk;
   WalkCache* cache = nullptr;  // null: none
+  // The spectral mode: per material slot, its file's chromophore layers (null: none); null in
+  // the RGB mode. The table and lambert modes then also get their grid (spectral_tables.h).
+  const std::vector<std::shared_ptr<const SpectralStack>>* spectral = nullptr;
 };
 
 struct PreparedShading {
   std::vector<AutoChoice> choices;  // --subsurface auto: per material slot; else empty
   std::unique_ptr<LayeredTables> tables;
+  std::unique_ptr<SpectralTables> spectral_tables;  // the spectral mode's, when a material needs them
   Metadata ignored;          // lamina:ignored:<material>
   Metadata similarity_bias;  // lamina:similarity_bias:<material>
   LayeredShading layered;    // for the integrator; points into `tables` and the inputs' bindings

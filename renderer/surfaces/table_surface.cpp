@@ -12,8 +12,8 @@ namespace lamina {
 TableSurface::TableSurface(const LayeredTable& table, const glm::dvec3& wo) : TableSurface(table, *table.stack, wo, nullptr, 0) {}
 
 TableSurface::TableSurface(const LayeredTable& table, const LayerStack& hit_stack, const glm::dvec3& wo,
-                           const TableFactor* factors, int factor_count)
-    : table_(table), factors_(factors), factor_count_(factor_count), lobes_(hit_stack, wo) {
+                           const TableFactor* factors, int factor_count, const SpectralTableChannels* spectral)
+    : table_(table), factors_(factors), factor_count_(factor_count), spectral_(spectral), lobes_(hit_stack, wo) {
   if (hit_stack.rough_top()) {
     // No mirror delta: the smooth top's reflectance becomes the glossy lobe's sampling share.
     glossy_ = true;
@@ -69,7 +69,24 @@ Spectrum table_model_value(const LayeredTable& base_table, const TableFactor* fa
 }
 
 Spectrum TableSurface::value(int node, int bin) const {
-  return table_model_value(table_, factors_, factor_count_, node, bin);
+  if (!spectral_) return table_model_value(table_, factors_, factor_count_, node, bin);
+  return spectral_table_value(*spectral_, table_, factors_, factor_count_, node, bin);
+}
+
+Spectrum spectral_table_value(const SpectralTableChannels& s, const LayeredTable& base_table, const TableFactor* factors,
+                              int factor_count, int node, int bin) {
+  Spectrum f;
+  for (int c = 0; c < kChannels; ++c)
+    for (int k = 0; k < 2; ++k)
+      if (s.weight[c][k] != 0.0) f[c] += s.weight[c][k] * s.table[c][k]->at(node, bin)[s.channel[c][k]];
+  if (factor_count == 0) return f;
+  // The factors' product T / T_0 in RGB, uplifted as an RGB coefficient is (grey stays grey).
+  const Spectrum model = table_model_value(base_table, factors, factor_count, node, bin);
+  const Spectrum& base = base_table.at(node, bin);
+  Spectrum ratio(1.0);
+  for (int c = 0; c < kChannels; ++c)
+    if (base[c] > 0.0) ratio[c] = model[c] / base[c];
+  return f * (ratio.is_grey() ? ratio : s.wavelengths->reflectance(ratio));
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {

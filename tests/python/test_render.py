@@ -1,5 +1,6 @@
 """lamina.render, Image, compare and denoise against the command line, and Ctrl-C."""
 
+import json
 import os
 import signal
 import threading
@@ -37,6 +38,48 @@ def test_render_equals_the_command_line(cli, source, tmp_path):
     im.write(tmp_path / "py.exr")
     back = lamina.Image.read(tmp_path / "py.exr")
     assert np.array_equal(back.rgb, ref.rgb) and back.metadata == im.metadata
+
+
+def test_spectral_equals_the_command_line(cli, source, tmp_path):
+    # lamina.render(spectral=True) is lamina render --spectral: the same image and header.
+    ref = exr_of_cli(cli, source, tmp_path, "cli.exr", "--spectral")
+    im = lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, spectral=True, progress=False)
+    assert np.array_equal(im.rgb, ref.rgb)
+    assert not np.array_equal(im.rgb, exr_of_cli(cli, source, tmp_path, "rgb.exr").rgb)
+    differ = {k for k in set(im.metadata) | set(ref.metadata) if im.metadata.get(k) != ref.metadata.get(k)}
+    assert differ <= {"lamina:command", "lamina:seconds"}, differ
+    assert "lamina:spectral" in im.metadata and "spectral=True" in im.metadata["lamina:command"]
+
+
+def test_spectral_refusal_is_the_command_lines(cli, source, tmp_path):
+    # Chromophores bound to a map are not tabulated per wavelength: the table mode refuses them in
+    # the spectral mode, in the command line's words; nothing is written.
+    (tmp_path / "map.json").write_text(json.dumps({"skin": {
+        "stack": str(source / "scenes/spectral/skin_spectral.json"),
+        "bind": [{"parameter": "layers[0].chromophores.melanin", "texture": str(source / "scenes/head_skin/melanin_fitted.png"),
+                  "channel": "r", "range": [0.01, 0.3]}]}}))
+    out = tmp_path / "out"
+    out.mkdir()
+    p = cli("render", source / SCENE, *SIZE, "-o", out / "x.exr", "--materials", tmp_path / "map.json", "--spectral",
+            "--subsurface", "table", check=False)
+    assert p.returncode == 1, p.stderr
+    message = p.stderr.strip().splitlines()[-1]
+    assert "not tabulated per wavelength" in message, message
+    with pytest.raises(RuntimeError) as e:
+        lamina.render(source / SCENE, width=40, height=30, spp=4, seed=5, materials=tmp_path / "map.json", spectral=True,
+                      subsurface="table", out=out / "x.exr", progress=False)
+    assert "lamina render: " + str(e.value) == message
+    assert os.listdir(out) == []
+
+
+def test_spectral_keyword_is_the_flags_declaration():
+    # The keyword, its flag and its help come from the one C++ declaration (spectral_option.h).
+    import inspect
+    from lamina import _lamina
+    keyword, flag, help = _lamina.SPECTRAL_OPTION
+    assert flag == "--" + keyword
+    assert inspect.signature(lamina.render).parameters[keyword].default is False
+    assert help in lamina.render.__doc__
 
 
 def test_out_writes_the_files_as_the_cli(cli, source, tmp_path):
@@ -108,7 +151,7 @@ def test_ctrl_c_stops_and_writes_nothing(source, tmp_path, width, height, spp, s
 @pytest.mark.parametrize("kwargs,error", [
     ({"width": 0}, ValueError), ({"width": "40"}, TypeError), ({"spp": 2.5}, TypeError),
     ({"clamp": float("nan")}, ValueError), ({"subsurface": "magic"}, ValueError), ({"aovs": "colour"}, ValueError),
-    ({"walk": {"no-such-option": 1}}, ValueError),
+    ({"walk": {"no-such-option": 1}}, ValueError), ({"spectral": 1}, TypeError), ({"spectral": "yes"}, TypeError),
 ])
 def test_bad_arguments_raise(source, kwargs, error):
     args = {"width": 8, "height": 8, "spp": 1, "progress": False, **kwargs}

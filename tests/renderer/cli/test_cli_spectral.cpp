@@ -223,8 +223,11 @@ TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
   ASSERT_EQ(run("render " + box + "-o " + dir_ + "/rgb.exr").exit_code, 0);
   EXPECT_NE(lamina::test::slurp(dir_ + "/spectral.exr").find("lamina:spectral"), std::string::npos);
   EXPECT_EQ(lamina::test::slurp(dir_ + "/rgb.exr").find("lamina:spectral"), std::string::npos);
-  expect_one_line_error("render " + box + "--spectral --subsurface table -o " + dir_ + "/x.exr", 2,
-                        "--subsurface table is not rendered with --spectral");
+  // Every --subsurface mode renders spectrally (the lambert mode on its wavelength grid:
+  // docs/spectral.md, "Tables and albedos on a wavelength grid"; test_spectral_tables.cpp).
+  const CliResult lambert = run("render " + box + "--spectral --subsurface lambert --stack " + skin_ + " -o " + dir_ + "/l.exr");
+  EXPECT_EQ(lambert.exit_code, 0) << lambert.err;
+  EXPECT_NE(lambert.out.find("spectral mode: tables and albedos on 48 wavelengths"), std::string::npos) << lambert.out;
   expect_one_line_error("render " + box + "--spectral --stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
                         "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
   // A skin by chromophores renders (the stack at each path's wavelengths).
