@@ -21,6 +21,10 @@ struct ShadingTestHooks {
   // (renderer/layered/hero_strata.h; hero_strata.cpp has the derivation). false: every walk
   // draws its hero independently (the library's default), to measure what stratifying gains.
   bool stratified_hero = true;
+  // The spectral mode: every random walk follows one wavelength (as through a leaf, whose index
+  // varies with the wavelength; docs/spectral.md), to test that estimator on stacks whose
+  // three-wavelength walk is its reference, and to measure its colour noise.
+  bool one_wavelength_walks = false;
 };
 
 // How layered materials are shaded (renderer/surfaces/first_order_surface.h lists the modes).
@@ -38,7 +42,7 @@ struct LayeredShading {
   // it uses (`--pool-samples`, `--similarity-after`, `--guiding`; the naive and connections-only
   // estimators of the tests), as renderer/surfaces/random_walk_surface.h defines them.
   RandomWalkOptions walk;
-  // The spectral mode: per glTF material slot, its file's chromophore layers (null: none),
+  // The spectral mode: per glTF material slot, its file's chromophore and leaf layers (null: none),
   // evaluated at each path's wavelengths (renderer/layered/wavelength_stack.h).
   std::vector<std::shared_ptr<const SpectralStack>> spectral;
   const SpectralStack* spectral_for(int material) const {

@@ -118,8 +118,8 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
     case SubsurfaceMode::Lambert:
       break;
   }
-  const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
-  ++path.walks_;
+  const int walk_index = path.walks_++;
+  const int hero = path.stratified_ ? path.strata_.hero(walk_index) : kRandomHero;
   if (const SampledWavelengths* w = path.wavelengths()) {  // the spectral mode: the stack at the path's wavelengths
     thread_local LayerStack at_wavelengths;  // like `scratch`: valid until the next hit of this thread
     const SpectralStack* spectral = layered_->spectral_for(material_index);
@@ -128,8 +128,20 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
       bind_chromophores(*spectral, *b, sp.uv, &bound);
       spectral = &bound;
     }
-    stack_at_wavelengths(stack, spectral, *w, &at_wavelengths);
-    return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
+    if (!(spectral && has_leaf_layers(*spectral)) && !layered_->test_hooks.one_wavelength_walks) {
+      stack_at_wavelengths(stack, spectral, sp.from_below, *w, &at_wavelengths);
+      return storage.emplace<RandomWalkSurface>(at_wavelengths, hero, layered_->walk, path.events_);
+    }
+    // The index varies with the wavelength: the path follows one wavelength from here on, the
+    // first such walk's stratified hero (uniform on the three channels, independent of the
+    // wavelengths), its estimate 3 times in that channel and 0 in the others: unbiased per
+    // channel (docs/spectral.md, "Leaves: one wavelength through a leaf").
+    const bool first = path.one_wavelength_ < 0;
+    if (first) path.one_wavelength_ = path.strata_.hero(walk_index);
+    stack_at_wavelength_channel(stack, spectral, sp.from_below, *w, path.one_wavelength_, &at_wavelengths);
+    RandomWalkSurface& s = storage.emplace<RandomWalkSurface>(at_wavelengths, path.one_wavelength_, layered_->walk, path.events_);
+    s.follow_one_wavelength(path.one_wavelength_, first ? kChannels : 1.0);
+    return s;
   }
   return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);
 }

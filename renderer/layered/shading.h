@@ -44,6 +44,9 @@ class PathShading {
   std::uint64_t* events_ = nullptr;     // counts the walks' scattering events
   bool spectral_ = false;
   SampledWavelengths wavelengths_;
+  // The channel whose wavelength alone the path follows since it entered a leaf (-1: all three;
+  // docs/spectral.md, "Leaves: one wavelength through a leaf").
+  int one_wavelength_ = -1;
 };
 
 class Shading {

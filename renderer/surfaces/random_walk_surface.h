@@ -59,11 +59,26 @@ class RandomWalkSurface final : public Surface {
                SurfaceScatter* next) const override;
   bool draws_per_event() const override { return options_.per_event_pool_samples; }
 
+  // The spectral mode's walk through a stack whose index varies with the wavelength (a leaf,
+  // docs/spectral.md "Leaves: one wavelength through a leaf"): the stack is the path's wavelength
+  // `channel` alone, and every estimate (light connections, per-event samples, the continuation)
+  // is multiplied by `weight` in that channel and by 0 in the others.
+  void follow_one_wavelength(int channel, double weight) {
+    channel_weights_ = Spectrum(0.0);
+    channel_weights_[channel] = weight;
+    one_wavelength_ = true;
+  }
+
  private:
   const LayerStack& stack_;
   int hero_;
   RandomWalkOptions options_;
   std::uint64_t* events_;
+  // scatter() in every channel (follow_one_wavelength's factors not applied).
+  bool scatter_all(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
+                   SurfaceScatter* next) const;
+  bool one_wavelength_ = false;
+  Spectrum channel_weights_;  // follow_one_wavelength's factors
 };
 
 }  // namespace lamina
