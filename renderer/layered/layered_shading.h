@@ -21,9 +21,9 @@ struct ShadingTestHooks {
   // (renderer/layered/hero_strata.h; hero_strata.cpp has the derivation). false: every walk
   // draws its hero independently (the library's default), to measure what stratifying gains.
   bool stratified_hero = true;
-  // The spectral mode: every random walk follows one wavelength (as through a leaf, whose index
-  // varies with the wavelength; docs/spectral.md), to test that estimator on stacks whose
-  // three-wavelength walk is its reference, and to measure its colour noise.
+  // The spectral mode: every layered material is walked as a leaf is (its index varying with the
+  // wavelength; docs/spectral.md, "Leaves: one wavelength through a leaf"), to test that
+  // estimator on stacks whose three-wavelength walk is its reference, and to measure its noise.
   bool one_wavelength_walks = false;
 };
 

@@ -134,13 +134,19 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
     }
     // The index varies with the wavelength: the path follows one wavelength from here on, the
     // first such walk's stratified hero (uniform on the three channels, independent of the
-    // wavelengths), its estimate 3 times in that channel and 0 in the others: unbiased per
-    // channel (docs/spectral.md, "Leaves: one wavelength through a leaf").
-    const bool first = path.one_wavelength_ < 0;
-    if (first) path.one_wavelength_ = path.strata_.hero(walk_index);
+    // wavelengths). At that first hit one walk per wavelength gives each channel's light
+    // connections and the followed one continues, weight 3 in its channel, 0 in the others;
+    // later such hits walk at the followed wavelength alone (docs/spectral.md, "Leaves: one
+    // wavelength through a leaf").
+    if (path.one_wavelength_ < 0) {
+      path.one_wavelength_ = path.strata_.hero(walk_index);
+      thread_local LayerStack at_each[kChannels];  // valid until the next hit of this thread
+      for (int c = 0; c < kChannels; ++c) stack_at_wavelength_channel(stack, spectral, sp.from_below, *w, c, &at_each[c]);
+      return storage.emplace<WavelengthWalksSurface>(at_each, path.one_wavelength_, layered_->walk, path.events_);
+    }
     stack_at_wavelength_channel(stack, spectral, sp.from_below, *w, path.one_wavelength_, &at_wavelengths);
     RandomWalkSurface& s = storage.emplace<RandomWalkSurface>(at_wavelengths, path.one_wavelength_, layered_->walk, path.events_);
-    s.follow_one_wavelength(path.one_wavelength_, first ? kChannels : 1.0);
+    s.follow_one_wavelength(path.one_wavelength_, 1.0);
     return s;
   }
   return storage.emplace<RandomWalkSurface>(stack, hero, layered_->walk, path.events_);

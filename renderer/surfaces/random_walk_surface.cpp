@@ -374,4 +374,26 @@ bool RandomWalkSurface::scatter_all(const glm::dvec3& wo, Rng& rng, LightDirecti
   return walk.run(wo, hero_, events_, next);
 }
 
+bool WavelengthWalksSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
+                                     LightSampler* per_event, SurfaceScatter* next) const {
+  thread_local std::vector<LightDirection> own;  // one walk's connections
+  own.assign(lights, lights + light_count);
+  for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
+  bool continues = false;
+  for (int c = 0; c < kChannels; ++c) {
+    RandomWalkSurface walk(stacks_[c], c, options_, events_);
+    walk.follow_one_wavelength(c, 1.0);
+    SurfaceScatter exit;
+    const bool walk_continues = walk.scatter(wo, rng, own.data(), light_count, per_event, &exit);
+    for (int k = 0; k < light_count; ++k) lights[k].f_cos += own[k].f_cos;
+    if (c != follow_) continue;
+    continues = walk_continues;
+    if (continues) {
+      *next = exit;
+      next->weight *= static_cast<double>(kChannels);
+    }
+  }
+  return continues;
+}
+
 }  // namespace lamina
