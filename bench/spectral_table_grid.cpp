@@ -65,7 +65,7 @@ std::vector<std::vector<double>> at_wavelengths(const Material& s, const std::ve
   for (std::size_t i = 0; i < nm.size(); i += 3) {
     const auto at = [&](std::size_t k) { return nm[std::min(i + k, nm.size() - 1)]; };
     LayerStack stack;
-    stack_at_wavelengths(s.stack, s.spectral(), SampledWavelengths::at(at(0), at(1), at(2)), &stack);
+    stack_at_wavelengths(s.stack, s.spectral(), false, SampledWavelengths::at(at(0), at(1), at(2)), &stack);
     Spectrum q[kQuantities];
     quantities(stack, q);
     for (int k = 0; k < 3 && i + k < nm.size(); ++k)
@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
       }
       // A full table of one grid stack (three grid wavelengths), as the renderer builds it.
       const auto t0 = std::chrono::steady_clock::now();
-      build_layered_table(stack_at_grid(s.stack, s.spectral(), grid, nodes / 6), TableSettings{});
+      build_layered_table(stack_at_grid(s.stack, s.spectral(), false, grid, nodes / 6), TableSettings{});
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::printf("%s, %d, %.2f, %.5f, %.5f, %.3f\n", file.substr(file.rfind('/') + 1).c_str(), nodes, step, worst, worst_colour,
                   seconds);

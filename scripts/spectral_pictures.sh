@@ -4,8 +4,13 @@
 # difference of their luminance (`lamina compare`, smoothed by a Gaussian of sigma 1 px, which its
 # legend states), side by side: docs/images/spectral_head_skin.png and
 # docs/images/spectral_leaves_back.png. About 5 minutes on 2 cores.
+# Then the leaves by pigment (scenes/leaves_spectral, written by
+# scripts/make_leaves_spectral_scene.py: five chlorophyll contents, from green to yellowing),
+# front and back lit, the RGB mode rendering each leaf's RGB projection (the scene's material
+# map): docs/images/spectral_leaves_pigment_{front,back}.png. About 6 minutes more.
 #
-#   scripts/spectral_pictures.sh        SP_SPP (default 64) sets the samples per pixel
+#   scripts/spectral_pictures.sh        SP_SPP (default 64) sets the samples per pixel;
+#                                       SP_ONLY=leaves renders only the leaves by pigment
 set -euo pipefail
 cd "$(dirname "$0")/.."
 LAMINA=${LAMINA_BUILD_DIR:-build}/renderer/lamina
@@ -18,6 +23,7 @@ picture() {  # NAME SCENE ARGS...
   shift 2
   for mode in rgb spectral; do
     local args=()
+    [ "$mode" = rgb ] && args=("${RGB_ARGS[@]}")
     [ "$mode" = spectral ] && args=(--spectral)
     "$LAMINA" render "$scene" "$@" --spp "$SPP" "${args[@]}" -o "$OUT/${name}_$mode.exr" --png "$OUT/${name}_$mode.png"
   done
@@ -27,5 +33,14 @@ picture() {  # NAME SCENE ARGS...
     -o "docs/images/spectral_$name.png"
 }
 
-picture head_skin scenes/head_skin/head_skin.gltf --width 240 --height 300 --env 0.05
-picture leaves_back scenes/leaves/leaves_back.gltf --width 320 --height 240
+RGB_ARGS=()
+if [ "${SP_ONLY:-}" != leaves ]; then
+  picture head_skin scenes/head_skin/head_skin.gltf --width 240 --height 300 --env 0.05
+  picture leaves_back scenes/leaves/leaves_back.gltf --width 320 --height 240
+fi
+
+# The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their projection.
+RGB_ARGS=(--materials scenes/leaves_spectral/leaves_rgb_materials.json)
+for side in front back; do
+  picture "leaves_pigment_$side" "scenes/leaves_spectral/leaves_spectral_$side.gltf" --width 240 --height 180
+done

@@ -1,5 +1,7 @@
 #include "materials/stack/spectral_stack.h"
 
+#include <algorithm>
+
 namespace lamina {
 
 LayerStack stack_at_wavelength(const SpectralStack& spectral, double nm) {
@@ -18,6 +20,14 @@ LayerStack stack_at_wavelength(const SpectralStack& spectral, double nm) {
     layer.sigma_a = Spectrum(leaf->absorption(nm, layer.thickness));
     layer.lobes = {PhaseLobe{Spectrum(leaf->scattering_coefficient(nm, layer.thickness)), Spectrum(leaf->g)}};
   }
+  return s;
+}
+
+SpectralStack flipped(const SpectralStack& spectral) {
+  SpectralStack s = spectral;
+  s.stack = flipped(spectral.stack);
+  std::reverse(s.chromophores.begin(), s.chromophores.end());
+  std::reverse(s.leaves.begin(), s.leaves.end());
   return s;
 }
 

@@ -28,4 +28,9 @@ struct SpectralStack {
 // (and a leaf layer's index).
 LayerStack stack_at_wavelength(const SpectralStack& spectral, double nm);
 
+// The same stack seen from below (flipped() in stack.h, its per-layer chromophores and leaf
+// contents reversed with the layers). Only for a stack that transmits; throws
+// std::invalid_argument otherwise.
+SpectralStack flipped(const SpectralStack& spectral);
+
 }  // namespace lamina

@@ -22,6 +22,10 @@ struct ShadingTestHooks {
   // (renderer/layered/hero_strata.h; hero_strata.cpp has the derivation). false: every walk
   // draws its hero independently (the library's default), to measure what stratifying gains.
   bool stratified_hero = true;
+  // The spectral mode: every layered material is walked as a leaf is (its index varying with the
+  // wavelength; docs/spectral.md, "Leaves: one wavelength through a leaf"), to test that
+  // estimator on stacks whose three-wavelength walk is its reference, and to measure its noise.
+  bool one_wavelength_walks = false;
 };
 
 // How layered materials are shaded (renderer/surfaces/first_order_surface.h lists the modes).
@@ -39,7 +43,7 @@ struct LayeredShading {
   // it uses (`--pool-samples`, `--similarity-after`, `--guiding`; the naive and connections-only
   // estimators of the tests), as renderer/surfaces/random_walk_surface.h defines them.
   RandomWalkOptions walk;
-  // The spectral mode: per glTF material slot, its file's chromophore layers (null: none),
+  // The spectral mode: per glTF material slot, its file's chromophore and leaf layers (null: none),
   // evaluated at each path's wavelengths (renderer/layered/wavelength_stack.h).
   std::vector<std::shared_ptr<const SpectralStack>> spectral;
   const SpectralStack* spectral_for(int material) const {

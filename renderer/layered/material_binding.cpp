@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "materials/stack/stack_parameters.h"
 #include "renderer/layered/gltf_stack.h"
 #include "renderer/layered/stack_bindings.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/scene/scene_gltf.h"
 #include "renderer/util/paths.h"
 #include "materials/stack/json_keys.h"
@@ -40,7 +42,8 @@ std::string material_names(const SceneDesc& scene) {
 std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, const std::string& material,
                                                   const std::string& stack_path, const std::string& resolved,
                                                   std::map<std::string, std::shared_ptr<const LayeredMaterial>>* cache,
-                                                  const nlohmann::json& spec = nullptr, const SceneDesc* scene = nullptr) {
+                                                  const nlohmann::json& spec = nullptr, const SceneDesc* scene = nullptr,
+                                                  bool spectral = false) {
   const bool bound = spec.is_object() && (spec.contains("bind") || spec.contains("freckles"));
   const std::string key = bound ? resolved + "\n" + named_in + "\n" + spec.dump() : resolved;
   if (auto it = cache->find(key); it != cache->end()) return it->second;
@@ -51,7 +54,13 @@ std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, c
   try {
     stack = load_stack_template(resolved);
   } catch (const StackFileError& e) {
-    throw SceneError(e.what());
+    // The spectral mode reads leaf layers, which the RGB reader refuses (wavelength_stack.h).
+    std::optional<LayerStack> leaf = spectral ? leaf_stack(resolved) : std::nullopt;
+    if (!leaf) throw SceneError(e.what());
+    if (bound) throw SceneError(named_in + ": material '" + material + "': " + resolved + ": a stack with leaf layers takes no parameter maps yet");
+    auto m = std::make_shared<const LayeredMaterial>(std::move(*leaf), resolved);
+    (*cache)[key] = m;
+    return m;
   }
   std::shared_ptr<const LayeredMaterial> m;
   if (bound) {
@@ -140,7 +149,7 @@ std::shared_ptr<const LayeredMaterial> gltf_layered_material(const SceneDesc& sc
 
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& map_path,
                                        const std::vector<InlineStack>& inline_stacks,
-                                       const std::vector<StackAssignment>& stacks) {
+                                       const std::vector<StackAssignment>& stacks, bool spectral) {
   const std::map<std::string, std::string> assigned = stacks_by_material(scene, stacks);
   LayeredBindings out;
   out.by_material.resize(scene.materials.size());
@@ -208,11 +217,11 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
       }
       out.by_material[i] = slot;
     } else if (auto st = assigned.count(m.name) ? assigned.find(m.name) : assigned.find(""); st != assigned.end()) {
-      out.by_material[i] = load_bound(kStackFlag, m.name, st->second, st->second, &cache);
+      out.by_material[i] = load_bound(kStackFlag, m.name, st->second, st->second, &cache, nullptr, nullptr, spectral);
     } else if (auto it = map.find(m.name); it != map.end()) {
       const auto spec = map_specs.find(m.name);
       out.by_material[i] = load_bound(map_path, m.name, it->second, resolve_relative_to(it->second, map_path), &cache,
-                                      spec == map_specs.end() ? nlohmann::json(nullptr) : spec->second, &scene);
+                                      spec == map_specs.end() ? nlohmann::json(nullptr) : spec->second, &scene, spectral);
     } else if (auto e = m.extras.find("lamina.stack"); e != m.extras.end()) {
       nlohmann::json spec = nullptr;
       if (!m.extras_json.empty()) {
@@ -223,7 +232,8 @@ LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string
           throw SceneError(scene.path + ": material '" + m.name + "': extras.lamina." + *key +
                            ": unknown key (allowed: " + key_list(kBindingKeys) + ")");
       }
-      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene);
+      out.by_material[i] = load_bound(scene.path, m.name, e->second, resolve_relative_to(e->second, scene.path), &cache, spec, &scene,
+                                      spectral);
     } else if (has_gltf_stack(m)) {
       // glTF transmission, diffuse transmission, volume and IOR as a stack (gltf_stack.h).
       out.by_material[i] = gltf_layered_material(scene, m);

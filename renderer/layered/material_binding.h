@@ -34,9 +34,10 @@ struct InlineStack {
 // error, as in the map.
 // `stacks` (--stack, stack_assignment.h) win over the map and the extras (named ones over the
 // one for all); a name that is no material of the scene is an error listing the scene's names.
+// spectral: the spectral mode, which also reads stack files with leaf layers (wavelength_stack.h).
 LayeredBindings bind_layered_materials(const SceneDesc& scene, const std::string& materials_map_path,
                                        const std::vector<InlineStack>& inline_stacks = {},
-                                       const std::vector<StackAssignment>& stacks = {});
+                                       const std::vector<StackAssignment>& stacks = {}, bool spectral = false);
 
 // With a --stack for every material: the meshes without a material get one, kNoMaterialName (the
 // default material's Lambert 0.8 until the stack replaces it), so the stack reaches them too.

@@ -126,7 +126,10 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
       bind_chromophores(*spectral, *b, sp.uv, &bound);
       spectral = &bound;
     }
-    stack_at_wavelengths(*stack, spectral, *w, &at_wavelengths);
+    // Leaf layers are walked (shading preparation refuses the other modes for them).
+    if ((spectral && has_leaf_layers(*spectral)) || layered_->test_hooks.one_wavelength_walks)
+      return one_wavelength_walk(*stack, spectral, sp.from_below, *w, path, storage);
+    stack_at_wavelengths(*stack, spectral, sp.from_below, *w, &at_wavelengths);
     stack = &at_wavelengths;
   }
   switch (mode) {
@@ -141,6 +144,29 @@ const Surface& Shading::surface_at(const SurfaceHit& hit, const glm::dvec3& wo_w
   const int hero = path.stratified_ ? path.strata_.hero(path.walks_) : kRandomHero;
   ++path.walks_;
   return storage.emplace<RandomWalkSurface>(*stack, hero, layered_->walk, path.events_);
+}
+
+// The index varies with the wavelength: the path follows one wavelength from here on, the
+// first such walk's stratified hero (uniform on the three channels, independent of the
+// wavelengths). At that first hit one walk per wavelength gives each channel's light
+// connections and the followed one continues, weight 3 in its channel, 0 in the others;
+// later such hits walk at the followed wavelength alone (docs/spectral.md, "Leaves: one
+// wavelength through a leaf").
+const Surface& Shading::one_wavelength_walk(const LayerStack& stack, const SpectralStack* spectral, bool from_below,
+                                            const SampledWavelengths& w, PathShading& path,
+                                            SurfaceStorage& storage) const {
+  const int walk_index = path.walks_++;
+  if (path.one_wavelength_ < 0) {
+    path.one_wavelength_ = path.strata_.hero(walk_index);
+    thread_local LayerStack at_each[kChannels];  // valid until the next hit of this thread
+    for (int c = 0; c < kChannels; ++c) stack_at_wavelength_channel(stack, spectral, from_below, w, c, &at_each[c]);
+    return storage.emplace<WavelengthWalksSurface>(at_each, path.one_wavelength_, layered_->walk, path.events_);
+  }
+  thread_local LayerStack at_wavelength;
+  stack_at_wavelength_channel(stack, spectral, from_below, w, path.one_wavelength_, &at_wavelength);
+  RandomWalkSurface& s = storage.emplace<RandomWalkSurface>(at_wavelength, path.one_wavelength_, layered_->walk, path.events_);
+  s.follow_one_wavelength(path.one_wavelength_, 1.0);
+  return s;
 }
 
 }  // namespace lamina

@@ -10,6 +10,8 @@
 #include <glm/vec3.hpp>
 
 #include "materials/spectral/sampled_wavelengths.h"
+#include "materials/stack/spectral_stack.h"
+#include "materials/stack/stack.h"
 #include "renderer/layered/hero_strata.h"
 #include "renderer/scene/scene.h"
 #include "renderer/surfaces/frame.h"
@@ -44,6 +46,9 @@ class PathShading {
   std::uint64_t* events_ = nullptr;     // counts the walks' scattering events
   bool spectral_ = false;
   SampledWavelengths wavelengths_;
+  // The channel whose wavelength alone the path follows since it entered a leaf (-1: all three;
+  // docs/spectral.md, "Leaves: one wavelength through a leaf").
+  int one_wavelength_ = -1;
 };
 
 class Shading {
@@ -63,6 +68,11 @@ class Shading {
                             SurfaceStorage& storage, ShadingGeometry* geometry) const;
 
  private:
+  // A layered surface whose index varies with the wavelength (leaf layers), walked at one
+  // wavelength of the path.
+  const Surface& one_wavelength_walk(const LayerStack& stack, const SpectralStack* spectral, bool from_below,
+                                     const SampledWavelengths& w, PathShading& path, SurfaceStorage& storage) const;
+
   const SceneDesc& desc_;
   const LayeredShading* layered_;
   bool spectral_ = false;

@@ -34,10 +34,11 @@ bool binds_chromophores(const LayeredMaterial& m) {
   return false;
 }
 
-LayerStack stack_at_grid(const LayerStack& stack, const SpectralStack* chromophores, const WavelengthTableGrid& grid, int g) {
+LayerStack stack_at_grid(const LayerStack& stack, const SpectralStack* chromophores, bool from_below,
+                         const WavelengthTableGrid& grid, int g) {
   const SampledWavelengths w = SampledWavelengths::at(grid.nm(3 * g), grid.nm(3 * g + 1), grid.nm(3 * g + 2));
   LayerStack out;
-  stack_at_wavelengths(stack, chromophores, w, &out);
+  stack_at_wavelengths(stack, chromophores, from_below, w, &out);
   return out;
 }
 
@@ -63,7 +64,7 @@ SpectralTables::SpectralTables(const LayeredBindings& bindings,
       std::vector<double>& a = albedos_[m];
       a.resize(static_cast<std::size_t>(grid_.count));
       for (int g = 0; g < groups; ++g) {
-        const Spectrum v = diffuse_bihemispherical_albedo_adding_doubling(stack_at_grid(m->base_stack(), chromophores_of(i), grid_, g));
+        const Spectrum v = diffuse_bihemispherical_albedo_adding_doubling(stack_at_grid(m->base_stack(), chromophores_of(i), false, grid_, g));
         for (int c = 0; c < kChannels; ++c) a[3 * g + c] = v[c];
       }
     }
@@ -75,7 +76,7 @@ SpectralTables::SpectralTables(const LayeredBindings& bindings,
       // T_0's stack: the base point's (the material's own stack without texture-driven parameters).
       const LayerStack& base = *rgb->get(m, below).stack;
       for (int g = 0; g < groups; ++g) {
-        side.stacks.push_back(std::make_unique<LayerStack>(stack_at_grid(base, below ? nullptr : chromophores_of(i), grid_, g)));
+        side.stacks.push_back(std::make_unique<LayerStack>(stack_at_grid(base, chromophores_of(i), below, grid_, g)));
         side.tables.emplace_back();
         work.emplace_back(&side, g);
       }

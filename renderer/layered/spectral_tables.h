@@ -88,6 +88,7 @@ class SpectralTables {
 };
 
 // The stack at grid wavelengths nm(3g), nm(3g + 1), nm(3g + 2).
-LayerStack stack_at_grid(const LayerStack& stack, const SpectralStack* chromophores, const WavelengthTableGrid& grid, int g);
+LayerStack stack_at_grid(const LayerStack& stack, const SpectralStack* chromophores, bool from_below,
+                         const WavelengthTableGrid& grid, int g);
 
 }  // namespace lamina

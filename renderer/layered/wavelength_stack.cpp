@@ -35,21 +35,25 @@ bool gives_spectral_layers(const std::string& path) {
 
 }  // namespace
 
-void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromophores, const SampledWavelengths& w,
-                          LayerStack* out) {
+void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromophores, bool from_below,
+                          const SampledWavelengths& w, LayerStack* out) {
   *out = stack;
-  for (std::size_t i = 0; i < out->layers.size(); ++i) {
+  const std::size_t n = out->layers.size();
+  for (std::size_t i = 0; i < n; ++i) {
     Layer& layer = out->layers[i];
+    const std::size_t f = from_below ? n - 1 - i : i;  // the layer's index in the file
     const SkinChromophores* c =
-        chromophores && i < chromophores->chromophores.size() && chromophores->chromophores[i] ? &*chromophores->chromophores[i]
+        chromophores && f < chromophores->chromophores.size() && chromophores->chromophores[f] ? &*chromophores->chromophores[f]
                                                                                               : nullptr;
-    if (c) {
+    const LeafChromophores* leaf = chromophores && f < chromophores->leaves.size() && chromophores->leaves[f] ? &*chromophores->leaves[f]
+                                                                                                           : nullptr;
+    if (c || leaf) {
       Spectrum sigma_s;
       for (int k = 0; k < kChannels; ++k) {
-        layer.sigma_a[k] = c->absorption(w.nm(k));
-        sigma_s[k] = c->scattering_coefficient(w.nm(k));
+        layer.sigma_a[k] = c ? c->absorption(w.nm(k)) : leaf->absorption(w.nm(k), layer.thickness);
+        sigma_s[k] = c ? c->scattering_coefficient(w.nm(k)) : leaf->scattering_coefficient(w.nm(k), layer.thickness);
       }
-      layer.lobes.assign(1, PhaseLobe{sigma_s, Spectrum(c->g)});
+      layer.lobes.assign(1, PhaseLobe{sigma_s, Spectrum(c ? c->g : leaf->g)});
       continue;
     }
     layer.sigma_a = uplifted_coefficient(w, layer.sigma_a);
@@ -59,6 +63,37 @@ void stack_at_wavelengths(const LayerStack& stack, const SpectralStack* chromoph
     }
   }
   if (out->below.kind == Below::Kind::Lambert) out->below.albedo = uplifted_coefficient(w, out->below.albedo);
+}
+
+void stack_at_wavelength_channel(const LayerStack& stack, const SpectralStack* chromophores, bool from_below,
+                                 const SampledWavelengths& w, int channel, LayerStack* out) {
+  stack_at_wavelengths(stack, chromophores, from_below, w, out);
+  const std::size_t n = out->layers.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    Layer& layer = out->layers[i];
+    layer.sigma_a = Spectrum(layer.sigma_a[channel]);
+    for (PhaseLobe& lobe : layer.lobes) lobe = PhaseLobe{Spectrum(lobe.sigma_s[channel]), Spectrum(lobe.g[channel])};
+    const std::size_t f = from_below ? n - 1 - i : i;
+    if (chromophores && f < chromophores->leaves.size() && chromophores->leaves[f])
+      layer.ior = LeafChromophores::refractive_index(w.nm(channel));
+  }
+  if (out->below.kind == Below::Kind::Lambert) out->below.albedo = Spectrum(out->below.albedo[channel]);
+}
+
+bool has_leaf_layers(const SpectralStack& spectral) {
+  for (const auto& leaf : spectral.leaves)
+    if (leaf) return true;
+  return false;
+}
+
+std::optional<LayerStack> leaf_stack(const std::string& path) {
+  if (!gives_spectral_layers(path)) return std::nullopt;
+  try {
+    SpectralStack s = load_spectral_stack(path);
+    if (has_leaf_layers(s)) return std::move(s.stack);
+  } catch (const StackFileError&) {
+  }
+  return std::nullopt;
 }
 
 void bind_chromophores(const SpectralStack& spectral, const StackBindings& bindings, glm::dvec2 uv,
@@ -78,12 +113,7 @@ std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredB
   for (std::size_t m = 0; m < out.size(); ++m) {
     const LayeredMaterial* lm = bindings.by_material[m].get();
     if (!lm || !gives_spectral_layers(lm->source())) continue;
-    auto spectral = std::make_shared<SpectralStack>(load_spectral_stack(lm->source()));
-    const std::string why = lm->source() + ": not rendered spectrally yet (render without --spectral): ";
-    for (const auto& leaf : spectral->leaves)
-      if (leaf) throw std::runtime_error(why + "a leaf layer (its index varies with the wavelength)");
-    if (spectral->stack.transmits()) throw std::runtime_error(why + "chromophore layers in a stack that transmits");
-    out[m] = std::move(spectral);
+    out[m] = std::make_shared<SpectralStack>(load_spectral_stack(lm->source()));
   }
   return out;
 }

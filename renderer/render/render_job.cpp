@@ -113,7 +113,8 @@ void load_scene(const RenderRequest& request, const RenderLog& log, LoadedScene*
   SceneDesc desc = load_gltf(request.scene_path);
   adopt_meshes_without_material(request.stacks, &desc);
   // Bound before the loader's warnings are printed, so that a binding error is one line.
-  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks);
+  out->bindings = bind_layered_materials(desc, request.materials_map_path, request.inline_stacks, request.stacks,
+                                         request.settings.spectral);
   check_outputs_not_scene_inputs(request, desc, out->bindings);
   for (const std::string& w : desc.warnings) say(log.warning, request.scene_path + ": " + w);
   const double aspect = static_cast<double>(settings.width) / settings.height;

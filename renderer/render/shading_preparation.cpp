@@ -1,10 +1,14 @@
 #include "renderer/render/shading_preparation.h"
 
 #include <chrono>
+#include <stdexcept>
+#include <string>
 
 #include "materials/tables/albedo.h"
 #include "materials/walk/random_walk.h"
+#include "renderer/layered/spectral_tables.h"
 #include "renderer/layered/walk_cache.h"
+#include "renderer/layered/wavelength_stack.h"
 #include "renderer/render/render_job.h"
 #include "renderer/scene/camera.h"
 #include "renderer/scene/camera_visibility.h"
@@ -75,21 +79,42 @@ void build_tables(const ShadingInputs& in, const RenderLog& log, PreparedShading
                               t.bytes() / 1024.0));
 }
 
+// In the spectral mode, whether material slot i has leaf layers (their index varies with the
+// wavelength: only the walk follows one wavelength through them, renderer/layered/shading.h).
+bool has_spectral_leaf_layers(const ShadingInputs& in, std::size_t i) {
+  return in.spectral && i < in.spectral->size() && (*in.spectral)[i] && has_leaf_layers(*(*in.spectral)[i]);
+}
+
+// The spectral mode with one --subsurface mode other than the walk: leaf layers are refused in
+// one line naming the file, before any table is built.
+void refuse_unwalked_leaves(const ShadingInputs& in) {
+  const auto& by_material = in.bindings->by_material;
+  for (std::size_t i = 0; i < by_material.size(); ++i)
+    if (by_material[i] && has_spectral_leaf_layers(in, i))
+      throw std::runtime_error(by_material[i]->source() + ": leaf layers are rendered spectrally by the walk alone (their "
+                               "index varies with the wavelength): use --subsurface random-walk or auto");
+}
+
 // The spectral mode under auto: a material whose chromophores are bound to maps is not tabulated
 // per wavelength (renderer/layered/spectral_tables.h), so where auto chose table or lambert for it
-// (or left it hidden, as lambert) the walk renders it.
-void walk_untabulated_chromophores(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
+// (or left it hidden, as lambert) the walk renders it; a material with leaf layers is walked
+// whatever auto chose.
+void walk_untabulated_materials(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
   const auto& by_material = in.bindings->by_material;
   for (std::size_t i = 0; i < by_material.size(); ++i) {
     SubsurfaceMode& mode = out->layered.per_material[i];
-    if (!by_material[i] || !binds_chromophores(*by_material[i]) || mode == SubsurfaceMode::RandomWalk ||
-        mode == SubsurfaceMode::FirstOrder)
-      continue;
+    if (!by_material[i] || mode == SubsurfaceMode::RandomWalk) continue;
+    const char* why = nullptr;
+    if (has_spectral_leaf_layers(in, i))
+      why = "leaf layers' index varies with the wavelength";
+    else if (binds_chromophores(*by_material[i]) && mode != SubsurfaceMode::FirstOrder)
+      why = "chromophores bound to maps are not tabulated per wavelength";
+    if (!why) continue;
     mode = SubsurfaceMode::RandomWalk;
     AutoChoice& c = out->choices[i];
     c.mode = mode;
     c.visible = true;
-    c.reason += "; random-walk in the spectral mode (chromophores bound to maps are not tabulated per wavelength)";
+    c.reason += std::string("; random-walk in the spectral mode (") + why + ")";
     say(log.info, "auto: material " + (*in.material_names)[i] + ": " + c.reason);
   }
 }
@@ -191,7 +216,8 @@ void prepare_shading(const ShadingInputs& in, const RenderLog& log, PreparedShad
     for (const auto& m : bindings.by_material)
       if (m) load_lambert_albedo(*in.cache, *m);
   if (in.subsurface.automatic) choose_modes(in, log, out);
-  if (in.subsurface.automatic && in.spectral) walk_untabulated_chromophores(in, log, out);
+  if (in.spectral && !in.subsurface.automatic && in.subsurface.mode != SubsurfaceMode::RandomWalk) refuse_unwalked_leaves(in);
+  if (in.subsurface.automatic && in.spectral) walk_untabulated_materials(in, log, out);
   const bool any = bindings.count() > 0;
   if (any && uses(in, *out, SubsurfaceMode::Table)) build_tables(in, log, out);
   if (any && !in.subsurface.automatic && in.subsurface.mode == SubsurfaceMode::Lambert) compute_lambert_albedos(in, log);

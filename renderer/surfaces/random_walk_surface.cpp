@@ -3,6 +3,7 @@
 #include "materials/walk/walk_kernel.h"
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "materials/interfaces/fresnel.h"
@@ -332,10 +333,36 @@ bool WalkScatter::run(const glm::dvec3& wo, int hero, std::uint64_t* event_count
   return true;
 }
 
+// A LightSampler whose added estimates are multiplied by per-channel factors first
+// (RandomWalkSurface::follow_one_wavelength).
+class WeightedLightSampler final : public LightSampler {
+ public:
+  WeightedLightSampler(LightSampler* inner, const Spectrum& weights) : inner_(inner), weights_(weights) {}
+  bool draw(Rng& rng, LightDirection* light) override { return inner_->draw(rng, light); }
+  void add(const Spectrum& f_cos) override { inner_->add(f_cos * weights_); }
+
+ private:
+  LightSampler* inner_;
+  Spectrum weights_;
+};
+
 }  // namespace
 
 bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
                                 LightSampler* per_event, SurfaceScatter* next) const {
+  if (one_wavelength_) {
+    std::optional<WeightedLightSampler> weighted;
+    if (per_event) weighted.emplace(per_event, channel_weights_);
+    const bool continues = scatter_all(wo, rng, lights, light_count, weighted ? &*weighted : nullptr, next);
+    for (int k = 0; k < light_count; ++k) lights[k].f_cos *= channel_weights_;
+    if (continues) next->weight *= channel_weights_;
+    return continues;
+  }
+  return scatter_all(wo, rng, lights, light_count, per_event, next);
+}
+
+bool RandomWalkSurface::scatter_all(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
+                                    LightSampler* per_event, SurfaceScatter* next) const {
   for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
   // The top's reflection chosen with probability r_top before the walk; an energy-conserving
   // rough top is the walk's own (r_top 0: the walk takes every path).
@@ -345,6 +372,28 @@ bool RandomWalkSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* 
   WalkScatter walk(stack_, options_, r_top, rng, lights, light_count, per_event);
   walk.prepare_lights();
   return walk.run(wo, hero_, events_, next);
+}
+
+bool WavelengthWalksSurface::scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count,
+                                     LightSampler* per_event, SurfaceScatter* next) const {
+  thread_local std::vector<LightDirection> own;  // one walk's connections
+  own.assign(lights, lights + light_count);
+  for (int k = 0; k < light_count; ++k) lights[k].f_cos = Spectrum(0.0);
+  bool continues = false;
+  for (int c = 0; c < kChannels; ++c) {
+    RandomWalkSurface walk(stacks_[c], c, options_, events_);
+    walk.follow_one_wavelength(c, 1.0);
+    SurfaceScatter exit;
+    const bool walk_continues = walk.scatter(wo, rng, own.data(), light_count, per_event, &exit);
+    for (int k = 0; k < light_count; ++k) lights[k].f_cos += own[k].f_cos;
+    if (c != follow_) continue;
+    continues = walk_continues;
+    if (continues) {
+      *next = exit;
+      next->weight *= static_cast<double>(kChannels);
+    }
+  }
+  return continues;
 }
 
 }  // namespace lamina

@@ -59,10 +59,50 @@ class RandomWalkSurface final : public Surface {
                SurfaceScatter* next) const override;
   bool draws_per_event() const override { return options_.per_event_pool_samples; }
 
+  // The spectral mode's walk through a stack whose index varies with the wavelength (a leaf,
+  // docs/spectral.md "Leaves: one wavelength through a leaf"): the stack is the path's wavelength
+  // `channel` alone, and every estimate (light connections, per-event samples, the continuation)
+  // is multiplied by `weight` in that channel and by 0 in the others.
+  void follow_one_wavelength(int channel, double weight) {
+    channel_weights_ = Spectrum(0.0);
+    channel_weights_[channel] = weight;
+    one_wavelength_ = true;
+  }
+
  private:
   const LayerStack& stack_;
   int hero_;
   RandomWalkOptions options_;
+  std::uint64_t* events_;
+  // scatter() in every channel (follow_one_wavelength's factors not applied).
+  bool scatter_all(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
+                   SurfaceScatter* next) const;
+  bool one_wavelength_ = false;
+  Spectrum channel_weights_;  // follow_one_wavelength's factors
+};
+
+// The spectral mode at a path's first hit on a stack whose index varies with the wavelength (a
+// leaf; docs/spectral.md, "Leaves: one wavelength through a leaf"): one walk per wavelength,
+// walk c on stacks[c] (the stack at the path's wavelength c, grey), each giving its own channel's
+// light connections and per-event light samples; the path continues along walk `follow`'s exit
+// alone, weight 3 in that channel and 0 in the others. Unbiased per channel c: its connections
+// are its own walk's, and the continuation that complements them (their MIS partner) counts
+// with probability 1/3 times 3, `follow` being uniform on the channels and independent of the
+// walks.
+class WavelengthWalksSurface final : public Surface {
+ public:
+  WavelengthWalksSurface(const LayerStack* stacks, int follow, const RandomWalkOptions& options,
+                         std::uint64_t* events = nullptr)
+      : stacks_(stacks), follow_(follow), options_(options), events_(events) {}
+
+  bool scatter(const glm::dvec3& wo, Rng& rng, LightDirection* lights, int light_count, LightSampler* per_event,
+               SurfaceScatter* next) const override;
+  bool draws_per_event() const override { return options_.per_event_pool_samples; }
+
+ private:
+  const LayerStack* stacks_;  // kChannels stacks
+  int follow_;
+  const RandomWalkOptions& options_;
   std::uint64_t* events_;
 };
 

@@ -215,7 +215,7 @@ TEST_F(CliSpectral, FitErrorsAreOneLine) {
 namespace {
 
 // `lamina render --spectral` end to end: the header says so (and an RGB render's has no such
-// key), and what it does not render is refused in one line.
+// key), what it does not render is refused in one line, and a leaf renders.
 TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
   const std::string src = LAMINA_SOURCE_DIR;
   const std::string box = src + "/scenes/cornell_box/CornellBox.glb --width 8 --height 8 --spp 2 ";
@@ -228,8 +228,23 @@ TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
   const CliResult lambert = run("render " + box + "--spectral --subsurface lambert --stack " + skin_ + " -o " + dir_ + "/l.exr");
   EXPECT_EQ(lambert.exit_code, 0) << lambert.err;
   EXPECT_NE(lambert.out.find("spectral mode: tables and albedos on 48 wavelengths"), std::string::npos) << lambert.out;
-  expect_one_line_error("render " + box + "--spectral --stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
+  // A leaf (its index varies with the wavelength) renders spectrally by the walk, and by auto's
+  // walk; the tabulated modes refuse it, and the RGB mode refuses leaf layers.
+  const std::string leaf = " --stack " + src + "/scenes/spectral/leaf_layered.json";
+  EXPECT_EQ(run("render " + box + "--spectral" + leaf + " -o " + dir_ + "/leaf.exr").exit_code, 0);
+  const CliResult leaf_auto = run("render " + box + "--spectral --subsurface auto --tolerance 0.05" + leaf + " -o " + dir_ + "/leaf_auto.exr");
+  EXPECT_EQ(leaf_auto.exit_code, 0) << leaf_auto.err;
+  for (const char* mode : {"table", "lambert", "first-order"})
+    expect_one_line_error("render " + box + "--spectral --subsurface " + mode + leaf + " -o " + dir_ + "/x.exr", 1,
+                          "leaf_layered.json: leaf layers are rendered spectrally by the walk alone");
+  expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
                         "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
+  // Leaf layers bound to maps are refused in one line naming the map, the material and the file.
+  std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered.json",
+      "bind": [{"parameter": "layers[1].leaf.chlorophyll", "texture": "pigment.png", "channel": "r", "range": [5, 40]}]}})";
+  expect_one_line_error("render " + src + "/scenes/leaves/leaves_back.gltf --width 8 --height 8 --spp 1 --spectral --materials " +
+                            dir_ + "/leaf_map.json -o " + dir_ + "/x.exr",
+                        1, "leaf_map.json: material 'leaf': ");
   // A skin by chromophores renders (the stack at each path's wavelengths).
   EXPECT_EQ(run("render " + box + "--spectral --stack " + skin_ + " -o " + dir_ + "/skin.exr").exit_code, 0);
 }

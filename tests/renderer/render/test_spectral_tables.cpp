@@ -95,7 +95,7 @@ std::vector<double> at(const Shaded& m, const std::vector<double>& nm, const Qua
   for (std::size_t i = 0; i < nm.size(); i += 3) {
     auto n = [&](std::size_t k) { return nm[std::min(i + k, nm.size() - 1)]; };
     LayerStack stack;
-    stack_at_wavelengths(m.bindings.by_material[0]->base_stack(), m.chromophores[0].get(), SampledWavelengths::at(n(0), n(1), n(2)),
+    stack_at_wavelengths(m.bindings.by_material[0]->base_stack(), m.chromophores[0].get(), false, SampledWavelengths::at(n(0), n(1), n(2)),
                          &stack);
     const Spectrum v = q(stack);
     for (std::size_t k = 0; k < 3 && i + k < nm.size(); ++k) out[i + k] = v[static_cast<int>(k)];

@@ -1,0 +1,231 @@
+// Leaves in the spectral mode (docs/spectral.md, "Leaves: one wavelength through a leaf"): a leaf
+// layer's index varies with the wavelength, so a path follows one wavelength through it, its
+// estimate 3 times in that channel and 0 in the others. Tolerances as in test_spectral_render.cpp:
+// the image mean of N independent pixels has standard error s / sqrt(N).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "materials/adding_doubling/spectral_totals.h"
+#include "materials/spectral/sampled_wavelengths.h"
+#include "materials/stack/stack_file.h"
+#include "renderer/image/image_io.h"
+#include "renderer/layered/layered_shading.h"
+#include "renderer/layered/wavelength_stack.h"
+#include "renderer/render/film.h"
+#include "tests/materials/spectral/colour_quadrature.h"
+#include "tests/renderer/render_fixtures.h"
+
+namespace lamina {
+namespace {
+
+using test::ImageStats;
+using test::make_scene;
+using test::stats_of;
+
+bool verbose() { return std::getenv("LAMINA_TEST_VERBOSE") != nullptr; }
+
+// A sky of radiance 1 (D65 of luminance 1) above the horizon and black below (or, lower, the
+// other way round): an equirectangular map of two rows, the top one the upper hemisphere
+// (renderer/render/environment.h).
+EnvironmentMap half_sky(bool lower) {
+  Image sky(4, 2);
+  for (int x = 0; x < 4; ++x)
+    for (int c = 0; c < 3; ++c) sky.pixel(x, lower ? 1 : 0)[c] = 1.0f;
+  const std::string path = (std::filesystem::temp_directory_path() / ("lamina_upper_sky_" + std::to_string(::getpid()) + ".exr")).string();
+  write_exr(path, sky);
+  EnvironmentMap env = EnvironmentMap::from_file(path);
+  std::filesystem::remove(path);
+  return env;
+}
+
+// A flat slab of `stack` (its top facing +y) under the upper sky, seen at theta degrees from above
+// (below: false) or from below. From above every pixel shows the directional reflectance at
+// theta, from below the directional transmittance of light arriving from below at theta (by
+// reciprocity, the same medium, air, on both sides): the totals of adding-doubling. Under the
+// lower sky (lower_sky), seen from below: the reflectance of the bottom face.
+Image render_slab(const std::string& json, bool spectral, bool one_wavelength_walks, bool below, double theta, int size,
+                  int spp, std::uint64_t seed, bool lower_sky = false) {
+  // A file with leaf layers as the spectral mode reads it (render_job: spectral_stacks), any
+  // other as the RGB mode does (in the spectral mode its coefficients are uplifted).
+  const bool leaf = json.find("\"leaf\"") != std::string::npos;
+  LayeredBindings b;
+  b.by_material.push_back(std::make_shared<const LayeredMaterial>(
+      leaf ? parse_spectral_stack_json(json, "leaf").stack : parse_stack_json(json, "slab"), "slab"));
+  LayeredShading layered;
+  layered.bindings = &b;
+  if (leaf) layered.spectral = {std::make_shared<const SpectralStack>(parse_spectral_stack_json(json, "leaf"))};
+  layered.test_hooks.one_wavelength_walks = one_wavelength_walks;
+  const Scene scene{make_scene({test::slab_plane(0)})};
+  const EnvironmentMap env = half_sky(lower_sky);
+  const LightSet lights(scene, env);
+  const Camera camera(test::camera_towards(test::world_dir(theta, 0.0, below)), size, size);
+  RenderSettings s;
+  s.width = s.height = size;
+  s.spp = spp;
+  s.seed = seed;
+  s.layered = &layered;
+  s.spectral = spectral;
+  RenderStats stats;
+  Image im = render_image(scene, lights, camera, s, &stats);
+  EXPECT_EQ(stats.invalid_samples, 0u);
+  return im;
+}
+
+// A grey slab that transmits, given in RGB: in the spectral mode its index is the same at every
+// wavelength, so its three-wavelength walk is exact, and the RGB mode renders the same image
+// mean (a grey world). Rendered with every walk following one wavelength (the leaf's estimator),
+// it must give the RGB image's mean from above and from below: the estimator's factor 3, the
+// channel's choice and the film's division by the wavelength density together. Prints, with
+// LAMINA_TEST_VERBOSE, the variance of each channel over pixels with one and with three
+// wavelengths per walk: the colour noise the leaf's estimator costs.
+const char* kGreySlab = R"({"lamina_material": 1, "layers": [
+    {"ior": 1.45, "thickness": 0.2, "sigma_a": 0.6, "sigma_s": 8.0, "g": 0.8}], "below": {"ior": 1.0}})";
+
+TEST(SpectralLeaf, OneWavelengthWalksOfAConstantIndexEqualTheRgbGreySlab) {
+  for (const bool below : {false, true}) {
+    const char* side = below ? "grey slab, transmittance (camera below)" : "grey slab, reflectance (camera above)";
+    const ImageStats rgb = stats_of(render_slab(kGreySlab, false, false, below, 30.0, 24, 16, 3));
+    const ImageStats one = stats_of(render_slab(kGreySlab, true, true, below, 30.0, 24, 16, 4));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(one.mean[c], rgb.mean[c], 3.0 * std::hypot(rgb.stderr_[c], one.stderr_[c]) + 2e-4)
+          << side << ", channel " << c << ": RGB " << rgb.mean[c] << " +- " << rgb.stderr_[c] << ", one wavelength "
+          << one.mean[c] << " +- " << one.stderr_[c];
+    // It is the leaf's estimator that ran: one wavelength per walk leaves colour noise that three
+    // wavelengths of a grey slab (the same value at each) do not have.
+    const ImageStats three = stats_of(render_slab(kGreySlab, true, false, below, 30.0, 24, 16, 4));
+    EXPECT_GT(one.stderr_[2], 1.5 * three.stderr_[2]) << side;
+    if (verbose())
+      for (int c = 0; c < 3; ++c)
+        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side, c, one.mean[c],
+                    std::pow(one.stderr_[c] / three.stderr_[c], 2.0));
+  }
+}
+
+// A green leaf given in RGB (scenes/materials/leaf.json, uplifted in the spectral mode: its index
+// the same at every wavelength): one wavelength per walk gives the three-wavelength walk's image
+// mean, from above and from below. With LAMINA_TEST_VERBOSE, the colour noise that costs on a
+// coloured leaf (the variance of each channel over pixels, one wavelength / three).
+const char* kRgbLeaf = R"({"lamina_material": 1, "layers": [
+    {"ior": 1.45, "thickness": 0.02, "sigma_a": 0.0, "sigma_s": 5.0, "g": 0.9},
+    {"ior": 1.45, "thickness": 0.18, "components": [
+      {"fraction": 0.3, "sigma_a": [29.1648, 10.8828, 75.1913], "sigma_s": 24.0, "g": 0.5},
+      {"fraction": 0.7, "sigma_a": [0.1643, 0.1643, 0.4757], "sigma_s": 24.0, "g": 0.5}]}],
+    "below": {"ior": 1.0}})";
+
+TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafEqualItsThreeWavelengthWalks) {
+  for (const bool below : {false, true}) {
+    const char* side = below ? "RGB leaf, transmittance (camera below)" : "RGB leaf, reflectance (camera above)";
+    const ImageStats three = stats_of(render_slab(kRgbLeaf, true, false, below, 30.0, 24, 32, 5));
+    const ImageStats one = stats_of(render_slab(kRgbLeaf, true, true, below, 30.0, 24, 32, 6));
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(one.mean[c], three.mean[c], 3.0 * std::hypot(three.stderr_[c], one.stderr_[c]))
+          << side << ", channel " << c << ": three wavelengths " << three.mean[c] << " +- " << three.stderr_[c]
+          << ", one " << one.mean[c] << " +- " << one.stderr_[c];
+      if (verbose())
+        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side, c, one.mean[c],
+                    std::pow(one.stderr_[c] / three.stderr_[c], 2.0));
+    }
+  }
+}
+
+// A flat layered leaf (the fitted mature green leaf of docs/spectral.md, "Layered leaf":
+// cuticle, palisade and spongy mesophyll by PROSPECT-D's pigments, index PROSPECT-D's), smooth.
+const char* kLeaf = R"({"lamina_material": 1, "layers": [
+    {"thickness": 0.003, "leaf": {}},
+    {"thickness": 0.1, "leaf": {"chlorophyll": 15.936, "carotenoids": 3.1872, "water": 0.003984, "dry_matter": 0.003586,
+     "plates": 0.2886, "scattering_power": -0.0398, "g": 0.95}},
+    {"thickness": 0.12, "leaf": {"chlorophyll": 24.064, "carotenoids": 4.8128, "water": 0.006016, "dry_matter": 0.005414,
+     "plates": 1.5433, "scattering_power": -0.0398, "g": 0.95}}]})";
+
+// The colour of a spectrum given on `nm` (read linearly between), as the film integrates it.
+Spectrum colour_of(const std::vector<double>& nm, const std::vector<double>& r) {
+  const TabulatedSpectrum refl(nm, r);
+  return test::colour_by_quadrature([&](double l) { return refl(l); });
+}
+
+// The leaf under the upper sky, rendered spectrally from above (its reflectance) and from below
+// (its transmittance), against adding-doubling per wavelength every 2 nm (the leaf seen from
+// below: the flipped stack) integrated as the film integrates. Tolerance: 3 standard errors of
+// the image mean, plus the solver's own discretisation error and the 2-nm grid's interpolation
+// (its difference from a 4-nm grid's colour). Fails if the leaf's index were not followed per
+// wavelength (the index at 550 nm moves the reflectance of the top surface), if the flipped
+// stack's layers kept the file's order, or if the factor 3 were missing.
+TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
+  const SpectralStack leaf = parse_spectral_stack_json(kLeaf, "leaf");
+  const double theta = 30.0, mu = std::cos(theta * kPi / 180.0);
+  struct Case {
+    const char* what;
+    bool below, lower_sky, transmitted;
+  };
+  for (const Case& k : {Case{"reflectance of the top (camera above)", false, false, false},
+                        Case{"transmittance (camera below)", true, false, true},
+                        Case{"reflectance of the bottom (camera below, the sky below)", true, true, false}}) {
+    const ImageStats rendered = stats_of(render_slab(kLeaf, true, false, k.below, theta, 32, 64, 7, k.lower_sky));
+    const SpectralStack seen = k.below ? flipped(leaf) : leaf;
+    auto reference = [&](double step, Spectrum* error) {
+      const SpectralTotals t = adding_doubling_spectrum(seen, WavelengthGrid::from_to(kSpectralFirstNm, kSpectralLastNm, step), mu);
+      std::vector<double> v, e;
+      for (const AddingDoublingEstimate& est : t.estimates) {
+        const AddingDoublingTotals& a = est.totals;
+        const AddingDoublingTotals& d = est.error;
+        v.push_back(k.transmitted ? a.T_ballistic[0] + a.T_diffuse[0] : a.R_specular[0] + a.R_diffuse[0]);
+        e.push_back(k.transmitted ? d.T_ballistic[0] + d.T_diffuse[0] : d.R_specular[0] + d.R_diffuse[0]);
+      }
+      if (error) *error = colour_of(t.nm, e);
+      return colour_of(t.nm, v);
+    };
+    Spectrum solver_error;
+    const Spectrum expected = reference(2.0, &solver_error), coarser = reference(4.0, nullptr);
+    for (int c = 0; c < 3; ++c) {
+      const double tol = 3.0 * rendered.stderr_[c] + std::abs(solver_error[c]) + std::abs(expected[c] - coarser[c]);
+      if (verbose())
+        std::printf("%s, channel %d: rendered %g +- %g, adding-doubling %g (solver error %g, grid %g)\n", k.what, c,
+                    rendered.mean[c], rendered.stderr_[c], expected[c], solver_error[c], expected[c] - coarser[c]);
+      EXPECT_NEAR(rendered.mean[c], expected[c], tol)
+          << k.what << ", channel " << c << ": rendered " << rendered.mean[c] << " +- " << rendered.stderr_[c]
+          << ", adding-doubling " << expected[c];
+    }
+  }
+}
+
+// The stack a leaf's walk sees at a hit is the file's stack at the path's wavelength `channel`
+// (materials/stack/spectral_stack.h's stack_at_wavelength, what adding-doubling solves), in
+// every channel, each leaf layer with PROSPECT-D's index there; seen from below, the flipped
+// file's. A skin chromophore layer over a grey layer is carried the same way.
+TEST(SpectralLeaf, TheWalksStackIsTheFilesStackAtTheFollowedWavelength) {
+  const SpectralStack leaf = parse_spectral_stack_json(kLeaf, "leaf");
+  const SampledWavelengths w = SampledWavelengths::from_uniform(0.1);
+  for (const bool below : {false, true}) {
+    const SpectralStack seen = below ? flipped(leaf) : leaf;
+    for (int h = 0; h < kChannels; ++h) {
+      LayerStack walk;
+      stack_at_wavelength_channel(seen.stack, &leaf, below, w, h, &walk);
+      const LayerStack expected = stack_at_wavelength(seen, w.nm(h));
+      ASSERT_EQ(walk.layers.size(), expected.layers.size());
+      for (std::size_t i = 0; i < walk.layers.size(); ++i) {
+        const Layer &a = walk.layers[i], &b = expected.layers[i];
+        EXPECT_EQ(a.ior, b.ior) << "layer " << i << ", channel " << h << ", below " << below;
+        EXPECT_EQ(a.thickness, b.thickness);
+        ASSERT_EQ(a.lobes.size(), 1u);
+        for (int c = 0; c < kChannels; ++c) {
+          EXPECT_DOUBLE_EQ(a.sigma_a[c], b.sigma_a[0]) << "layer " << i << ", channel " << c;
+          EXPECT_DOUBLE_EQ(a.lobes[0].sigma_s[c], b.lobes[0].sigma_s[0]) << "layer " << i << ", channel " << c;
+          EXPECT_DOUBLE_EQ(a.lobes[0].g[c], b.lobes[0].g[0]);
+        }
+      }
+    }
+  }
+  // The index differs between the path's wavelengths (so the walk must follow one).
+  EXPECT_NE(LeafChromophores::refractive_index(w.nm(0)), LeafChromophores::refractive_index(w.nm(1)));
+  EXPECT_TRUE(has_leaf_layers(leaf));
+}
+
+}  // namespace
+}  // namespace lamina
