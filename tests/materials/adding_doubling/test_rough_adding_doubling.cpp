@@ -271,5 +271,61 @@ TEST(RoughAddingDoubling, Reciprocal) {
   }
 }
 
+// Under a rough top the layers are doubled on the real nodes alone (adding_doubling.cpp,
+// DroppedNodes): the same numbers, bit for bit, as doubling them with the incidence nodes too
+// (the test hook's plain path). Cases where the dropped nodes matter to the doubling: an
+// index-matched layer lit at 89.9 degrees (the incidence is the smallest cosine there, which
+// sets the starting thickness), a layer thick enough that its transmission flushes to 0 (the
+// incidence's diagonal keeps the doubling going), both rough models, a transmitting
+// energy-conserving leaf, a rough inner interface; totals at four incidences and 3 orders, and a
+// table at three incidences.
+TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
+  auto file = [](const char* f) { return load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/" + f); };
+  LayerStack matched;
+  matched.top_roughness = 0.3;
+  matched.layers.push_back(make_layer("matched", 1.0, 0.5, Spectrum(0.5, 1.0, 2.0), Spectrum(5.0), Spectrum(0.7)));
+  matched.layers.push_back(make_layer("slab", 1.4, 0.5, Spectrum(0.1), Spectrum(10.0), Spectrum(0.5)));
+  LayerStack deep = matched;
+  deep.layers[1].thickness = 400.0;  // tau 4000: exp(-tau / mu) below 1e-200 at every node
+  LayerStack conserving = file("skin_oily.json");
+  conserving.interface_model = InterfaceModel::EnergyConserving;
+  LayerStack inner = conserving;
+  inner.layers[0].bottom_roughness = 0.3;
+  LayerStack matched_ec = matched;
+  matched_ec.interface_model = InterfaceModel::EnergyConserving;
+  int compared = 0;
+  for (const LayerStack& s : {skin(0.35), matched, deep, matched_ec, conserving, inner, file("leaf_rough.json")}) {
+    for (int q : {4, 8, 16}) {
+      AddingDoublingSettings fast = order(q), plain = order(q);
+      plain.test_hook_double_on_every_node = true;
+      for (double deg : {0.0, 45.0, 80.0, 89.9}) {
+        const double mu = std::cos(deg * kPiD / 180.0);
+        const AddingDoublingTotals a = adding_doubling_totals(s, mu, fast), b = adding_doubling_totals(s, mu, plain);
+        using T = AddingDoublingTotals;
+        for (Spectrum T::*field : {&T::R_specular, &T::R_diffuse, &T::T_ballistic, &T::T_diffuse, &T::absorbed,
+                                   &T::R_hemispherical, &T::T_hemispherical, &T::absorbed_hemispherical,
+                                   &T::R_hemispherical_glossy})
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_EQ((a.*field)[c], (b.*field)[c]) << s.name << " " << q << " " << deg;
+            ++compared;
+          }
+        EXPECT_EQ(a.doublings, b.doublings) << s.name << " " << q << " " << deg;
+      }
+    }
+    BrdfOptions o;
+    o.bins_theta = 4;
+    o.bins_phi = 6;
+    AddingDoublingSettings plain;
+    plain.test_hook_double_on_every_node = true;
+    const std::vector<BrdfTable> a = brdf_tables_adding_doubling(s, o, {0.0, 50.0, 85.0});
+    const std::vector<BrdfTable> b = brdf_tables_adding_doubling(s, o, {0.0, 50.0, 85.0}, plain);
+    for (std::size_t t = 0; t < a.size(); ++t)
+      for (std::size_t k = 0; k < a[t].value.size(); ++k)
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(a[t].value[k][c], b[t].value[k][c]) << s.name << " table " << t << " bin " << k;
+  }
+  EXPECT_EQ(compared, 7 * 3 * 4 * 9 * 3);
+}
+
+
 }  // namespace
 }  // namespace lamina
