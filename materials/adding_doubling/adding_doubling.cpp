@@ -522,6 +522,12 @@ int truncation_order(const Medium& m) { return std::max(1, m.real); }
 struct DroppedNodes {
   std::vector<double> mu;
 };
+// Whether layer_element doubles the layer a fixed number of times (a finite optical depth), the
+// case where the dropped nodes' part is tracked; otherwise it doubles until R stops changing,
+// which looks at every column.
+bool doubled_to_depth(const Layer& layer, int c) {
+  return !layer.semi_infinite() && !std::isinf(layer.sigma_t()[c] * layer.thickness);
+}
 
 // The layer in channel c and azimuthal Fourier mode `mode` on the medium's nodes, embedded in
 // `size` nodes (3.-6.; for mode >= 1 see 8.). For a semi-infinite layer Td and Tu are left empty.
@@ -903,6 +909,36 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   return p;
 }
 
+// 10. Under a rough top, the layers of one medium at the bottom of a stack over a Lambert
+// substrate: added on that medium's real nodes alone (compact matrices, no incidence; the
+// substrate's column for the incidence is never reached below a rough top), then embedded in
+// all nodes. The numbers are those of the full matrices, whose other rows and columns add only
+// terms x * 0 to the products and identity rows to the solves. Returns R_t; *next: the layer
+// above the run.
+Element add_bottom_run(const Problem& p, const LayerStack& stack, int c, int mode, int* doublings, int* next) {
+  const int nl = static_cast<int>(stack.layers.size()), size = p.size();
+  const Medium& m = p.layer_media[nl - 1];
+  Medium local = m;  // the same nodes, numbered 0..n-1
+  const int n = static_cast<int>(m.active.size());
+  for (int i = 0; i < n; ++i) local.active[i] = i;
+  Element acc = add_over(layer_element(stack.layers[nl - 1], c, local, n, mode, doublings, p.dropped[nl - 1]),
+                         lambert_element(stack.below.albedo, c, local, n, mode));
+  int k = nl - 2;
+  for (; k >= 0 && !p.rough[k + 1].f && stack.layers[k].ior == stack.layers[k + 1].ior && doubled_to_depth(stack.layers[k], c);
+       --k) {
+    const Layer& layer = stack.layers[k];
+    // The clear layer of solve_stack is skipped as there.
+    if (layer.sigma_t()[c] == 0.0 && static_cast<int>(p.media[k].active.size()) == size) continue;
+    acc = add_over(layer_element(layer, c, local, n, mode, doublings, p.dropped[k]), acc);
+  }
+  *next = k;
+  Element out;
+  out.Rt = Matrix(size);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) out.Rt(m.active[i], m.active[j]) = acc.Rt(i, j);
+  return out;
+}
+
 // R_t and T_d of the whole stack (or of `stack`, the same layers' structure: the unscattered
 // copy of 11.) in channel c and Fourier mode `mode`, added from the bottom up (6.); T_d is empty
 // unless the stack transmits.
@@ -914,12 +950,15 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings, const Lay
   auto layer_element = [&](int k) {
     const Layer& layer = stack.layers[k];
     if (other) return absorbing_layer_element(layer, c, p.media[k], size);
-    if (!p.layer_media.empty() && !layer.semi_infinite())
+    if (!p.layer_media.empty() && doubled_to_depth(layer, c))
       return lamina::layer_element(layer, c, p.layer_media[k], size, mode, doublings, p.dropped[k]);
     return lamina::layer_element(layer, c, p.media[k], size, mode, doublings);
   };
   Element acc;
-  if (p.semi) {
+  int k = nl - 2;  // the next layer to add
+  if (!other && !p.layer_media.empty() && p.lambert && !p.semi && doubled_to_depth(stack.layers[nl - 1], c)) {
+    acc = add_bottom_run(p, stack, c, mode, doublings, &k);
+  } else if (p.semi) {
     acc = layer_element(nl - 1);
     acc.Td = Matrix();
   } else {
@@ -929,7 +968,7 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings, const Lay
     acc = add_over(layer_element(nl - 1), p.rough[nl].f ? p.rough[nl].elements[mode] : bottom);
     if (p.lambert) acc.Td = Matrix();
   }
-  for (int k = nl - 2; k >= 0; --k) {
+  for (; k >= 0; --k) {
     if (p.rough[k + 1].f)
       acc = add_over(p.rough[k + 1].elements[mode], acc);
     else if (stack.layers[k].ior != stack.layers[k + 1].ior)

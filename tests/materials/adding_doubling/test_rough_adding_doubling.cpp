@@ -272,11 +272,13 @@ TEST(RoughAddingDoubling, Reciprocal) {
 }
 
 // Under a rough top the layers are doubled on the real nodes alone (adding_doubling.cpp,
-// DroppedNodes): the same numbers, bit for bit, as doubling them with the incidence nodes too
-// (the test hook's plain path). Cases where the dropped nodes matter to the doubling: an
+// DroppedNodes), and the bottom layers of one medium over a Lambert substrate added on that
+// medium's nodes alone (add_bottom_run): the same numbers, bit for bit, as doubling and adding
+// them on every node (the test hook's plain path). Cases where the dropped nodes matter to the doubling: an
 // index-matched layer lit at 89.9 degrees (the incidence is the smallest cosine there, which
 // sets the starting thickness), a layer thick enough that its transmission flushes to 0 (the
-// incidence's diagonal keeps the doubling going), both rough models, a transmitting
+// incidence's diagonal keeps the doubling going), optical depths beyond the doubles (doubled to
+// convergence: the plain path), both rough models, a transmitting
 // energy-conserving leaf, a rough inner interface; totals at four incidences and 3 orders, and a
 // table at three incidences.
 TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
@@ -287,6 +289,9 @@ TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
   matched.layers.push_back(make_layer("slab", 1.4, 0.5, Spectrum(0.1), Spectrum(10.0), Spectrum(0.5)));
   LayerStack deep = matched;
   deep.layers[1].thickness = 400.0;  // tau 4000: exp(-tau / mu) below 1e-200 at every node
+  LayerStack overflow = matched;  // an optical depth beyond the doubles: doubled to convergence
+  overflow.layers[1].thickness = 1e308;
+  overflow.layers[0].thickness = 1e308;
   LayerStack conserving = file("skin_oily.json");
   conserving.interface_model = InterfaceModel::EnergyConserving;
   LayerStack inner = conserving;
@@ -294,7 +299,7 @@ TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
   LayerStack matched_ec = matched;
   matched_ec.interface_model = InterfaceModel::EnergyConserving;
   int compared = 0;
-  for (const LayerStack& s : {skin(0.35), matched, deep, matched_ec, conserving, inner, file("leaf_rough.json")}) {
+  for (const LayerStack& s : {skin(0.35), matched, deep, overflow, matched_ec, conserving, inner, file("leaf_rough.json")}) {
     for (int q : {4, 8, 16}) {
       AddingDoublingSettings fast = order(q), plain = order(q);
       plain.test_hook_double_on_every_node = true;
@@ -323,7 +328,7 @@ TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
       for (std::size_t k = 0; k < a[t].value.size(); ++k)
         for (int c = 0; c < 3; ++c) EXPECT_EQ(a[t].value[k][c], b[t].value[k][c]) << s.name << " table " << t << " bin " << k;
   }
-  EXPECT_EQ(compared, 7 * 3 * 4 * 9 * 3);
+  EXPECT_EQ(compared, 8 * 3 * 4 * 9 * 3);
 }
 
 
