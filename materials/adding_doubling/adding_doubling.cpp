@@ -123,6 +123,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "materials/adding_doubling/adding_doubling_test_hooks.h"
 #include "materials/adding_doubling/interface_fourier.h"
 #include "materials/analytic/first_order.h"  // GaussLegendreRule
 #include "materials/interfaces/fresnel.h"
@@ -130,6 +131,11 @@
 #include "materials/analytic/zeroth_order.h"
 
 namespace lamina {
+
+namespace adding_doubling_test_hooks {
+bool double_on_every_node = false;
+}  // namespace adding_doubling_test_hooks
+
 namespace {
 
 
@@ -882,7 +888,7 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   p.rough_top = p.rough[0].f != nullptr;
   for (int k = 0; k <= nl; ++k)
     if (p.rough[k].f) make_elements(k);
-  if (p.rough_top && !settings.test_hook_double_on_every_node)
+  if (p.rough_top && !adding_doubling_test_hooks::double_on_every_node)
     for (const Medium& m : p.media) {
       Medium real = m;
       DroppedNodes d;

@@ -60,11 +60,6 @@ struct AddingDoublingSettings {
   // spread it); true (the table mode), everything but what the renderer adds exactly: the top's
   // first-order glossy reflection and the delta lobes of zeroth_order_above_rough.
   bool bins_hold_unscattered = false;
-  // Test hook: under a rough top, double and add the layers on every node, the incidences
-  // included (the plain path), instead of on the real nodes alone (adding_doubling.cpp,
-  // DroppedNodes and add_bottom_run); the results are the same numbers either way, which the
-  // tests check.
-  bool test_hook_double_on_every_node = false;
 };
 
 struct AddingDoublingTotals {

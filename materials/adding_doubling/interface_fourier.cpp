@@ -39,6 +39,7 @@
 #include "materials/base/sampling.h"         // kPi
 #include "materials/interfaces/microfacet.h"
 #include "materials/interfaces/microsurface.h"
+#include "materials/interfaces/microsurface_first_order.h"
 
 namespace lamina {
 

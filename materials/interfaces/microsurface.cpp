@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 
 #include "materials/interfaces/fresnel.h"
+#include "materials/interfaces/microsurface_first_order.h"
 
 namespace lamina {
 namespace {

@@ -13,6 +13,7 @@
 #include "materials/interfaces/fresnel.h"
 #include "materials/interfaces/microfacet.h"
 #include "materials/interfaces/microsurface.h"
+#include "materials/interfaces/microsurface_first_order.h"
 #include "materials/base/sampling.h"
 #include "tests/support/sphere_quadrature.h"
 #include "tests/support/statistics.h"
