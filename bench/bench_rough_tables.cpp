@@ -13,6 +13,10 @@
 // energy_conserving: the microsurface's higher orders by walks, adding_doubling.cpp 11.), and the
 // smooth stack (roughness 0) for comparison.
 // Usage: bench_rough_tables [repeats] (default: $BENCH_REPEATS, else 5)
+//        bench_rough_tables totals N: the energy-conserving top's totals alone, N calls at
+//        incidences from 10 to 70 degrees after one cold call (the projection), for timing the
+//        process as a whole (a whole-process timer, new build against old); prints the CPU ms per
+//        call and a checksum of the totals.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -55,10 +59,29 @@ void report(const char* what, const Time& t) { std::printf("%-34s wall %8.4f s  
 
 }  // namespace
 
+// The totals mode: N warm calls of adding_doubling_totals with the energy-conserving top.
+int totals_only(const lamina::LayerStack& base, int n) {
+  lamina::LayerStack s = base;
+  s.interface_model = lamina::InterfaceModel::EnergyConserving;
+  lamina::adding_doubling_totals(s, 1.0);  // the cold projection of the nodes
+  double checksum = 0.0;
+  const Time t = measure([&] {
+    for (int k = 0; k < n; ++k) {
+      const double theta = 10.0 + 60.0 * k / std::max(1, n - 1);
+      const lamina::AddingDoublingTotals r = lamina::adding_doubling_totals(s, std::cos(theta * 3.14159265358979323846 / 180.0));
+      for (int c = 0; c < 3; ++c) checksum += r.R_specular[c] + r.R_diffuse[c] + r.R_hemispherical[c] + r.R_hemispherical_glossy[c];
+    }
+  });
+  std::printf("energy-conserving totals (skin_oily): %d calls, cpu %.4f ms a call, wall %.4f ms a call, checksum %.17g\n", n,
+              1e3 * t.cpu / n, 1e3 * t.wall / n, checksum);
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  const lamina::LayerStack base = lamina::load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
+  if (argc > 2 && std::string(argv[1]) == "totals") return totals_only(base, std::max(1, std::atoi(argv[2])));
   const char* env = std::getenv("BENCH_REPEATS");
   const int repeats = std::max(1, argc > 1 ? std::atoi(argv[1]) : env ? std::atoi(env) : 5);
-  const lamina::LayerStack base = lamina::load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
   const lamina::TableSettings settings;
   for (int variant : {0, 2, 1}) {
     const bool rough = variant != 1, energy_conserving = variant == 2;

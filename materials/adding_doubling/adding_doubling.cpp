@@ -123,6 +123,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "materials/adding_doubling/adding_doubling_test_hooks.h"
 #include "materials/adding_doubling/interface_fourier.h"
 #include "materials/analytic/first_order.h"  // GaussLegendreRule
 #include "materials/interfaces/fresnel.h"
@@ -130,6 +131,11 @@
 #include "materials/analytic/zeroth_order.h"
 
 namespace lamina {
+
+namespace adding_doubling_test_hooks {
+bool double_on_every_node = false;
+}  // namespace adding_doubling_test_hooks
+
 namespace {
 
 
@@ -511,9 +517,28 @@ void associated_legendre_all(int L, int m, double x, double* p) {
 // The delta-M truncation order of a layer in a medium (4.): the number of its nodes.
 int truncation_order(const Medium& m) { return std::max(1, m.real); }
 
+// A finite layer under a rough top is doubled on its medium's real nodes alone (10.): `m` without
+// the incidences, whose cosines in it are `dropped` (empty otherwise). No light reaches an
+// incidence node below a rough top, and the real nodes' numbers do not depend on it: nothing
+// scatters into a node of weight zero, so its row of every R is 0 and of every T the diagonal
+// alone, and its column enters the real nodes' products only as terms x * 0. What the doubling
+// reads of it is kept: the smallest cosine (the starting thickness, 5.) and whether its
+// diagonal of T still transmits (6.), exp-like, t -> t * t per doubling, exactly as the full
+// matrices compute it.
+struct DroppedNodes {
+  std::vector<double> mu;
+};
+// Whether layer_element doubles the layer a fixed number of times (a finite optical depth), the
+// case where the dropped nodes' part is tracked; otherwise it doubles until R stops changing,
+// which looks at every column.
+bool doubled_to_depth(const Layer& layer, int c) {
+  return !layer.semi_infinite() && !std::isinf(layer.sigma_t()[c] * layer.thickness);
+}
+
 // The layer in channel c and azimuthal Fourier mode `mode` on the medium's nodes, embedded in
 // `size` nodes (3.-6.; for mode >= 1 see 8.). For a semi-infinite layer Td and Tu are left empty.
-Element layer_element(const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
+Element layer_element(const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings,
+                      const DroppedNodes& dropped = {}) {
   const int na = static_cast<int>(m.active.size());
   const double sigma_t = layer.sigma_t()[c];
   // A finite layer whose optical depth overflows a double (coefficients or a thickness near the
@@ -596,6 +621,7 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   // 5. Starting thickness and the diamond initialisation.
   double mu_min = 1.0;
   for (double mu : m.mu) mu_min = std::min(mu_min, mu);
+  for (double mu : dropped.mu) mu_min = std::min(mu_min, mu);
   int steps = 0;
   double delta;
   if (semi) {
@@ -612,12 +638,20 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   const Matrix S = I + scaled(alpha, h), D = scaled(beta, h), P = I - scaled(alpha, h);
   const Matrix A_plus = LU(S - D).solve(P + D), A_minus = LU(S + D).solve(P - D);
   Matrix T = scaled(A_plus + A_minus, 0.5), R = scaled(A_plus - A_minus, 0.5);
+  // The dropped nodes' diagonal of T: the diamond initialisation of a node nothing scatters into,
+  // (1 - h/mu) / (1 + h/mu), in the operations of the matrices above.
+  std::vector<double> dropped_T;
+  for (double mu : dropped.mu) {
+    const double ah = (1.0 / mu) * h;
+    dropped_T.push_back((1.0 - ah) * (1.0 / (1.0 + ah)));
+  }
 
   // 6. Doubling.
   auto double_once = [&]() {
     const Matrix Y = LU(I - R * R).solve(T);  // (I - R R)^-1 T
     Matrix R2 = R + T * (R * Y);
     T = T * Y;
+    for (double& t : dropped_T) t = std::abs(t * t) < 1e-200 ? 0.0 : t * t;  // (I - R R) is 1 there
     const double change = [&] {
       double c2 = 0.0;
       for (std::size_t k = 0; k < R.a.size(); ++k) c2 = std::max(c2, std::abs(R2.a[k] - R.a[k]));
@@ -660,7 +694,10 @@ Element layer_element(const Layer& layer, int c, const Medium& m, int size, int 
   // Once T is exactly 0 (every power below the flush of double_once), a doubling adds T (...) = 0
   // to R and keeps T = 0: the remaining steps change nothing, and an astronomically thick layer
   // (up to ~1100 steps) need not take them.
-  auto transmits = [&] { return std::any_of(T.a.begin(), T.a.end(), [](double v) { return v != 0.0; }); };
+  auto transmits = [&] {
+    auto nonzero = [](double v) { return v != 0.0; };
+    return std::any_of(T.a.begin(), T.a.end(), nonzero) || std::any_of(dropped_T.begin(), dropped_T.end(), nonzero);
+  };
   for (int k = 0; k < steps && transmits(); ++k) double_once();
   e.Rt = e.Rb = embed(R);
   e.Td = e.Tu = embed(T);
@@ -701,6 +738,11 @@ struct RoughInterface {
   std::shared_ptr<const InterfaceFourier> f;
   std::shared_ptr<const BeamFourier> beams;
   std::vector<int> above, below, incidence;  // global node indices
+  // Its elements per mode (rough_interface_element), made once: the interface is grey, so every
+  // channel, and the unscattered solution, adds the same one. At the top, Rt is kept apart in
+  // direct[mode] and the element's Rt is 0 (10.).
+  std::vector<Element> elements;
+  std::vector<Matrix> direct;
 };
 
 // The discretised stack for a set of incidence cosines.
@@ -713,6 +755,10 @@ struct Problem {
   // rough[k]: interface k if it is rough (its f set), else smooth; rough_top: rough[0] is.
   std::vector<RoughInterface> rough;
   bool rough_top = false;
+  // Under a rough top: each finite layer's medium without the incidences, and their cosines there
+  // (DroppedNodes); empty otherwise.
+  std::vector<Medium> layer_media;
+  std::vector<DroppedNodes> dropped;
   // Energy-conserving rough interfaces (11.): the same stack without scattering, whose solution is
   // the unscattered light (the walk's R_specular and T_ballistic); null otherwise.
   std::shared_ptr<const LayerStack> unscattered;
@@ -828,11 +874,75 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
     }
   };
   if (stack.single_scattering_top()) project(0, stack.top_roughness, false);
+  auto make_elements = [&](int k) {
+    RoughInterface& r = p.rough[k];
+    for (int mode = 0; mode < modes; ++mode) {
+      r.elements.push_back(rough_interface_element(p, k, p.size(), mode));
+      if (k > 0) continue;
+      r.direct.push_back(std::move(r.elements.back().Rt));
+      r.elements.back().Rt = Matrix(p.size());
+    }
+  };
   for (int k = 0; k <= nl; ++k)
     if (const double alpha = stack.energy_conserving_alpha(k); alpha > 0.0 && (k < nl || p.transmits)) project(k, alpha, true);
   p.rough_top = p.rough[0].f != nullptr;
+  for (int k = 0; k <= nl; ++k)
+    if (p.rough[k].f) make_elements(k);
+  if (p.rough_top && !adding_doubling_test_hooks::double_on_every_node)
+    for (const Medium& m : p.media) {
+      Medium real = m;
+      DroppedNodes d;
+      real.active.clear();
+      real.mu.clear();
+      real.W.clear();
+      real.x_lo.clear();
+      real.x_hi.clear();
+      for (std::size_t k = 0; k < m.active.size(); ++k) {
+        if (m.active[k] >= p.nodes.real) {
+          d.mu.push_back(m.mu[k]);
+          continue;
+        }
+        real.active.push_back(m.active[k]);
+        real.mu.push_back(m.mu[k]);
+        real.W.push_back(m.W[k]);
+        real.x_lo.push_back(m.x_lo[k]);
+        real.x_hi.push_back(m.x_hi[k]);
+      }
+      p.layer_media.push_back(std::move(real));
+      p.dropped.push_back(std::move(d));
+    }
   if (stack.energy_conserving_rough()) p.unscattered = std::make_shared<LayerStack>(without_scattering(stack));
   return p;
+}
+
+// 10. Under a rough top, the layers of one medium at the bottom of a stack over a Lambert
+// substrate: added on that medium's real nodes alone (compact matrices, no incidence; the
+// substrate's column for the incidence is never reached below a rough top), then embedded in
+// all nodes. The numbers are those of the full matrices, whose other rows and columns add only
+// terms x * 0 to the products and identity rows to the solves. Returns R_t; *next: the layer
+// above the run.
+Element add_bottom_run(const Problem& p, const LayerStack& stack, int c, int mode, int* doublings, int* next) {
+  const int nl = static_cast<int>(stack.layers.size()), size = p.size();
+  const Medium& m = p.layer_media[nl - 1];
+  Medium local = m;  // the same nodes, numbered 0..n-1
+  const int n = static_cast<int>(m.active.size());
+  for (int i = 0; i < n; ++i) local.active[i] = i;
+  Element acc = add_over(layer_element(stack.layers[nl - 1], c, local, n, mode, doublings, p.dropped[nl - 1]),
+                         lambert_element(stack.below.albedo, c, local, n, mode));
+  int k = nl - 2;
+  for (; k >= 0 && !p.rough[k + 1].f && stack.layers[k].ior == stack.layers[k + 1].ior && doubled_to_depth(stack.layers[k], c);
+       --k) {
+    const Layer& layer = stack.layers[k];
+    // The clear layer of solve_stack is skipped as there.
+    if (layer.sigma_t()[c] == 0.0 && static_cast<int>(p.media[k].active.size()) == size) continue;
+    acc = add_over(layer_element(layer, c, local, n, mode, doublings, p.dropped[k]), acc);
+  }
+  *next = k;
+  Element out;
+  out.Rt = Matrix(size);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) out.Rt(m.active[i], m.active[j]) = acc.Rt(i, j);
+  return out;
 }
 
 // R_t and T_d of the whole stack (or of `stack`, the same layers' structure: the unscattered
@@ -841,25 +951,32 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
 Element solve_stack(const Problem& p, int c, int mode, int* doublings, const LayerStack* other = nullptr) {
   const LayerStack& stack = other ? *other : *p.stack;
   const int nl = static_cast<int>(stack.layers.size()), size = p.size();
-  // The unscattered copy's layers are exact diagonals (no doubling).
-  auto layer_element = [&](const Layer& layer, int c, const Medium& m, int size, int mode, int* doublings) {
-    return other ? absorbing_layer_element(layer, c, m, size) : lamina::layer_element(layer, c, m, size, mode, doublings);
+  // Layer k in channel c. The unscattered copy's layers are exact diagonals (no doubling); under a
+  // rough top a finite layer is doubled on the real nodes alone (DroppedNodes).
+  auto layer_element = [&](int k) {
+    const Layer& layer = stack.layers[k];
+    if (other) return absorbing_layer_element(layer, c, p.media[k], size);
+    if (!p.layer_media.empty() && doubled_to_depth(layer, c))
+      return lamina::layer_element(layer, c, p.layer_media[k], size, mode, doublings, p.dropped[k]);
+    return lamina::layer_element(layer, c, p.media[k], size, mode, doublings);
   };
   Element acc;
-  const Layer& last = stack.layers[nl - 1];
-  if (p.semi) {
-    acc = layer_element(last, c, p.media[nl - 1], size, mode, doublings);
+  int k = nl - 2;  // the next layer to add
+  if (!other && !p.layer_media.empty() && p.lambert && !p.semi && doubled_to_depth(stack.layers[nl - 1], c)) {
+    acc = add_bottom_run(p, stack, c, mode, doublings, &k);
+  } else if (p.semi) {
+    acc = layer_element(nl - 1);
     acc.Td = Matrix();
   } else {
     const Element bottom = p.lambert       ? lambert_element(stack.below.albedo, c, p.media[nl - 1], size, mode)
-                           : p.rough[nl].f ? rough_interface_element(p, nl, size, mode)
+                           : p.rough[nl].f ? Element()
                                            : interface_element(p.media[nl - 1], p.below, size);
-    acc = add_over(layer_element(last, c, p.media[nl - 1], size, mode, doublings), bottom);
+    acc = add_over(layer_element(nl - 1), p.rough[nl].f ? p.rough[nl].elements[mode] : bottom);
     if (p.lambert) acc.Td = Matrix();
   }
-  for (int k = nl - 2; k >= 0; --k) {
+  for (; k >= 0; --k) {
     if (p.rough[k + 1].f)
-      acc = add_over(rough_interface_element(p, k + 1, size, mode), acc);
+      acc = add_over(p.rough[k + 1].elements[mode], acc);
     else if (stack.layers[k].ior != stack.layers[k + 1].ior)
       acc = add_over(interface_element(p.media[k], p.media[k + 1], size), acc);
     // A layer that neither scatters nor absorbs (a clear coat) in a medium where every node
@@ -868,15 +985,12 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings, const Lay
     // T is 0 there and it is added.
     const Layer& layer = stack.layers[k];
     if (layer.sigma_t()[c] == 0.0 && !layer.semi_infinite() && static_cast<int>(p.media[k].active.size()) == size) continue;
-    acc = add_over(layer_element(layer, c, p.media[k], size, mode, doublings), acc);
+    acc = add_over(layer_element(k), acc);
   }
   if (p.rough_top) {
     // 10. The top's own reflection is kept apart (Rt_direct) and the rest added as usual.
-    Element top = rough_interface_element(p, 0, size, mode);
-    Matrix direct = std::move(top.Rt);
-    top.Rt = Matrix(size);
-    acc = add_over(top, acc);
-    acc.Rt_direct = std::move(direct);
+    acc = add_over(p.rough[0].elements[mode], acc);
+    acc.Rt_direct = p.rough[0].direct[mode];
   } else if (stack.above_ior != stack.layers[0].ior) {
     acc = add_over(interface_element(p.above, p.media[0], size), acc);
   }

@@ -31,6 +31,7 @@
 #include <tuple>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include <tbb/parallel_for.h>
 
@@ -38,6 +39,7 @@
 #include "materials/base/sampling.h"         // kPi
 #include "materials/interfaces/microfacet.h"
 #include "materials/interfaces/microsurface.h"
+#include "materials/interfaces/microsurface_first_order.h"
 
 namespace lamina {
 
@@ -69,6 +71,10 @@ int refraction_cuts(const glm::dvec3& wi, double sin_o, double z_o, double n_i, 
   return n;
 }
 
+// An interface's eval as a plain function (the projection cache and the fast path of the
+// microsurface know it by its address).
+using EvalFunction = double (*)(double, double, double, const glm::dvec3&, const glm::dvec3&);
+
 // One block: light arriving on side in_sign (+1 above, -1 below) leaving on side out_sign.
 std::vector<std::vector<double>> project_block(double alpha, double n_above, double n_below, const InterfaceEval& eval,
                                                const FourierDirections& in, double in_sign,
@@ -87,6 +93,11 @@ std::vector<std::vector<double>> project_block(double alpha, double n_above, dou
   const double n_in = in_sign > 0.0 ? n_above : n_below, n_out = out_sign > 0.0 ? n_above : n_below;
   const GaussLegendreRule cell_rule(s.cell_points), phi_rule(s.phi_points);
   const GaussLegendreRule input_rule(s.input_points);
+  // The microsurface's first order is evaluated through its per-direction form (the terms of wi
+  // once per beam, the Beta function once per polar angle): the same numbers, fewer of its
+  // special functions.
+  const EvalFunction* function = eval.target<EvalFunction>();
+  const bool microsurface = function && *function == microsurface_single_eval;
   tbb::parallel_for(0, cols, [&](int j) {
     if (!(in.mu[j] > 0.0)) return;
     std::vector<double> x(s.cell_points), w(s.cell_points), px(s.phi_points), pw(s.phi_points);
@@ -113,6 +124,8 @@ std::vector<std::vector<double>> project_block(double alpha, double n_above, dou
     for (std::size_t beam = 0; beam < in_mu.size(); ++beam) {
     const double mu_j = in_mu[beam], beam_weight = in_w[beam];
     const glm::dvec3 wi{std::sqrt(std::max(0.0, (1.0 - mu_j) * (1.0 + mu_j))), 0.0, in_sign * mu_j};
+    std::optional<MicrosurfaceFirstOrder> first;
+    if (microsurface) first.emplace(MicrosurfaceDielectric{{alpha}, n_above, n_below}, wi);
     // The direction a smooth interface would send wi to (-1: none, total internal reflection).
     const double sin_image = refraction ? n_in / n_out * wi.x : wi.x;
     const double theta_image = sin_image < 1.0 ? std::asin(sin_image) : -1.0;
@@ -160,7 +173,8 @@ std::vector<std::vector<double>> project_block(double alpha, double n_above, dou
           phi_rule.apply(panel[p], panel[p + 1], px.data(), pw.data());
           for (int k = 0; k < s.phi_points; ++k) {
             const double c = std::cos(px[k]);
-            const double f = eval(alpha, n_above, n_below, {sin_o * c, sin_o * std::sin(px[k]), out_sign * mu}, wi);
+            const glm::dvec3 wo{sin_o * c, sin_o * std::sin(px[k]), out_sign * mu};
+            const double f = first ? first->eval(wo) : eval(alpha, n_above, n_below, wo, wi);
             if (f == 0.0) continue;
             // 2 (-1)^m cos(m phi) by the Chebyshev recurrence cos(m phi) = 2 c cos((m-1) phi) - cos((m-2) phi).
             double prev = 1.0, cur = c;
@@ -204,7 +218,6 @@ InterfaceFourier project(double alpha, double n_above, double n_below, const Int
 // The last projections made, by their exact inputs: a scene's table set projects the same top
 // on the same nodes for every table along a parameter that is not the roughness, and the table
 // mode's auto prediction again. A hit returns the same numbers a new projection would.
-using EvalFunction = double (*)(double, double, double, const glm::dvec3&, const glm::dvec3&);
 struct CacheKey {
   double alpha, n_above, n_below;
   int modes, cell_points, input_points, phi_panels, phi_points;

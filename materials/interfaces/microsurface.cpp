@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 
 #include "materials/interfaces/fresnel.h"
+#include "materials/interfaces/microsurface_first_order.h"
 
 namespace lamina {
 namespace {
@@ -70,8 +71,8 @@ glm::dvec3 sample_visible_any(double alpha, const glm::dvec3& v, double u0, doub
 // along b, in the frame where the ray's medium (index n_out) is +z: a visible facet m from v,
 // then reflection (b.z > 0 side: F D_v(m) / (4 v.m), Walter eq. 14) or refraction into n_in
 // (b on the far side of m: (1 - F) D_v(m) n_in^2 |b.m| / (n_out v.m + n_in b.m)^2, eq. 17).
-double phase(const GgxDistribution& g, const glm::dvec3& v, const glm::dvec3& b, double n_out, double n_in) {
-  const double area = projected_area(g.alpha, v);
+// `area`: projected_area(g.alpha, v), which callers with a fixed v compute once.
+double phase(const GgxDistribution& g, const glm::dvec3& v, const glm::dvec3& b, double n_out, double n_in, double area) {
   if (!(area > 0.0)) return 0.0;
   if (b.z > 0.0) {
     const glm::dvec3 sum = v + b;
@@ -94,10 +95,15 @@ double phase(const GgxDistribution& g, const glm::dvec3& v, const glm::dvec3& b,
   return (1.0 - fresnel_dielectric(vm, n_out, n_in)) * vm * g.d(m) / area * n_in * n_in * -bm / (denom * denom);
 }
 
-// B(x, y) = Gamma(x) Gamma(y) / Gamma(x + y), 0 if an argument is infinite (grazing).
-double beta_function(double x, double y) {
+double phase(const GgxDistribution& g, const glm::dvec3& v, const glm::dvec3& b, double n_out, double n_in) {
+  return phase(g, v, b, n_out, n_in, projected_area(g.alpha, v));
+}
+
+// B(x, y) = Gamma(x) Gamma(y) / Gamma(x + y), 0 if an argument is infinite (grazing), with
+// lgamma_x = lgamma(x) given (a caller's x is fixed).
+double beta_function(double x, double lgamma_x, double y) {
   if (!std::isfinite(x) || !std::isfinite(y)) return 0.0;
-  return std::exp(std::lgamma(x) + std::lgamma(y) - std::lgamma(x + y));
+  return std::exp(lgamma_x + std::lgamma(y) - std::lgamma(x + y));
 }
 
 // The walk's state in the frame where the side the ray is on is +z: the frame is the caller's
@@ -155,17 +161,35 @@ bool MicrosurfaceDielectric::sample(const glm::dvec3& from, Rng& rng, glm::dvec3
 }
 
 double MicrosurfaceDielectric::density_single(const glm::dvec3& from, const glm::dvec3& to) const {
-  if (from.z == 0.0 || to.z == 0.0) return 0.0;
-  const double sign = from.z > 0.0 ? 1.0 : -1.0;
-  const glm::dvec3 a = from * sign, b = to * sign;
-  const double n_out = from.z > 0.0 ? n_above : n_below, n_in = from.z > 0.0 ? n_below : n_above;
+  return MicrosurfaceFirstOrder(*this, from).density(to);
+}
+
+MicrosurfaceFirstOrder::MicrosurfaceFirstOrder(const MicrosurfaceDielectric& s, const glm::dvec3& from)
+    : distribution_(s.distribution), grazing_(from.z == 0.0), sign_(from.z > 0.0 ? 1.0 : -1.0),
+      n_out_(from.z > 0.0 ? s.n_above : s.n_below), n_in_(from.z > 0.0 ? s.n_below : s.n_above), a_(from * sign_),
+      lambda_a_(grazing_ ? 0.0 : distribution_.lambda(a_)), area_a_(projected_area(distribution_.alpha, a_)) {}
+
+double MicrosurfaceFirstOrder::beta(double lambda_b) {
+  if (lambda_b == last_lambda_b_) return last_beta_;
+  if (!has_lgamma_a_) {
+    lgamma_a_ = std::lgamma(1.0 + lambda_a_);
+    has_lgamma_a_ = true;
+  }
+  last_lambda_b_ = lambda_b;
+  last_beta_ = beta_function(1.0 + lambda_a_, lgamma_a_, 1.0 + lambda_b);
+  return last_beta_;
+}
+
+double MicrosurfaceFirstOrder::density(const glm::dvec3& to) {
+  if (grazing_ || to.z == 0.0) return 0.0;
+  const glm::dvec3 b = to * sign_;
   // The first scattering's phase function, averaged over the height of the first hit
   // (C1 = u^(1/(1 + Lambda_a))) times the escape towards b from there (Heitz et al. 2016,
   // section 5.1): (1 + Lambda_a) / (1 + Lambda_a + Lambda_b) above, (1 + Lambda_a) B(1 +
   // Lambda_a, 1 + Lambda_b) through.
-  const double la = distribution.lambda(a), lb = distribution.lambda(b);
-  const double escape_mean = b.z > 0.0 ? (1.0 + la) / (1.0 + la + lb) : (1.0 + la) * beta_function(1.0 + la, 1.0 + lb);
-  return phase(distribution, a, b, n_out, n_in) * escape_mean;
+  const double la = lambda_a_, lb = distribution_.lambda(b);
+  const double escape_mean = b.z > 0.0 ? (1.0 + la) / (1.0 + la + lb) : (1.0 + la) * beta(lb);
+  return phase(distribution_, a_, b, n_out_, n_in_, area_a_) * escape_mean;
 }
 
 double MicrosurfaceDielectric::density(const glm::dvec3& from, const glm::dvec3& to, Rng& rng) const {

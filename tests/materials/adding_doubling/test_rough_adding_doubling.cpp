@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "materials/adding_doubling/adding_doubling.h"
+#include "materials/adding_doubling/adding_doubling_test_hooks.h"
 #include "tests/materials/adding_doubling/walk_and_solver.h"
 #include "materials/adding_doubling/interface_fourier.h"
 #include "materials/analytic/first_order.h"  // gauss_legendre
@@ -270,6 +271,70 @@ TEST(RoughAddingDoubling, Reciprocal) {
     EXPECT_LE(asym[1], 2.0 * discretisation) << "alpha " << alpha;
   }
 }
+
+// Under a rough top the layers are doubled on the real nodes alone (adding_doubling.cpp,
+// DroppedNodes), and the bottom layers of one medium over a Lambert substrate added on that
+// medium's nodes alone (add_bottom_run): the same numbers, bit for bit, as doubling and adding
+// them on every node (the test hook's plain path). Cases where the dropped nodes matter to the doubling: an
+// index-matched layer lit at 89.9 degrees (the incidence is the smallest cosine there, which
+// sets the starting thickness), a layer thick enough that its transmission flushes to 0 (the
+// incidence's diagonal keeps the doubling going), optical depths beyond the doubles (doubled to
+// convergence: the plain path), both rough models, a transmitting
+// energy-conserving leaf, a rough inner interface; totals at four incidences and 3 orders, and a
+// table at three incidences.
+TEST(RoughAddingDoubling, LayersOnTheRealNodesAloneGiveTheSameNumbers) {
+  auto plain = [](auto solve) {  // the plain path, behind the solver's test hook
+    adding_doubling_test_hooks::double_on_every_node = true;
+    auto result = solve();
+    adding_doubling_test_hooks::double_on_every_node = false;
+    return result;
+  };
+  auto file = [](const char* f) { return load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/" + f); };
+  LayerStack matched;
+  matched.top_roughness = 0.3;
+  matched.layers.push_back(make_layer("matched", 1.0, 0.5, Spectrum(0.5, 1.0, 2.0), Spectrum(5.0), Spectrum(0.7)));
+  matched.layers.push_back(make_layer("slab", 1.4, 0.5, Spectrum(0.1), Spectrum(10.0), Spectrum(0.5)));
+  LayerStack deep = matched;
+  deep.layers[1].thickness = 400.0;  // tau 4000: exp(-tau / mu) below 1e-200 at every node
+  LayerStack overflow = matched;  // an optical depth beyond the doubles: doubled to convergence
+  overflow.layers[1].thickness = 1e308;
+  overflow.layers[0].thickness = 1e308;
+  LayerStack conserving = file("skin_oily.json");
+  conserving.interface_model = InterfaceModel::EnergyConserving;
+  LayerStack inner = conserving;
+  inner.layers[0].bottom_roughness = 0.3;
+  LayerStack matched_ec = matched;
+  matched_ec.interface_model = InterfaceModel::EnergyConserving;
+  int compared = 0;
+  for (const LayerStack& s : {skin(0.35), matched, deep, overflow, matched_ec, conserving, inner, file("leaf_rough.json")}) {
+    for (int q : {4, 8, 16}) {
+      for (double deg : {0.0, 45.0, 80.0, 89.9}) {
+        const double mu = std::cos(deg * kPiD / 180.0);
+        const AddingDoublingTotals a = adding_doubling_totals(s, mu, order(q));
+        const AddingDoublingTotals b = plain([&] { return adding_doubling_totals(s, mu, order(q)); });
+        using T = AddingDoublingTotals;
+        for (Spectrum T::*field : {&T::R_specular, &T::R_diffuse, &T::T_ballistic, &T::T_diffuse, &T::absorbed,
+                                   &T::R_hemispherical, &T::T_hemispherical, &T::absorbed_hemispherical,
+                                   &T::R_hemispherical_glossy})
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_EQ((a.*field)[c], (b.*field)[c]) << s.name << " " << q << " " << deg;
+            ++compared;
+          }
+        EXPECT_EQ(a.doublings, b.doublings) << s.name << " " << q << " " << deg;
+      }
+    }
+    BrdfOptions o;
+    o.bins_theta = 4;
+    o.bins_phi = 6;
+    const std::vector<BrdfTable> a = brdf_tables_adding_doubling(s, o, {0.0, 50.0, 85.0});
+    const std::vector<BrdfTable> b = plain([&] { return brdf_tables_adding_doubling(s, o, {0.0, 50.0, 85.0}); });
+    for (std::size_t t = 0; t < a.size(); ++t)
+      for (std::size_t k = 0; k < a[t].value.size(); ++k)
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(a[t].value[k][c], b[t].value[k][c]) << s.name << " table " << t << " bin " << k;
+  }
+  EXPECT_EQ(compared, 8 * 3 * 4 * 9 * 3);
+}
+
 
 }  // namespace
 }  // namespace lamina

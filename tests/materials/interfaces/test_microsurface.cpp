@@ -13,6 +13,7 @@
 #include "materials/interfaces/fresnel.h"
 #include "materials/interfaces/microfacet.h"
 #include "materials/interfaces/microsurface.h"
+#include "materials/interfaces/microsurface_first_order.h"
 #include "materials/base/sampling.h"
 #include "tests/support/sphere_quadrature.h"
 #include "tests/support/statistics.h"
@@ -186,6 +187,38 @@ TEST(Microsurface, InterfaceValueForProjection) {
   const double a = rough_interface_bsdf(InterfaceModel::EnergyConserving, 0.8, 1.0, 1.4, wo, wi, 256);
   EXPECT_EQ(a, rough_interface_bsdf(InterfaceModel::EnergyConserving, 0.8, 1.0, 1.4, wo, wi, 256));
   EXPECT_GT(a, (MicrosurfaceDielectric{{0.8}, 1.0, 1.4}.eval_single(wo, wi)));
+}
+
+TEST(Microsurface, FirstOrderPerDirectionIsTheClosedForm) {
+  // MicrosurfaceFirstOrder (one `from`, many `to`, its Beta function reused while Lambda(to)
+  // repeats) gives the numbers of a fresh evaluation per query bit for bit, over azimuth sweeps
+  // at fixed polar angles (where Lambda(to) repeats up to rounding) in reflection and
+  // transmission, from both sides; and its transmission is Walter's with the Beta function's
+  // masking in place of G2 (Heitz 2014, eq. 101): f = f_G2 (1 + La + Lb) B(1 + La, 1 + Lb).
+  int transmissions = 0;
+  for (double alpha : {0.05, 0.4, 1.0})
+    for (const auto& [theta, side] : {std::pair{0.0, 1.0}, {35.0, 1.0}, {80.0, 1.0}, {25.0, -1.0}, {60.0, -1.0}}) {
+      const MicrosurfaceDielectric s{{alpha}, 1.0, 1.45};
+      const RoughDielectric ss{{alpha}, 1.0, 1.45};
+      const glm::dvec3 from = from_angle(theta, side);
+      MicrosurfaceFirstOrder first(s, from);
+      for (double to_theta : {0.0, 10.0, 40.0, 70.0, 89.0, 90.0, 100.0, 140.0, 170.0, 180.0})
+        for (int k = 0; k < 24; ++k) {
+          const double t = to_theta * kPi / 180.0, phi = 2.0 * kPi * (k + 0.37) / 24.0;
+          const glm::dvec3 to{std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
+          const double f = first.eval(to);
+          EXPECT_EQ(first.density(to), MicrosurfaceFirstOrder(s, from).density(to)) << alpha << " " << theta;
+          EXPECT_EQ(f, MicrosurfaceFirstOrder(s, from).eval(to));
+          EXPECT_EQ(f, s.eval_single(to, from));
+          if (to.z * from.z < 0.0 && std::abs(to.z) > 1e-3 && f > 0.0) {  // RoughDielectric cuts grazing
+            const double la = s.distribution.lambda(from), lb = s.distribution.lambda(to);
+            const double beta = std::exp(std::lgamma(1.0 + la) + std::lgamma(1.0 + lb) - std::lgamma(2.0 + la + lb));
+            EXPECT_NEAR(f, ss.eval(to, from) * (1.0 + la + lb) * beta, 1e-12 * f) << alpha << " " << theta;
+            ++transmissions;
+          }
+        }
+    }
+  EXPECT_GT(transmissions, 500);
 }
 
 }  // namespace
