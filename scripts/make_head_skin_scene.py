@@ -229,10 +229,10 @@ def main():
     add_portrait_rig(j, eye=(2.0, 1.0, 12.0), target=(0.0, 0.3, 0.0), key_position=(4.0, 3.0, 11.0),
                      key_color=(1.0, 0.97, 0.93), key_intensity=500.0, rim_from=(-6.0, 3.0, -6.0),
                      rim_intensity=4.0)
-    # skin_oily_conserving.json (skin_oily.json with the energy-conserving rough top, which keeps
+    # skin_oily.json (with the energy-conserving rough top, the default model, which keeps
     # the albedo the maps were fitted to on the smooth stack): layers[0] sebum film, layers[1]
     # epidermis (components[0] melanin), layers[2] dermis (components[0] blood).
-    fitted = {'stack': '../materials/skin_oily_conserving.json',
+    fitted = {'stack': '../materials/skin_oily.json',
               'bind': [bind(MELANIN[0], 'melanin_fitted.png', *MELANIN[1:]),
                        bind(BLOOD[0], 'blood_fitted.png', *BLOOD[1:])] + oil_bindings('oil_spec.png')}
     if args.freckles:

@@ -125,7 +125,7 @@ TEST(AlbedoLookup, DiffuseTableHoldsTheLambertAlbedo) {
 // round trip's grid), and the error falls at least by half from 17 to 33 nodes (bilinear
 // interpolation: with the square of the spacing).
 TEST(AlbedoLookup, RoughEnergyConservingMapComesBack) {
-  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily_conserving.json");
+  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
   ASSERT_TRUE(t.stack.rough_top());
   ASSERT_TRUE(t.stack.energy_conserving_rough());
   const std::vector<FitParameterSpec> axes = {{"layers[1].components[0].fraction", 0.0, 0.3},
@@ -167,7 +167,7 @@ TEST(AlbedoLookup, RoughEnergyConservingMapComesBack) {
 // A rough top's roughness, or an index on a rough stack, would change the interfaces' projection
 // at every node: not an axis (stack_fit.h, rough_projection_refusal).
 TEST(AlbedoLookup, RoughProjectionAxesAreOneLineErrors) {
-  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily_conserving.json");
+  const StackTemplate t = load_stack_template(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin_oily.json");
   auto error_of = [&](const std::vector<FitParameterSpec>& axes) {
     try {
       check_albedo_axes(t, axes);
