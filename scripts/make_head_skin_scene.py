@@ -125,9 +125,10 @@ def spec_oil_map():
 
 def fitted_maps(lamina):
     """melanin_fitted.png, blood_fitted.png, fitted_albedo.png: `lamina fit --albedo-texture` on
-    the albedo photo. The fit's forward model (adding-doubling) has a smooth top, so it fits
-    skin_oily_smooth.json; the diffuse albedo it matches (R_h less the specular reflection) is what
-    the scene's energy-conserving rough top leaves too (docs/fitting.md)."""
+    the albedo photo, on skin_oily_smooth.json (the fit took only smooth tops when the maps were
+    made; it now takes the rough one too, but a refit would change the head's renders): the
+    diffuse albedo it matches (R_h less the specular reflection) is what the scene's
+    energy-conserving rough top leaves too (docs/fitting.md)."""
     with tempfile.TemporaryDirectory() as tmp:
         col = os.path.join(tmp, 'col.png')
         subprocess.run(['oiiotool', os.path.join(HEAD, 'Map-COL.jpg'), '--resize', '%dx%d' % (SIZE, SIZE),
