@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
       lamina::LayerStack s = base;
       // A new roughness per repeat (a cold projection), within 1e-6 of the preset's.
       s.top_roughness = rough ? base.top_roughness * (1.0 + 1e-7 * (r + 1)) : 0.0;
-      if (energy_conserving) s.interface_model = lamina::InterfaceModel::EnergyConserving;
+      s.interface_model = energy_conserving ? lamina::InterfaceModel::EnergyConserving : lamina::InterfaceModel::SingleScattering;
       cold.push_back(measure([&] { lamina::build_layered_table(s, settings); }));
       warm.push_back(measure([&] { lamina::build_layered_table(s, settings); }));
       const double mu = std::cos((20.0 + r) * 3.14159265358979323846 / 180.0);

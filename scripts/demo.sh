@@ -40,7 +40,7 @@ done
 # LAMINA_DEMO_SPP, if set, overrides these too.
 LEAF_SPP=${LAMINA_DEMO_SPP:-32}
 # The portrait (480x600, front key + rim light): the textured glTF head (the asset's photograph as
-# its albedo, normal map) | the layered head (skin_oily_conserving.json, melanin, blood and sebum maps fitted
+# its albedo, normal map) | the layered head (skin_oily.json, melanin, blood and sebum maps fitted
 # to the same photographs; --subsurface auto at tolerance 0.01: tables where they are within 1 %,
 # raw, no denoiser) | their difference, smoothed (Gaussian, sigma 1 px, stated in its legend): what
 # light scattering under the skin changes for the same person.

@@ -125,9 +125,10 @@ def spec_oil_map():
 
 def fitted_maps(lamina):
     """melanin_fitted.png, blood_fitted.png, fitted_albedo.png: `lamina fit --albedo-texture` on
-    the albedo photo. The fit's forward model (adding-doubling) has a smooth top, so it fits
-    skin_oily_smooth.json; the diffuse albedo it matches (R_h less the specular reflection) is what
-    the scene's energy-conserving rough top leaves too (docs/fitting.md)."""
+    the albedo photo, on skin_oily_smooth.json (the fit took only smooth tops when the maps were
+    made; it now takes the rough one too, but a refit would change the head's renders): the
+    diffuse albedo it matches (R_h less the specular reflection) is what the scene's
+    energy-conserving rough top leaves too (docs/fitting.md)."""
     with tempfile.TemporaryDirectory() as tmp:
         col = os.path.join(tmp, 'col.png')
         subprocess.run(['oiiotool', os.path.join(HEAD, 'Map-COL.jpg'), '--resize', '%dx%d' % (SIZE, SIZE),
@@ -229,10 +230,10 @@ def main():
     add_portrait_rig(j, eye=(2.0, 1.0, 12.0), target=(0.0, 0.3, 0.0), key_position=(4.0, 3.0, 11.0),
                      key_color=(1.0, 0.97, 0.93), key_intensity=500.0, rim_from=(-6.0, 3.0, -6.0),
                      rim_intensity=4.0)
-    # skin_oily_conserving.json (skin_oily.json with the energy-conserving rough top, which keeps
+    # skin_oily.json (with the energy-conserving rough top, the default model, which keeps
     # the albedo the maps were fitted to on the smooth stack): layers[0] sebum film, layers[1]
     # epidermis (components[0] melanin), layers[2] dermis (components[0] blood).
-    fitted = {'stack': '../materials/skin_oily_conserving.json',
+    fitted = {'stack': '../materials/skin_oily.json',
               'bind': [bind(MELANIN[0], 'melanin_fitted.png', *MELANIN[1:]),
                        bind(BLOOD[0], 'blood_fitted.png', *BLOOD[1:])] + oil_bindings('oil_spec.png')}
     if args.freckles:

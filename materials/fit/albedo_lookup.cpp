@@ -44,7 +44,6 @@ Spectrum AlbedoLookup::at(double u0, double u1) const {
 
 std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes) {
   if (axes.size() != 2) throw FitError("an albedo lookup needs two parameters, got " + std::to_string(axes.size()));
-  if (t.stack.rough_top()) throw FitError("roughness: the adding-doubling forward model is for a smooth top interface");
   auto text = [](double v) {
     char b[32];
     std::snprintf(b, sizeof b, "%g", v);
@@ -59,6 +58,8 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
       throw FitError(e.what());
     }
     if (p.spectral()) throw FitError(a.path + ": an albedo lookup's axis must be a scalar parameter (a fraction, a thickness)");
+    const std::string fixed = rough_projection_refusal(t, p);
+    if (!fixed.empty()) throw FitError(fixed);
     if (!std::isfinite(a.lower) || !std::isfinite(a.upper) || !(a.lower < a.upper) || a.lower < p.min_value() ||
         a.upper > p.max_value())
       throw FitError(a.path + ": bounds must be finite, increasing and inside [" + text(p.min_value()) + ", " +
@@ -83,18 +84,24 @@ AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitPa
   table.nodes = nodes;
   table.albedo.resize(static_cast<std::size_t>(nodes) * nodes);
   table.lab.resize(table.albedo.size());
+  auto solve = [&](int i, int j, LayerStack* stack) {
+    const Spectrum v[2] = {Spectrum(axes[0].lower + (axes[0].upper - axes[0].lower) * i / (nodes - 1.0)),
+                           Spectrum(axes[1].lower + (axes[1].upper - axes[1].lower) * j / (nodes - 1.0))};
+    apply_parameters(t, ps, v, stack);
+    // Diffuse incidence: every solution carries it (the collimated angle is irrelevant).
+    const std::size_t k = static_cast<std::size_t>(i) * nodes + j;
+    table.albedo[k] = kind == AlbedoKind::kTotal ? adding_doubling_totals(*stack, 1.0, settings).R_hemispherical
+                                                 : diffuse_bihemispherical_albedo_adding_doubling(*stack, settings);
+    table.lab[k] = linear_rgb_to_lab(table.albedo[k]);
+  };
+  // The first node alone: under rough interfaces it makes their projection (the axes change
+  // neither alpha nor an index: check_albedo_axes), which interface_fourier.h's cache then gives
+  // every other node, instead of each thread making it at once.
+  LayerStack first;
+  solve(0, 0, &first);
   tbb::parallel_for(0, nodes, [&](int i) {
     LayerStack stack;  // one scratch stack per row
-    for (int j = 0; j < nodes; ++j) {
-      const Spectrum v[2] = {Spectrum(axes[0].lower + (axes[0].upper - axes[0].lower) * i / (nodes - 1.0)),
-                             Spectrum(axes[1].lower + (axes[1].upper - axes[1].lower) * j / (nodes - 1.0))};
-      apply_parameters(t, ps, v, &stack);
-      // Diffuse incidence: every solution carries it (the collimated angle is irrelevant).
-      const std::size_t k = static_cast<std::size_t>(i) * nodes + j;
-      table.albedo[k] = kind == AlbedoKind::kTotal ? adding_doubling_totals(stack, 1.0, settings).R_hemispherical
-                                                   : diffuse_bihemispherical_albedo_adding_doubling(stack, settings);
-      table.lab[k] = linear_rgb_to_lab(table.albedo[k]);
-    }
+    for (int j = i == 0 ? 1 : 0; j < nodes; ++j) solve(i, j, &stack);
   });
   return table;
 }

@@ -41,8 +41,13 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
 
 // Tabulates the albedo of `kind` of `t` with the two parameters of `axes` (paths as in
 // stack_parameters.h, scalar ones: fractions, thicknesses) on a nodes x nodes grid. Throws
-// FitError for a bad path, bounds or a colour parameter; nodes in [2, 1024]. The nodes are
+// FitError for a bad path, bounds, a colour parameter or one rough_projection_refusal refuses
+// (stack_fit.h); nodes in [2, 1024]. Rough interfaces, either model, are in the solution: the
+// first node, solved alone, makes their projection, and the others reuse it. The nodes are
 // solved in parallel (TBB), each into its own place: the table does not depend on the threads.
+// On the rough energy-conserving oily skin (alpha 0.4, melanin 0-0.3, blood 0-0.2, 8 points,
+// kDiffuse) the round trip of 20 random fractions is within 1.1% / 0.45% of each range at 17 /
+// 33 nodes (tests/materials/fit/test_albedo_lookup.cpp).
 //
 // Error of the lookup (the bilinear interpolation's, falling with the square of the spacing), on
 // the skin preset's melanin 0-0.3 and blood 0-0.2 at 8 quadrature points (kTotal), for colours on the

@@ -619,12 +619,22 @@ void fit_group(Problem& pb, const std::vector<int>& unknown_index, const std::ve
 
 }  // namespace
 
+std::string rough_projection_refusal(const StackTemplate& t, const StackParameter& p) {
+  if (p.kind == StackParameter::Kind::kRoughness)
+    return p.path + ": a rough interface's roughness is not fitted: every evaluation would project the interface "
+                    "anew, and the energy-conserving one's multiple scattering is estimated by walks at fixed seeds, "
+                    "which is not smooth in alpha (docs/fitting.md)";
+  const bool rough = t.stack.rough_top() || t.stack.energy_conserving_rough();
+  if (rough && (p.kind == StackParameter::Kind::kIor || p.kind == StackParameter::Kind::kBelowIor))
+    return p.path + ": an index is not fitted on a stack with rough interfaces: the solver's directions depend on "
+                    "every index, so every evaluation would project the rough interfaces anew (docs/fitting.md)";
+  return {};
+}
+
 FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>& specs,
                     const std::vector<FitMeasurement>& data, const FitSettings& settings) {
   if (specs.empty()) throw FitError("no parameter to fit");
   if (data.empty()) throw FitError("no measurements");
-  if (t.stack.rough_top())
-    throw FitError("roughness: the adding-doubling forward model is for a smooth top interface");
   std::vector<StackParameter> parameters;
   std::vector<Spectrum> base;
   std::vector<FitUnknown> unknowns;
@@ -639,8 +649,8 @@ FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>&
     } catch (const StackParameterError& e) {
       throw FitError(e.what());
     }
-    if (p.kind == StackParameter::Kind::kRoughness)
-      throw FitError(s.path + ": the adding-doubling forward model is for a smooth top interface");
+    const std::string fixed = rough_projection_refusal(t, p);
+    if (!fixed.empty()) throw FitError(fixed);
     if (!std::isfinite(s.lower) || !std::isfinite(s.upper))
       throw FitError(s.path + ": bounds must be finite, got " + number_text(s.lower) + ":" + number_text(s.upper));
     if (!(s.lower < s.upper))
@@ -706,6 +716,21 @@ FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>&
       continue;
     }
     groups.push_back(std::move(g));
+  }
+  // Rough interfaces: their projection onto the solver's basis depends only on alpha, the indices
+  // and the quadrature, none of which the fit varies, so interface_fourier.h's cache makes it
+  // once for every evaluation. Made here before the groups start, so that parallel groups do not
+  // each make it at once (the coarse search's and the accurate model's quadrature).
+  if (groups.size() > 1 && (t.stack.rough_top() || t.stack.energy_conserving_rough())) {
+    AddingDoublingSettings warm = settings.forward;
+    warm.only_channel = groups.front().channel < 0 ? 0 : groups.front().channel;
+    const int coarse = settings.coarse_quadrature_points;
+    if (coarse > 0 && coarse < warm.quadrature_points) {
+      AddingDoublingSettings c = warm;
+      c.quadrature_points = coarse;
+      fit_model_values(t.stack, data, c);
+    }
+    fit_model_values(t.stack, data, warm);
   }
   // The channels' problems are independent: solved in parallel, each into its own partial
   // result, merged in channel order (the same result and warnings for any number of threads).

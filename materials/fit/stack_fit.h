@@ -160,9 +160,18 @@ struct FitResult {
   LayerStack stack;                        // the template's stack with the fitted values
 };
 
+// Rough interfaces (either interface model) are in the forward model: adding-doubling projects
+// each onto its basis once (interface_fourier.h's cache), and every evaluation after the first
+// costs what a smooth stack's does plus the beams' first order (docs/fitting.md, "Rough
+// interfaces"). What would change the projection at every evaluation is not fitted: the
+// roughness itself, and an index on a stack with rough interfaces. Returns that refusal for
+// `p` (one line naming its path), or an empty string.
+std::string rough_projection_refusal(const StackTemplate& t, const StackParameter& p);
+
 // Fits `specs` of the template to `data`. Throws FitError (one line) for a bad path (the
 // resolver's message), reversed or non-finite bounds, bounds outside the parameter's physical
-// range, a rough top, no measurements, or an unknown with no measurement in its channel.
+// range, a parameter rough_projection_refusal refuses, no measurements, or an unknown with no
+// measurement in its channel.
 FitResult fit_stack(const StackTemplate& t, const std::vector<FitParameterSpec>& specs,
                     const std::vector<FitMeasurement>& data, const FitSettings& settings = {});
 

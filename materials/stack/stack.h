@@ -67,15 +67,16 @@ struct LayerStack {
   double above_ior = 1.0;
   // GGX alpha of the top interface (interface 0; materials/interfaces/microfacet.h): 0 is a smooth
   // (mirror) interface, the model of Hanrahan and Krueger; > 0 a rough dielectric whose
-  // reflection is a glossy lobe and whose transmission spreads directions. Only for stacks that
-  // do not transmit (validate_stack).
+  // reflection is a glossy lobe and whose transmission spreads directions. With the
+  // single-scattering model only for stacks that do not transmit (validate_stack).
   double top_roughness = 0.0;
-  // The rough interfaces' model (materials/interfaces/microsurface.h): SingleScattering, the
-  // default (what every material file without the key has always meant), is the top-only
-  // single-scattering interface; EnergyConserving is Heitz et al.'s multiple-scattering
-  // microsurface at every rough interface (top_roughness and each layer's bottom_roughness),
-  // from both sides, on any stack.
-  InterfaceModel interface_model = InterfaceModel::SingleScattering;
+  // The rough interfaces' model (materials/interfaces/microsurface.h): EnergyConserving, the
+  // default (of this struct and of a material file without "interface_model"), is Heitz et al.'s
+  // multiple-scattering microsurface at every rough interface (top_roughness and each layer's
+  // bottom_roughness), from both sides, on any stack; SingleScattering, explicit only, is the
+  // top-only single-scattering interface (Walter et al., Mitsuba 3's roughdielectric), for
+  // comparisons with renderers that use it. Smooth stacks are the same under either.
+  InterfaceModel interface_model = InterfaceModel::EnergyConserving;
   std::vector<Layer> layers;
   Below below;
 

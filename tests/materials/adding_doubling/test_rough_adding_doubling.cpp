@@ -35,6 +35,7 @@ AddingDoublingSettings order(int q) {
 
 LayerStack rough(LayerStack s, double alpha, const std::string& name) {
   s.top_roughness = alpha;
+  s.interface_model = InterfaceModel::SingleScattering;  // this file tests the single-scattering top
   s.name = name;
   return s;
 }

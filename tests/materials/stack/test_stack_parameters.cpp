@@ -144,8 +144,11 @@ TEST(StackParameters, RoughnessEqualsTheFileWithThatRoughness) {
     EXPECT_EQ(s.top_roughness, a);
   }
   EXPECT_EQ(applied(t, {"roughness"}, {Spectrum(3.0)}).top_roughness, 1.0);  // clamped
-  // A transmitting stack cannot have a rough top.
-  const StackTemplate leaf = load_stack_template(preset("leaf.json"));
+  // A transmitting stack cannot have a single-scattering rough top; the energy-conserving one
+  // (the default) it can.
+  StackTemplate leaf = load_stack_template(preset("leaf.json"));
+  EXPECT_EQ(parse_stack_parameter(leaf, "roughness").kind, StackParameter::Kind::kRoughness);
+  leaf.stack.interface_model = InterfaceModel::SingleScattering;
   EXPECT_THROW(parse_stack_parameter(leaf, "roughness"), StackParameterError);
 }
 

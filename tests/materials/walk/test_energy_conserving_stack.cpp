@@ -327,10 +327,18 @@ TEST(EnergyConservingStack, MaterialFileKeys) {
   EXPECT_EQ(s.layers[0].bottom_roughness, 0.4);
   EXPECT_EQ(s.energy_conserving_alpha(1), 0.4);
   EXPECT_EQ(s.energy_conserving_alpha(2), 0.0);
-  // Without the key a file means what it always meant: the single-scattering top, which refuses
-  // rough inner interfaces and transmitting stacks.
+  // Without the key a file means the energy-conserving model, as the struct's default does (one
+  // declaration): rough inner interfaces and transmitting stacks are accepted.
   EXPECT_EQ(parse_stack_json(R"({"lamina_material": 1, "roughness": 0.2, "layers": [{"ior": 1.5, "thickness": "inf",
-            "sigma_a": 0.1, "sigma_s": 1, "g": 0}]})", "m.json").interface_model, InterfaceModel::SingleScattering);
+            "sigma_a": 0.1, "sigma_s": 1, "g": 0}]})", "m.json").interface_model, InterfaceModel::EnergyConserving);
+  EXPECT_EQ(LayerStack().interface_model, InterfaceModel::EnergyConserving);
+  const LayerStack by_default = parse_stack_json(R"({"lamina_material": 1, "roughness": 0.2, )" + layers + "}", "m.json");
+  EXPECT_EQ(by_default.energy_conserving_alpha(0), 0.2);
+  EXPECT_EQ(by_default.energy_conserving_alpha(1), 0.4);
+  // The single-scattering top is explicit; it refuses rough inner interfaces and transmitting stacks.
+  EXPECT_EQ(parse_stack_json(R"({"lamina_material": 1, "roughness": 0.2, "interface_model": "single_scattering",
+            "layers": [{"ior": 1.5, "thickness": "inf", "sigma_a": 0.1, "sigma_s": 1, "g": 0}]})", "m.json").interface_model,
+            InterfaceModel::SingleScattering);
   auto error_of = [](const std::string& text) {
     try {
       parse_stack_json(text, "m.json");
@@ -339,7 +347,12 @@ TEST(EnergyConservingStack, MaterialFileKeys) {
     }
     return std::string();
   };
-  EXPECT_NE(error_of(R"({"lamina_material": 1, )" + layers + "}").find("layers[0].bottom_roughness: rough inner"),
+  EXPECT_NE(error_of(R"({"lamina_material": 1, "interface_model": "single_scattering", )" + layers + "}")
+                .find("layers[0].bottom_roughness: rough inner"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"lamina_material": 1, "roughness": 0.2, "interface_model": "single_scattering", "layers": [
+            {"ior": 1.5, "thickness": 0.1, "sigma_a": 0.1, "sigma_s": 1, "g": 0}], "below": {"ior": 1.0}})")
+                .find("by the single-scattering model"),
             std::string::npos);
   EXPECT_NE(error_of(R"({"lamina_material": 1, "interface_model": "multiple", )" + layers + "}").find("interface_model: expected"),
             std::string::npos);

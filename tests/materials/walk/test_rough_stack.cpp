@@ -51,6 +51,7 @@ LayerStack rough_stack(double alpha, double albedo = 0.6, double sigma_a = 0.3) 
   LayerStack s;
   s.above_ior = 1.0;
   s.top_roughness = alpha;
+  s.interface_model = InterfaceModel::SingleScattering;  // this file tests the single-scattering top
   s.layers.push_back(make_layer("layer", 1.4, 0.5, Spectrum(sigma_a), Spectrum(8.0), Spectrum(0.6)));
   s.below.kind = Below::Kind::Lambert;
   s.below.albedo = Spectrum(albedo);
@@ -263,6 +264,7 @@ TEST(RoughStack, MatchesMitsubaVolpath) {
     std::stringstream(line) >> alpha >> c >> theta >> c >> visible >> c >> visible_se >> c >> classic >> c >> classic_se;
     LayerStack stack;
     stack.top_roughness = alpha;
+    stack.interface_model = InterfaceModel::SingleScattering;  // Mitsuba's roughdielectric
     stack.layers.push_back(make_layer("medium", 1.4, kInfiniteThickness, Spectrum(2.0), Spectrum(8.0), Spectrum(0.5)));
     ASSERT_EQ(validate_stack(stack), "");
     const glm::dvec3 wi = from_angle(theta), up(0.0, 0.0, 1.0);
@@ -291,8 +293,11 @@ TEST(RoughStack, MaterialFileKey) {
   } catch (const StackFileError& e) {
     EXPECT_NE(std::string(e.what()).find("m.json: roughness: must be a number in [0, 1]"), std::string::npos) << e.what();
   }
-  // A transmitting stack cannot have a rough top yet.
-  const std::string slab = R"({"lamina_material": 1, "roughness": 0.2, "layers": [{"ior": 1.4, "thickness": 1, "sigma_a": 0.1, "sigma_s": 5, "g": 0.5}]})";
+  // A transmitting stack cannot have a single-scattering rough top (explicit); by default (the
+  // energy-conserving model) it can.
+  const std::string layer = R"("layers": [{"ior": 1.4, "thickness": 1, "sigma_a": 0.1, "sigma_s": 5, "g": 0.5}]})";
+  EXPECT_EQ(parse_stack_json(R"({"lamina_material": 1, "roughness": 0.2, )" + layer, "leaf.json").energy_conserving_alpha(0), 0.2);
+  const std::string slab = R"({"lamina_material": 1, "roughness": 0.2, "interface_model": "single_scattering", )" + layer;
   try {
     parse_stack_json(slab, "leaf.json");
     ADD_FAILURE() << "rough transmitting stack accepted";

@@ -95,7 +95,7 @@ TEST_F(CliSpectral, GreyRoughMaterialsEqualTheRgbSolutionAtEveryWavelength) {
       {"ior": 1.4, "thickness": 0.2, "sigma_a": 0.4, "sigma_s": 6.0, "g": 0.6, "bottom_roughness": 0.3},
       {"ior": 1.5, "thickness": 0.3, "sigma_a": 0.2, "sigma_s": 4.0, "g": 0.3}]})";
   const std::string single = dir_ + "/rough_single.json", conserving = dir_ + "/rough_conserving.json";
-  std::ofstream(single) << R"({"lamina_material": 1, "roughness": 0.3, "layers": [
+  std::ofstream(single) << R"({"lamina_material": 1, "roughness": 0.3, "interface_model": "single_scattering", "layers": [
       {"ior": 1.4, "thickness": "inf", "sigma_a": 0.4, "sigma_s": 6.0, "g": 0.6}]})";
   std::ofstream(conserving) << R"({"lamina_material": 1, "roughness": 0.5, "interface_model": "energy_conserving", )" + layers;
   for (const std::string& file : {single, conserving}) {

@@ -30,6 +30,7 @@ LayerStack rough_skin(double alpha) {
   LayerStack s;
   s.above_ior = 1.0;
   s.top_roughness = alpha;
+  s.interface_model = InterfaceModel::SingleScattering;  // the single-scattering top's lobe and connections
   s.layers.push_back(make_layer("epidermis", 1.4, 0.3, Spectrum(0.2, 0.5, 0.9), Spectrum(12.0), Spectrum(0.7)));
   s.below.kind = Below::Kind::Lambert;
   s.below.albedo = Spectrum(0.7, 0.5, 0.4);

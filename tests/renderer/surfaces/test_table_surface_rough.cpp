@@ -23,6 +23,7 @@ constexpr double kPiD = 3.14159265358979323846;
 LayerStack rough_skin() {
   LayerStack s = load_stack_file(std::string(LAMINA_SOURCE_DIR) + "/scenes/materials/skin.json");
   s.top_roughness = 0.35;
+  s.interface_model = InterfaceModel::SingleScattering;
   return s;
 }
 
