@@ -1,7 +1,7 @@
 // The cone-averaged total reflectance and transmittance of several leaf material files, every
-// wavelength of a grid (materials/fit/spectral_fit.h, leaf_spectra): scripts/leaf_fit.py's model,
-// batched so that an energy-conserving rough cuticle is projected once per wavelength for all the
-// files of a call (docs/spectral.md, "Layered leaf").
+// wavelength of a grid (materials/fit/spectral_fit.h, leaf_spectra): the layered leaf's model
+// for fits, batched so that an energy-conserving rough cuticle is projected once per wavelength for all the
+// files of a call (docs/spectral.md, "A rough cuticle").
 //
 // Usage: leaf_spectra --wavelengths FIRST:LAST:STEP --theta DEG[,DEG...] --weights W[,W...]
 //                     [--quadrature-points N] FILE.json...

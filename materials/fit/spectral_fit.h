@@ -41,7 +41,7 @@ SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<Fit
                                const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
                                const AddingDoublingSettings& settings = {}, int coarse_quadrature_points = 4);
 
-// Leaves (docs/spectral.md, "Layered leaf", the fit with a rough cuticle): the total reflectance
+// Leaves (docs/spectral.md, "A rough cuticle"): the total reflectance
 // R_specular + R_diffuse and transmittance T_ballistic + T_diffuse of several stacks at each
 // wavelength, for collimated light at each cos_theta_i, averaged with `weights` (summing to 1:
 // the incident cone of scripts/leaf_fit.py). An energy-conserving rough interface is projected

@@ -3,7 +3,7 @@
 // of the accurate model (no small move of one parameter lowers the sum of squares), the search
 // on the coarse model reaches the same minimum as a search on the accurate model alone, and an
 // optimum beyond a bound stops on the bound with the other parameters at their optimum there.
-// leaf_spectra (scripts/leaf_fit.py's model): the batch gives each stack's own cone-averaged
+// leaf_spectra (the layered leaf's batched model): the batch gives each stack's own cone-averaged
 // totals, and a rough leaf that holds no absorber loses no light.
 #include "materials/fit/spectral_fit.h"
 
@@ -129,7 +129,7 @@ TEST(SpectralFitOptimiser, StopsOnTheBoundBeyondWhichTheOptimumLies) {
   EXPECT_GT(fit.rmse, 1e-3);  // the bound keeps the fit away from the truth
 }
 
-// A three-layer leaf under an energy-conserving rough cuticle (alpha 0.4), as scripts/leaf_fit.py
+// A three-layer leaf under an energy-conserving rough cuticle (alpha 0.4), laid out as scripts/leaf_fit.py
 // writes it, with `contents` in the palisade and the spongy mesophyll, loaded from a file.
 SpectralStack rough_leaf(const std::string& name, const std::string& contents, double plates) {
   const std::filesystem::path path = std::filesystem::temp_directory_path() / ("lamina_test_leaf_" + name + ".json");
