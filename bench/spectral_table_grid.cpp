@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
   if (files.empty()) {
     const std::string root = LAMINA_SOURCE_DIR;
     files = {root + "/scenes/spectral/skin_spectral.json", root + "/scenes/spectral/skin_tone_1.json",
-             root + "/scenes/spectral/skin_tone_7.json", root + "/scenes/materials/skin_oily_conserving.json"};
+             root + "/scenes/spectral/skin_tone_7.json", root + "/scenes/materials/skin_oily.json"};
   }
   std::vector<double> fine;
   for (double nm = kSpectralFirstNm; nm <= kSpectralLastNm + 1e-9; nm += 1.0) fine.push_back(nm);

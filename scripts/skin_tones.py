@@ -4,14 +4,20 @@ and the figures of docs/skin_tones.md.
 
 1. docs/nist_skin_fit.csv holds the five fitted parameters of each of the 100 NIST subjects
    (scripts/nist_skin_fit.py: epidermal melanin and its eumelanin share, dermal blood, its oxygen
-   saturation, the dermis' reduced scattering at 500 nm). The subjects are ranked by fitted
-   melanin; five measured tones stand for the subjects around the 5th, 35th, 70th, 90th and
-   98th percentile of that rank (9 subjects each, fewer at the end): each parameter is the
-   median of those subjects' fitted values.
+   saturation, the dermis' reduced scattering at 500 nm). The tones differ in melanin alone, so
+   that they are ordered by construction: a darker tone absorbs more at every wavelength and
+   nothing else changes. The eumelanin share and the dermis (blood, oxygen saturation, reduced
+   scattering) are the medians of all 100 subjects' fitted values, the same in every tone. The
+   subjects are ranked by fitted melanin; four measured tones stand for the subjects around the
+   5th, 50th, 85th and 97th percentile of that rank (9 subjects each, fewer at the end), their
+   melanin the median of those subjects' fitted melanin (so it rises with the percentile).
+   Per-tone dermis values (the medians of each tone's subjects) did not keep the order: on the
+   fits of docs/nist_skin_fit.csv the subjects around the 5th percentile carry more blood than
+   those around the 50th, whose tone then reflected more green than the lighter one.
 2. The NIST set's darkest subjects (fitted melanin up to 0.11) are lighter than Fitzpatrick type VI
-   skin: two further tones keep the darkest measured tone's parameters and raise only the melanin
-   volume fraction, to 0.2 and to 0.43, the top of Jacques' (2013) range for darkly pigmented
-   epidermis. They are the model's extrapolation, not measurements.
+   skin: three further tones keep everything but melanin and raise the melanin volume fraction to
+   0.15, 0.25 and 0.43, the top of Jacques' (2013) range for darkly pigmented epidermis. They are
+   the model's extrapolation, not measurements.
 3. Each preset is scenes/spectral/skin_spectral.json with those values; the bloodless tissue
    (baseline) fills what melanin (epidermis) or blood and water (dermis) leave, so the volume
    fractions sum to 1 (the fits held the baselines fixed, which the reader would reject for the
@@ -62,16 +68,19 @@ def read_nist():
 
 
 def presets(fits):
+    shared = {s: float(np.median([r[s] for r in fits])) for s in ('blood', 'oxygenation', 'reduced_500')}
     ranked = sorted(fits, key=lambda r: r['melanin'])
     out = []
+    eu = pheo = 0.0  # volume fractions of eumelanin and pheomelanin: never less than the lighter tone's
     for p in PERCENTILES:
         k = int(round(p / 100.0 * (len(ranked) - 1)))
         window = ranked[max(0, k - WINDOW):min(len(ranked), k + WINDOW + 1)]
-        values = {s: float(np.median([r[s] for r in window])) for s in SHORT}
-        out.append({'source': 'NIST, melanin percentile %d' % p, 'subjects': sorted(r['subject'] for r in window), **values})
-    darkest = out[-1]
+        eu = max(eu, float(np.median([r['melanin'] * r['eumelanin'] for r in window])))
+        pheo = max(pheo, float(np.median([r['melanin'] * (1.0 - r['eumelanin']) for r in window])))
+        out.append({'source': 'NIST, melanin percentile %d' % p, 'subjects': sorted(r['subject'] for r in window),
+                    'melanin': eu + pheo, 'eumelanin': eu / (eu + pheo), **shared})
     for m in EXTRAPOLATED_MELANIN:
-        out.append({**darkest, 'melanin': m, 'subjects': [], 'source': 'extrapolated: melanin raised to %g' % m})
+        out.append({**out[len(PERCENTILES) - 1], 'melanin': m, 'subjects': [], 'source': 'extrapolated: melanin raised to %g' % m})
     return out
 
 

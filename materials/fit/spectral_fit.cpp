@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <regex>
+#include <stdexcept>
 
 #include <tbb/parallel_for.h>
 
@@ -40,6 +41,31 @@ std::vector<double> modelled_reflectance(const SpectralStack& stack, const std::
     r[i] = t.R_specular[0] + t.R_diffuse[0];
   });
   return r;
+}
+
+LeafSpectra leaf_spectra(const std::vector<SpectralStack>& stacks, const std::vector<double>& nm,
+                         const std::vector<double>& cos_theta_i, const std::vector<double>& weights,
+                         const AddingDoublingSettings& settings) {
+  if (cos_theta_i.empty() || cos_theta_i.size() != weights.size())
+    throw std::invalid_argument("leaf_spectra: one weight per incidence, at least one");
+  AddingDoublingSettings s = settings;
+  s.only_channel = 0;  // each wavelength is a grey stack
+  LeafSpectra out;
+  out.r.assign(stacks.size(), std::vector<double>(nm.size(), 0.0));
+  out.t = out.r;
+  // In parallel over wavelengths, each into its own slots (the same numbers on any thread
+  // count); one thread holds one wavelength's projections in the cache at a time.
+  tbb::parallel_for(std::size_t{0}, nm.size(), [&](std::size_t i) {
+    for (std::size_t k = 0; k < stacks.size(); ++k) {
+      const LayerStack grey = stack_at_wavelength(stacks[k], nm[i]);
+      for (std::size_t a = 0; a < cos_theta_i.size(); ++a) {
+        const AddingDoublingTotals t = adding_doubling_totals(grey, cos_theta_i[a], s);
+        out.r[k][i] += weights[a] * (t.R_specular[0] + t.R_diffuse[0]);
+        out.t[k][i] += weights[a] * (t.T_ballistic[0] + t.T_diffuse[0]);
+      }
+    }
+  });
+  return out;
 }
 
 namespace {

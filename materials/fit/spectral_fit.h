@@ -41,6 +41,24 @@ SpectralFitResult fit_spectrum(const SpectralStack& start, const std::vector<Fit
                                const std::vector<double>& nm, const std::vector<double>& measured, double cos_theta_i,
                                const AddingDoublingSettings& settings = {}, int coarse_quadrature_points = 4);
 
+// Leaves (docs/spectral.md, "A rough cuticle"): the total reflectance
+// R_specular + R_diffuse and transmittance T_ballistic + T_diffuse of several stacks at each
+// wavelength, for collimated light at each cos_theta_i, averaged with `weights` (summing to 1:
+// the incident cone of scripts/leaf_fit.py). An energy-conserving rough interface is projected
+// anew for every wavelength (its index and nodes follow the leaf's index), hundreds of times a
+// smooth solution's cost; adding_doubling_totals keeps its last projections by their exact
+// inputs, so the loop runs wavelength by wavelength, each wavelength's stacks and incidences in
+// a row: stacks that share their interfaces (the same roughness, leaf layers, layer order) and
+// differ in contents and scattering project each rough interface once per wavelength, however
+// many stacks and incidences. r[k][i], t[k][i]: stack k at nm[i]. Throws std::invalid_argument
+// for empty or unequal cos_theta_i and weights.
+struct LeafSpectra {
+  std::vector<std::vector<double>> r, t;
+};
+LeafSpectra leaf_spectra(const std::vector<SpectralStack>& stacks, const std::vector<double>& nm,
+                         const std::vector<double>& cos_theta_i, const std::vector<double>& weights,
+                         const AddingDoublingSettings& settings = {});
+
 // The modelled total reflectance R_specular + R_diffuse at each wavelength.
 std::vector<double> modelled_reflectance(const SpectralStack& stack, const std::vector<double>& nm, double cos_theta_i,
                                          const AddingDoublingSettings& settings = {});

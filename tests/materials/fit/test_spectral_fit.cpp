@@ -3,9 +3,12 @@
 // of the accurate model (no small move of one parameter lowers the sum of squares), the search
 // on the coarse model reaches the same minimum as a search on the accurate model alone, and an
 // optimum beyond a bound stops on the bound with the other parameters at their optimum there.
+// leaf_spectra (the layered leaf's batched model): the batch gives each stack's own cone-averaged
+// totals, and a rough leaf that holds no absorber loses no light.
 #include "materials/fit/spectral_fit.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -124,6 +127,59 @@ TEST(SpectralFitOptimiser, StopsOnTheBoundBeyondWhichTheOptimumLies) {
   EXPECT_NEAR(fit.values[2], two.values[1], 1e-4 * 9.5);
   EXPECT_NEAR(fit.rmse, two.rmse, 1e-6 * two.rmse);
   EXPECT_GT(fit.rmse, 1e-3);  // the bound keeps the fit away from the truth
+}
+
+// A three-layer leaf under an energy-conserving rough cuticle (alpha 0.4), laid out as scripts/leaf_fit.py
+// writes it, with `contents` in the palisade and the spongy mesophyll, loaded from a file.
+SpectralStack rough_leaf(const std::string& name, const std::string& contents, double plates) {
+  const std::filesystem::path path = std::filesystem::temp_directory_path() / ("lamina_test_leaf_" + name + ".json");
+  std::ofstream(path) << R"({"lamina_material": 1, "roughness": 0.4, "interface_model": "energy_conserving", "layers": [
+      {"thickness": 0.003, "leaf": {}},
+      {"thickness": 0.1, "leaf": {)" << contents << R"("plates": )" << plates << R"(, "g": 0.95}},
+      {"thickness": 0.12, "leaf": {)" << contents << R"("plates": )" << plates << R"(, "g": 0.95}}]})";
+  SpectralStack s = load_spectral_stack(path.string());
+  std::filesystem::remove(path);
+  return s;
+}
+
+// Two stacks that share the rough cuticle (one projection per wavelength serves both) give what
+// each gives alone: the weighted totals of adding_doubling_totals per incidence, exactly.
+TEST(LeafSpectra, EachStackOfTheBatchAsAlone) {
+  const std::vector<SpectralStack> stacks = {rough_leaf("a", R"("chlorophyll": 20, "water": 0.005, )", 0.5),
+                                             rough_leaf("b", R"("chlorophyll": 5, "dry_matter": 0.002, )", 1.5)};
+  const std::vector<double> nm = {450.0, 680.0, 1450.0}, cosines = {1.0, 0.8}, weights = {0.3, 0.7};
+  AddingDoublingSettings settings;
+  settings.quadrature_points = 6;
+  const LeafSpectra batch = leaf_spectra(stacks, nm, cosines, weights, settings);
+  settings.only_channel = 0;
+  for (std::size_t k = 0; k < stacks.size(); ++k)
+    for (std::size_t i = 0; i < nm.size(); ++i) {
+      double r = 0.0, t = 0.0;
+      for (std::size_t a = 0; a < cosines.size(); ++a) {
+        const AddingDoublingTotals alone = adding_doubling_totals(stack_at_wavelength(stacks[k], nm[i]), cosines[a], settings);
+        r += weights[a] * (alone.R_specular[0] + alone.R_diffuse[0]);
+        t += weights[a] * (alone.T_ballistic[0] + alone.T_diffuse[0]);
+      }
+      EXPECT_EQ(batch.r[k][i], r) << "stack " << k << ", " << nm[i] << " nm";
+      EXPECT_EQ(batch.t[k][i], t) << "stack " << k << ", " << nm[i] << " nm";
+      EXPECT_GT(t, 0.0);
+    }
+  // The contents differ: so do the spectra (a batch that solved one stack twice would fail).
+  EXPECT_GT(std::abs(batch.r[0][1] - batch.r[1][1]), 0.01);
+}
+
+// Without absorbers the rough leaf (energy-conserving cuticle, scattering mesophyll, smooth
+// bottom) reflects or transmits all the light at every wavelength and incidence; the plates
+// scatter, so R grows with them.
+TEST(LeafSpectra, RoughLeafWithoutAbsorbersLosesNoLight) {
+  AddingDoublingSettings settings;
+  settings.quadrature_points = 6;
+  const std::vector<double> nm = {400.0, 1000.0, 2500.0};  // the index 1.53 to 1.27
+  const LeafSpectra clear = leaf_spectra({rough_leaf("c", "", 0.5), rough_leaf("d", "", 2.0)}, nm, {1.0, 0.5}, {0.5, 0.5}, settings);
+  for (std::size_t k = 0; k < 2; ++k)
+    for (std::size_t i = 0; i < nm.size(); ++i) EXPECT_NEAR(clear.r[k][i] + clear.t[k][i], 1.0, 1e-9) << k << ", " << nm[i];
+  for (std::size_t i = 0; i < nm.size(); ++i) EXPECT_GT(clear.r[1][i], clear.r[0][i] + 0.05);
+  EXPECT_THROW(leaf_spectra({}, nm, {1.0}, {0.5, 0.5}, settings), std::invalid_argument);
 }
 
 }  // namespace

@@ -168,7 +168,7 @@ TEST(ChromophoreRgb, MelaninAbsorbsBlueMostAndAnAbsorberTakesTheMean) {
 // What the RGB coefficients are for: the RGB mode's total reflectance of a chromophore stack is
 // about the colour of its spectrum (adding-doubling per wavelength, 360-780 nm every 5 nm, under
 // D65). The coefficients invert a diffusion formula per layer, so they are exact for none of the
-// stacks; the bound is the approximation's measured error (largest 0.0065 on these stacks, 0.009 on the
+// stacks; the bound is the approximation's measured error (largest 0.0065 on these stacks, 0.007 on the
 // skin-tone presets, docs/skin_tones.md), with room: 0.012 per channel.
 TEST(ChromophoreRgb, RgbModeShowsAboutTheSpectrumsColour) {
   const char* dermis = R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": "inf",

@@ -4,6 +4,8 @@
 // measured preset's spectrum lies within the spread of the NIST subjects it stands for, allowing
 // the model's own residual there (the median RMSE of those subjects' fits, docs/nist_skin_fit.csv):
 // a preset that drifts from its subjects (an edited file, a change of a chromophore table) fails.
+// The order is by construction (scripts/skin_tones.py): a darker tone holds at least as much
+// eumelanin and pheomelanin as the lighter one and everything else is the same.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -82,6 +84,32 @@ TEST(SkinTones, LoadAndDarkenWithMelaninInEveryChannel) {
     previous_melanin = t.melanin;
   }
   EXPECT_GE(previous_melanin, 0.4);  // to Fitzpatrick VI: the top of Jacques' melanosome range
+}
+
+// Each tone differs from the lighter one by more melanin of each kind, nothing else: so it absorbs
+// more at every wavelength. The files hold five decimals, so each amount may fall by the product's
+// rounding (5e-6 of the fraction times a share of at most 1, plus the same the other way).
+TEST(SkinTones, DarkerTonesAddMelaninOfEachKindAndNothingElse) {
+  const std::vector<Tone> tones = read_tones();
+  const SpectralStack first = load_spectral_stack(preset(tones[0]));
+  double eu = 0.0, pheo = 0.0;
+  for (const Tone& t : tones) {
+    SCOPED_TRACE(t.name);
+    const SpectralStack s = load_spectral_stack(preset(t));
+    ASSERT_EQ(s.chromophores.size(), first.chromophores.size());
+    const SkinChromophores& epidermis = *s.chromophores[0];
+    EXPECT_GE(epidermis.melanin * epidermis.eumelanin, eu - 1e-5);
+    EXPECT_GE(epidermis.melanin * (1.0 - epidermis.eumelanin), pheo - 1e-5);
+    eu = epidermis.melanin * epidermis.eumelanin;
+    pheo = epidermis.melanin * (1.0 - epidermis.eumelanin);
+    EXPECT_NEAR(epidermis.baseline, 1.0 - epidermis.melanin, 1e-12);  // fills the rest
+    const SkinChromophores& dermis = *s.chromophores[1], &first_dermis = *first.chromophores[1];
+    for (auto member : {&SkinChromophores::blood, &SkinChromophores::oxygenation, &SkinChromophores::water,
+                        &SkinChromophores::fat, &SkinChromophores::carotene, &SkinChromophores::baseline, &SkinChromophores::g})
+      EXPECT_EQ(dermis.*member, first_dermis.*member);
+    EXPECT_EQ(dermis.scattering.reduced_500, first_dermis.scattering.reduced_500);
+    EXPECT_EQ(s.stack.layers[0].thickness, first.stack.layers[0].thickness);
+  }
 }
 
 TEST(SkinTones, MeasuredTonesLieWithinTheirSubjects) {
