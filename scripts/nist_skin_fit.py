@@ -7,8 +7,13 @@ colour difference CIEDE2000 (D65, colour-science 0.4.7) between the measured and
 spectrum's colour: a CSV (default build/nist_skin_fit.csv) and the medians and worst cases on
 stdout. docs/spectral.md, "Fitting a measured skin spectrum".
 
+With --plot PNG it fits only the best, the median and the worst subject by RMSE of an existing
+table (--table, default docs/nist_skin_fit.csv) and plots their measured against their modelled
+spectra (matplotlib).
+
 Usage: python3 scripts/nist_skin_fit.py [--lamina build/renderer/lamina] [--subjects 1,2,...]
                                         [--quadrature-points 8] [--out build/nist_skin_fit.csv]
+       python3 scripts/nist_skin_fit.py --plot docs/images/nist_skin_spectra.png [--table docs/nist_skin_fit.csv]
 """
 import argparse
 import csv
@@ -55,13 +60,47 @@ def fit(lamina, subject, points):
     return d
 
 
+def best_median_worst(table):
+    """The subjects of the lowest, the median (the lower middle of an even count) and the highest RMSE."""
+    with open(table) as f:
+        rows = sorted(((float(r['rmse']), int(r['subject'])) for r in csv.DictReader(f)))
+    return [('best', rows[0]), ('median', rows[(len(rows) - 1) // 2]), ('worst', rows[-1])]
+
+
+def plot(lamina, table, points, out):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    picks = best_median_worst(table)
+    fig, axes = plt.subplots(1, len(picks), figsize=(4.2 * len(picks), 3.4), sharey=True)
+    for ax, (label, (rmse, subject)) in zip(axes, picks):
+        d = fit(lamina, subject, points)
+        de = delta_e(d['measured_rec709'], d['modelled_rec709'])
+        ax.plot(d['wavelength_nm'], d['measured'], 'o', ms=3, color='0.2', label='measured (NIST)')
+        ax.plot(d['wavelength_nm'], d['modelled'], '-', color='tab:red', label='modelled (adding-doubling)')
+        ax.set_title(f'{label}: subject {subject}\nRMSE {d["rmse"]:.4f}, CIEDE2000 {de:.2f}', fontsize=9)
+        ax.set_xlabel('wavelength (nm)')
+        ax.grid(alpha=0.3)
+        print(f'{label}: subject {subject}, RMSE {d["rmse"]:.4f} (table {rmse:.4f}), CIEDE2000 {de:.2f}', flush=True)
+    axes[0].set_ylabel('reflectance (8 degrees)')
+    axes[0].legend(fontsize=8, loc='upper left')
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print(os.path.relpath(out, ROOT))
+    return 0
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--lamina', default=os.path.join(ROOT, 'build', 'renderer', 'lamina'))
     parser.add_argument('--subjects', default=','.join(str(s) for s in range(1, 101)))
     parser.add_argument('--quadrature-points', type=int, default=8)
     parser.add_argument('--out', default=os.path.join(ROOT, 'build', 'nist_skin_fit.csv'))
+    parser.add_argument('--plot', help='PNG: plot the best, median and worst subject of --table instead')
+    parser.add_argument('--table', default=os.path.join(ROOT, 'docs', 'nist_skin_fit.csv'))
     args = parser.parse_args()
+    if args.plot:
+        return plot(args.lamina, args.table, args.quadrature_points, args.plot)
     rows = []
     for s in [int(x) for x in args.subjects.split(',')]:
         d = fit(args.lamina, s, args.quadrature_points)

@@ -3,24 +3,30 @@
 # rendered in the RGB mode and with --spectral (the same seed and samples), and the relative
 # difference of their luminance (`lamina compare`, smoothed by a Gaussian of sigma 1 px, which its
 # legend states), side by side: docs/images/spectral_head_skin.png and
-# docs/images/spectral_leaves_back.png. About 5 minutes on 2 cores.
+# docs/images/spectral_leaves_back.png; and head_spectral, the head given by chromophores with
+# melanin and blood maps fitted spectrally to its albedo photo (scenes/head_skin/head_skin_spectral.gltf,
+# scripts/make_head_spectral_scene.py) at the portrait's 480 x 600: docs/images/spectral_head_spectral.png.
+# About 5 minutes on 2 cores for the first two, 15 for head_spectral.
 # Then the leaves by pigment (scenes/leaves_spectral, written by
 # scripts/make_leaves_spectral_scene.py: five chlorophyll contents, from green to yellowing),
 # front and back lit, the RGB mode rendering each leaf's RGB projection (the scene's material
 # map): docs/images/spectral_leaves_pigment_{front,back}.png. About 6 minutes more.
 #
-#   scripts/spectral_pictures.sh        SP_SPP (default 64) sets the samples per pixel;
-#                                       SP_ONLY=leaves renders only the leaves by pigment
+#   scripts/spectral_pictures.sh [NAME...]   only the pictures named (head_skin, leaves_back, head_spectral,
+#                                            leaves_pigment_front, leaves_pigment_back)
+#                                            SP_SPP (default 64) sets the samples per pixel
 set -euo pipefail
 cd "$(dirname "$0")/.."
 LAMINA=${LAMINA_BUILD_DIR:-build}/renderer/lamina
 SPP=${SP_SPP:-64}
 OUT=${SP_OUT:-out/spectral_pictures}
+SELECTED=("$@")
 mkdir -p "$OUT" docs/images
 
 picture() {  # NAME SCENE ARGS...
   local name=$1 scene=$2
   shift 2
+  if [ ${#SELECTED[@]} -gt 0 ] && [[ ! " ${SELECTED[*]} " == *" $name "* ]]; then return 0; fi
   for mode in rgb spectral; do
     local args=()
     [ "$mode" = rgb ] && args=("${RGB_ARGS[@]}")
@@ -34,9 +40,14 @@ picture() {  # NAME SCENE ARGS...
 }
 
 RGB_ARGS=()
-if [ "${SP_ONLY:-}" != leaves ]; then
-  picture head_skin scenes/head_skin/head_skin.gltf --width 240 --height 300 --env 0.05
-  picture leaves_back scenes/leaves/leaves_back.gltf --width 320 --height 240
+picture head_skin scenes/head_skin/head_skin.gltf --width 240 --height 300 --env 0.05
+picture leaves_back scenes/leaves/leaves_back.gltf --width 320 --height 240
+picture head_spectral scenes/head_skin/head_skin_spectral.gltf --width 480 --height 600 --env 0.05
+# Beside it, the textures: the albedo photo (512 x 512, as the maps were fitted to it) | the colour
+# the spectrally fitted maps give | the colour head_skin's RGB-fitted maps give.
+if [ ${#SELECTED[@]} -eq 0 ] || [[ " ${SELECTED[*]} " == *" head_spectral "* ]]; then
+  oiiotool scenes/lee_perry_smith_head/Map-COL.jpg --resize 512x512 scenes/head_skin/fitted_albedo_spectral.png \
+    scenes/head_skin/fitted_albedo.png --mosaic 3x1 --resize 768x256 -o docs/images/head_spectral_albedo.png
 fi
 
 # The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their projection.

@@ -33,18 +33,23 @@ AlbedoMapsResult fit_albedo_maps(const StackTemplate& stack, const Image& textur
   const std::size_t texels = static_cast<std::size_t>(texture.width) * texture.height;
   r.match = match_albedo_map(table, texture.rgb.data(), texels, on_progress);
   const auto t2 = Clock::now();
-  r.delta_e = delta_e_statistics(r.match.delta_e, settings.unreachable_delta_e);
-  for (int a = 0; a < 2; ++a) {
-    // At a bound to 1e-6 of the range: BOBYQA stops on the bound itself.
-    const double lo = settings.axes[a].lower, hi = settings.axes[a].upper, eps = 1e-6 * (hi - lo);
-    for (double v : r.match.value[a]) {
-      if (v <= lo + eps) ++r.at_lower[a];
-      if (v >= hi - eps) ++r.at_upper[a];
-    }
-  }
+  summarise_albedo_match(settings, &r);
   r.lookup_seconds = std::chrono::duration<double>(t1 - t0).count();
   r.matching_seconds = std::chrono::duration<double>(t2 - t1).count();
   return r;
+}
+
+void summarise_albedo_match(const AlbedoMapsSettings& settings, AlbedoMapsResult* r) {
+  r->delta_e = delta_e_statistics(r->match.delta_e, settings.unreachable_delta_e);
+  for (int a = 0; a < 2; ++a) {
+    // At a bound to 1e-6 of the range: BOBYQA stops on the bound itself.
+    const double lo = settings.axes[a].lower, hi = settings.axes[a].upper, eps = 1e-6 * (hi - lo);
+    r->at_lower[a] = r->at_upper[a] = 0;
+    for (double v : r->match.value[a]) {
+      if (v <= lo + eps) ++r->at_lower[a];
+      if (v >= hi - eps) ++r->at_upper[a];
+    }
+  }
 }
 
 std::string parameter_map_file_name(const std::string& path) {

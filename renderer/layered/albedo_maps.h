@@ -52,6 +52,9 @@ AlbedoMapsResult fit_albedo_maps(const StackTemplate& stack, const Image& textur
                                  const std::function<void()>& on_lookup_built = {},
                                  const std::function<void(std::size_t)>& on_progress = {});
 
+// r->delta_e and the texels at each axis's bounds (to 1e-6 of the range) from r->match.
+void summarise_albedo_match(const AlbedoMapsSettings& settings, AlbedoMapsResult* r);
+
 // The file name of an axis's parameter map: its path without brackets, "layers[1].thickness" ->
 // "layers1.thickness.png".
 std::string parameter_map_file_name(const std::string& path);
