@@ -149,8 +149,8 @@ AlbedoMatch match_albedo(const AlbedoLookup& t, const Spectrum& linear_rgb) {
   return m;
 }
 
-AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std::size_t texels,
-                                const std::function<void(std::size_t)>& on_progress) {
+AlbedoMapMatch match_albedo_map_by(const std::function<AlbedoMatch(const Spectrum&)>& match, const float* rgb,
+                                   std::size_t texels, const std::function<void(std::size_t)>& on_progress) {
   AlbedoMapMatch out;
   out.value[0].resize(texels);
   out.value[1].resize(texels);
@@ -161,7 +161,7 @@ AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, texels, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       const float* p = rgb + 3 * i;
-      const AlbedoMatch m = match_albedo(table, Spectrum(p[0], p[1], p[2]));
+      const AlbedoMatch m = match(Spectrum(p[0], p[1], p[2]));
       out.value[0][i] = m.value[0];
       out.value[1][i] = m.value[1];
       out.albedo[i] = m.albedo;
@@ -170,6 +170,11 @@ AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std
     if (on_progress) on_progress(r.size());
   });
   return out;
+}
+
+AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std::size_t texels,
+                                const std::function<void(std::size_t)>& on_progress) {
+  return match_albedo_map_by([&](const Spectrum& c) { return match_albedo(table, c); }, rgb, texels, on_progress);
 }
 
 DeltaEStatistics delta_e_statistics(std::vector<double> e, double threshold) {

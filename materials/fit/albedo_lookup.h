@@ -79,6 +79,10 @@ struct AlbedoMapMatch {
   std::vector<Spectrum> albedo;  // per texel, the table's albedo there
   std::vector<double> delta_e;   // per texel, CIE76 colour difference from the texel
 };
+// Every texel of `rgb` matched on its own by `match` (in parallel; on_progress gets the texels done).
+AlbedoMapMatch match_albedo_map_by(const std::function<AlbedoMatch(const Spectrum&)>& match, const float* rgb,
+                                   std::size_t texels, const std::function<void(std::size_t)>& on_progress);
+
 AlbedoMapMatch match_albedo_map(const AlbedoLookup& table, const float* rgb, std::size_t texels,
                                 const std::function<void(std::size_t)>& on_progress = {});
 

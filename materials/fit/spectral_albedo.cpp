@@ -217,24 +217,8 @@ AlbedoMatch match_spectral_albedo(const SpectralAlbedoTable& t, const Spectrum& 
 
 AlbedoMapMatch match_spectral_albedo_map(const SpectralAlbedoTable& table, const float* rgb, std::size_t texels,
                                          const std::function<void(std::size_t)>& on_progress) {
-  AlbedoMapMatch out;
-  out.value[0].resize(texels);
-  out.value[1].resize(texels);
-  out.albedo.resize(texels);
-  out.delta_e.resize(texels);
-  constexpr std::size_t kBlock = 4096;  // paces the progress reports only
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, texels, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      const float* p = rgb + 3 * i;
-      const AlbedoMatch m = match_spectral_albedo(table, Spectrum(p[0], p[1], p[2]));
-      out.value[0][i] = m.value[0];
-      out.value[1][i] = m.value[1];
-      out.albedo[i] = m.albedo;
-      out.delta_e[i] = m.delta_e;
-    }
-    if (on_progress) on_progress(r.size());
-  });
-  return out;
+  return match_albedo_map_by([&](const Spectrum& c) { return match_spectral_albedo(table, c); }, rgb, texels,
+                             on_progress);
 }
 
 }  // namespace lamina
