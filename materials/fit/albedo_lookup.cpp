@@ -42,7 +42,8 @@ Spectrum AlbedoLookup::at(double u0, double u1) const {
   return (1 - fx) * ((1 - fy) * node(i, j) + fy * node(i, j + 1)) + fx * ((1 - fy) * node(i + 1, j) + fy * node(i + 1, j + 1));
 }
 
-std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes) {
+std::vector<StackParameter> parse_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes,
+                                              const AxisAdmission& admit) {
   if (axes.size() != 2) throw FitError("an albedo lookup needs two parameters, got " + std::to_string(axes.size()));
   auto text = [](double v) {
     char b[32];
@@ -57,13 +58,10 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
     } catch (const StackParameterError& e) {
       throw FitError(e.what());
     }
-    if (p.spectral()) throw FitError(a.path + ": an albedo lookup's axis must be a scalar parameter (a fraction, a thickness)");
-    const std::string fixed = rough_projection_refusal(t, p);
-    if (!fixed.empty()) throw FitError(fixed);
-    if (!std::isfinite(a.lower) || !std::isfinite(a.upper) || !(a.lower < a.upper) || a.lower < p.min_value() ||
-        a.upper > p.max_value())
-      throw FitError(a.path + ": bounds must be finite, increasing and inside [" + text(p.min_value()) + ", " +
-                     text(p.max_value()) + "] (got " + text(a.lower) + ":" + text(a.upper) + ")");
+    const auto [lo, hi] = admit(a, p);
+    if (!std::isfinite(a.lower) || !std::isfinite(a.upper) || !(a.lower < a.upper) || a.lower < lo || a.upper > hi)
+      throw FitError(a.path + ": bounds must be finite, increasing and inside [" + text(lo) + ", " + text(hi) + "] (got " +
+                     text(a.lower) + ":" + text(a.upper) + ")");
     ps.push_back(p);
   }
   try {
@@ -72,6 +70,15 @@ std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std:
     throw FitError(e.what());
   }
   return ps;
+}
+
+std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes) {
+  return parse_albedo_axes(t, axes, [&](const FitParameterSpec& a, const StackParameter& p) {
+    if (p.spectral()) throw FitError(a.path + ": an albedo lookup's axis must be a scalar parameter (a fraction, a thickness)");
+    const std::string fixed = rough_projection_refusal(t, p);
+    if (!fixed.empty()) throw FitError(fixed);
+    return std::pair<double, double>(p.min_value(), p.max_value());
+  });
 }
 
 AlbedoLookup build_albedo_lookup(const StackTemplate& t, const std::vector<FitParameterSpec>& axes, int nodes,

@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "materials/adding_doubling/adding_doubling.h"
@@ -35,6 +36,13 @@ struct AlbedoLookup {
   // The albedo at unit coordinates (u0, u1) in [0, 1]^2, bilinear between the nodes.
   Spectrum at(double u0, double u1) const;
 };
+
+// Two axes parsed on `t`: `admit` refuses an axis (throws FitError) or gives the range its bounds
+// must lie in; a count other than two, bounds outside that range or not increasing, and a set
+// that binds one value twice are one-line FitErrors.
+using AxisAdmission = std::function<std::pair<double, double>(const FitParameterSpec&, const StackParameter&)>;
+std::vector<StackParameter> parse_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes,
+                                              const AxisAdmission& admit);
 
 // The checks of build_albedo_lookup's axes alone (cheap: no solution), and the parsed parameters.
 std::vector<StackParameter> check_albedo_axes(const StackTemplate& t, const std::vector<FitParameterSpec>& axes);

@@ -28,34 +28,11 @@ bool chromophore_axes(const std::vector<FitParameterSpec>& axes) {
 }
 
 std::vector<StackParameter> check_spectral_albedo_axes(const ChromophoreMaterial& m, const std::vector<FitParameterSpec>& axes) {
-  if (axes.size() != 2) throw FitError("an albedo lookup needs two parameters, got " + std::to_string(axes.size()));
-  auto text = [](double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%g", v);
-    return std::string(b);
-  };
-  std::vector<StackParameter> ps;
-  for (const FitParameterSpec& a : axes) {
-    StackParameter p;
-    try {
-      p = parse_stack_parameter(m.stack, a.path);
-    } catch (const StackParameterError& e) {
-      throw FitError(e.what());
-    }
+  return parse_albedo_axes(m.stack, axes, [](const FitParameterSpec& a, const StackParameter& p) {
     if (p.kind != StackParameter::Kind::kChromophore)
       throw FitError(a.path + ": the spectral albedo fit's axes are chromophore parameters (layers[i].chromophores.KEY)");
-    if (!std::isfinite(a.lower) || !std::isfinite(a.upper) || !(a.lower < a.upper) || a.lower < 0.0 ||
-        a.upper > p.chromophore_max)
-      throw FitError(a.path + ": bounds must be finite, increasing and inside [0, " + text(p.chromophore_max) + "] (got " +
-                     text(a.lower) + ":" + text(a.upper) + ")");
-    ps.push_back(p);
-  }
-  try {
-    check_parameter_set(ps);
-  } catch (const StackParameterError& e) {
-    throw FitError(e.what());
-  }
-  return ps;
+    return std::pair<double, double>(0.0, p.chromophore_max);
+  });
 }
 
 Spectrum spectral_albedo_colour(const ChromophoreMaterial& m, const std::vector<StackParameter>& ps, const double* values,
