@@ -118,6 +118,13 @@ Spectrum SampledWavelengths::reflectance(const Spectrum& rgb) const {
   return s;
 }
 
+Spectrum SampledWavelengths::ratio(const Spectrum& value, const Spectrum& base) const {
+  Spectrum r(1.0);
+  for (int c = 0; c < kChannels; ++c)
+    if (base[c] > 0.0) r[c] = value[c] / base[c];
+  return r.is_grey() ? r : reflectance(r);
+}
+
 Spectrum SampledWavelengths::illuminant(const Spectrum& rgb) const {
   Spectrum s = reflectance(rgb);
   for (int i = 0; i < kChannels; ++i) s[i] *= d65_[i];

@@ -41,6 +41,10 @@ class SampledWavelengths {
   // A linear Rec. 709 reflectance (or any factor of a path's throughput) at the three
   // wavelengths, uplifted (materials/spectral/uplift.h).
   Spectrum reflectance(const Spectrum& rgb) const;
+  // The RGB ratio value / base (1 where base is 0) at the three wavelengths: a grey ratio as it
+  // is, any other uplifted as a reflectance. How the table and lambert modes carry an RGB model's
+  // relative change (a texture-driven parameter's) to a path's wavelengths.
+  Spectrum ratio(const Spectrum& value, const Spectrum& base) const;
   // An emitter of linear Rec. 709 radiance `rgb` at the three wavelengths: the uplift times
   // D65 / integral(D65 ybar), so that the RGB mode's white emitter (1, 1, 1) is D65 of
   // luminance Y = 1 and comes out white (as colour.h's reflectances do).

@@ -132,11 +132,7 @@ Spectrum SpectralTables::lambert_albedo(const LayeredMaterial& m, glm::dvec2 uv,
     out[c] = (1.0 - t) * a[static_cast<std::size_t>(j)] + t * a[static_cast<std::size_t>(j) + 1];
   }
   if (!m.bindings()) return out;
-  const Spectrum at = m.lambert_albedo_at(uv), &base = m.lambert_albedo();
-  Spectrum ratio(1.0);
-  for (int c = 0; c < kChannels; ++c)
-    if (base[c] > 0.0) ratio[c] = at[c] / base[c];
-  return out * (ratio.is_grey() ? ratio : w.reflectance(ratio));
+  return out * w.ratio(m.lambert_albedo_at(uv), m.lambert_albedo());
 }
 
 }  // namespace lamina

@@ -81,12 +81,7 @@ Spectrum spectral_table_value(const SpectralTableChannels& s, const LayeredTable
       if (s.weight[c][k] != 0.0) f[c] += s.weight[c][k] * s.table[c][k]->at(node, bin)[s.channel[c][k]];
   if (factor_count == 0) return f;
   // The factors' product T / T_0 in RGB, uplifted as an RGB coefficient is (grey stays grey).
-  const Spectrum model = table_model_value(base_table, factors, factor_count, node, bin);
-  const Spectrum& base = base_table.at(node, bin);
-  Spectrum ratio(1.0);
-  for (int c = 0; c < kChannels; ++c)
-    if (base[c] > 0.0) ratio[c] = model[c] / base[c];
-  return f * (ratio.is_grey() ? ratio : s.wavelengths->reflectance(ratio));
+  return f * s.wavelengths->ratio(table_model_value(base_table, factors, factor_count, node, bin), base_table.at(node, bin));
 }
 
 int TableSurface::bin_of(const glm::dvec3& wo, const glm::dvec3& wi) const {
