@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <glm/vec3.hpp>
+#include <gtest/gtest.h>
 
 #include "materials/base/sampling.h"
 #include "materials/base/spectrum.h"
@@ -97,6 +98,19 @@ inline SceneDesc lambert_plane(const Spectrum& albedo) {
   add_quad(&plane, {-100, 0, 100}, {100, 0, 100}, {100, 0, -100}, {-100, 0, -100});
   plane.material = 0;
   return make_scene({plane}, {mat});
+}
+
+// `scene` under `env` seen by `cam`, rendered with `s` (its size the camera's image), every path
+// sample valid (a test failure otherwise); stats_out, if given, receives the render's statistics.
+inline Image render_valid(const Scene& scene, const EnvironmentMap& env, const CameraDesc& cam, const RenderSettings& s,
+                          RenderStats* stats_out = nullptr) {
+  const LightSet lights(scene, env);
+  const Camera camera(cam, s.width, s.height);
+  RenderStats stats;
+  Image im = render_image(scene, lights, camera, s, &stats);
+  EXPECT_EQ(stats.invalid_samples, 0u);
+  if (stats_out) *stats_out = stats;
+  return im;
 }
 
 // Per channel, the mean of an image's pixels and its standard error s / sqrt(N), s the pixels'

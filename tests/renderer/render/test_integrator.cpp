@@ -31,9 +31,6 @@ using test::stats_of;
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp,
              int max_depth = 1000, int threads = 0, RenderStats* stats_out = nullptr,
              const RenderSettings& base = RenderSettings{}) {
-  const Scene scene{SceneDesc(desc)};
-  const LightSet lights(scene, env);
-  const Camera camera(cam, w, h);
   RenderSettings s = base;
   s.width = w;
   s.height = h;
@@ -41,11 +38,7 @@ Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc&
   s.seed = 7;
   s.max_depth = max_depth;
   s.threads = threads;
-  RenderStats stats;
-  Image im = render_image(scene, lights, camera, s, &stats);
-  EXPECT_EQ(stats.invalid_samples, 0u);
-  if (stats_out) *stats_out = stats;
-  return im;
+  return test::render_valid(Scene{SceneDesc(desc)}, env, cam, s, stats_out);
 }
 
 // A closed box of coloured Lambert walls lit by a small emissive quad under its ceiling, seen from

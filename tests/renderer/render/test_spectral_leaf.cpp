@@ -63,19 +63,13 @@ Image render_slab(const std::string& json, bool spectral, bool one_wavelength_wa
   if (leaf) layered.spectral = {std::make_shared<const SpectralStack>(parse_spectral_stack_json(json, "leaf"))};
   layered.test_hooks.one_wavelength_walks = one_wavelength_walks;
   const Scene scene{make_scene({test::slab_plane(0)})};
-  const EnvironmentMap env = half_sky(lower_sky);
-  const LightSet lights(scene, env);
-  const Camera camera(test::camera_towards(test::world_dir(theta, 0.0, below)), size, size);
   RenderSettings s;
   s.width = s.height = size;
   s.spp = spp;
   s.seed = seed;
   s.layered = &layered;
   s.spectral = spectral;
-  RenderStats stats;
-  Image im = render_image(scene, lights, camera, s, &stats);
-  EXPECT_EQ(stats.invalid_samples, 0u);
-  return im;
+  return test::render_valid(scene, half_sky(lower_sky), test::camera_towards(test::world_dir(theta, 0.0, below)), s);
 }
 
 // A grey slab that transmits, given in RGB: in the spectral mode its index is the same at every

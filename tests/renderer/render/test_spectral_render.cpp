@@ -35,9 +35,6 @@ using test::stats_of;
 
 Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc& cam, int w, int h, int spp, bool spectral,
              int threads = 0) {
-  const Scene scene{SceneDesc(desc)};
-  const LightSet lights(scene, env);
-  const Camera camera(cam, w, h);
   RenderSettings s;
   s.width = w;
   s.height = h;
@@ -45,10 +42,7 @@ Image render(const SceneDesc& desc, const EnvironmentMap& env, const CameraDesc&
   s.seed = 11;
   s.threads = threads;
   s.spectral = spectral;
-  RenderStats stats;
-  Image im = render_image(scene, lights, camera, s, &stats);
-  EXPECT_EQ(stats.invalid_samples, 0u);
-  return im;
+  return test::render_valid(Scene{SceneDesc(desc)}, env, cam, s);
 }
 
 void expect_same_mean(const Image& rgb, const Image& spectral, const char* what) {
@@ -170,19 +164,14 @@ TEST(SpectralRender, FlatChromophoreSlabAgreesWithAddingDoublingPerWavelength) {
   layered.bindings = &b;
   layered.spectral = {std::make_shared<const SpectralStack>(spectral)};
   const double theta = 35.0;
-  const Scene scene{make_scene({test::slab_plane(0)})};
-  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
-  const LightSet lights(scene, env);
-  const Camera camera(test::camera_towards(test::world_dir(theta, 0.0)), 32, 32);
   RenderSettings s;
   s.width = s.height = 32;
   s.spp = 16;
   s.seed = 5;
   s.layered = &layered;
   s.spectral = true;
-  RenderStats stats;
-  const ImageStats rendered = stats_of(render_image(scene, lights, camera, s, &stats));
-  EXPECT_EQ(stats.invalid_samples, 0u);
+  const ImageStats rendered = stats_of(test::render_valid(Scene{make_scene({test::slab_plane(0)})}, EnvironmentMap::constant(Spectrum(1.0)),
+                                                          test::camera_towards(test::world_dir(theta, 0.0)), s));
 
   const double mu = std::cos(theta * kPi / 180.0);
   auto reference = [&](double step, Spectrum* error) {
@@ -241,7 +230,6 @@ TEST(SpectralRender, MelaninMapHalvesRenderAsTheirConstantMelanin) {
   auto bound = std::make_shared<const StackBindings>(spec, t, desc, "scene.gltf", "skin", "scene.gltf");
   const Scene scene{SceneDesc(desc)};
   const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
-  const LightSet lights(scene, env);
   auto render_at = [&](double x, const std::shared_ptr<const LayeredMaterial>& m, const SpectralStack& spectral) {
     LayeredBindings b;
     b.by_material.push_back(m);
@@ -250,17 +238,13 @@ TEST(SpectralRender, MelaninMapHalvesRenderAsTheirConstantMelanin) {
     layered.spectral = {std::make_shared<const SpectralStack>(spectral)};
     CameraDesc cam = test::camera_towards(test::world_dir(35.0, 0.0));
     cam.position += glm::dvec3(x, 0.0, 0.0);
-    const Camera camera(cam, 24, 24);
     RenderSettings s;
     s.width = s.height = 24;
     s.spp = 8;
     s.seed = 9;
     s.layered = &layered;
     s.spectral = true;
-    RenderStats stats;
-    const Image im = render_image(scene, lights, camera, s, &stats);
-    EXPECT_EQ(stats.invalid_samples, 0u);
-    return im;
+    return test::render_valid(scene, env, cam, s);
   };
   const SpectralStack spectral = parse_spectral_stack_json(kSkin, "skin");
   const auto mapped = std::make_shared<const LayeredMaterial>(t->stack, "skin", bound);

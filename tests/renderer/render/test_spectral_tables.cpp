@@ -72,9 +72,6 @@ struct Shaded {
 
 Image render_slab(const Shaded& m, double theta, int size, int spp, bool spectral, int threads = 0) {
   const Scene scene{make_scene({test::slab_plane(0)})};
-  const EnvironmentMap env = EnvironmentMap::constant(Spectrum(1.0));
-  const LightSet lights(scene, env);
-  const Camera camera(test::camera_towards(test::world_dir(theta, 0.0)), size, size);
   RenderSettings s;
   s.width = s.height = size;
   s.spp = spp;
@@ -82,10 +79,7 @@ Image render_slab(const Shaded& m, double theta, int size, int spp, bool spectra
   s.threads = threads;
   s.layered = &m.layered;
   s.spectral = spectral;
-  RenderStats stats;
-  Image im = render_image(scene, lights, camera, s, &stats);
-  EXPECT_EQ(stats.invalid_samples, 0u);
-  return im;
+  return test::render_valid(scene, EnvironmentMap::constant(Spectrum(1.0)), test::camera_towards(test::world_dir(theta, 0.0)), s);
 }
 
 // A per-wavelength quantity of the stack at nm (three at a time, as a grid stack holds them).
