@@ -86,5 +86,18 @@ TEST(JsonText, MalformedNamesLineAndColumnWithoutTheLibrarysTag) {
   EXPECT_EQ(j["c"], "1e999");
 }
 
+// A valid document is parsed once, without the path tracker; a failing one again, with it: the
+// path still names the element in a long array, and the value parsed is the library's own.
+TEST(JsonText, LongArraysKeepTheirPathsAndValues) {
+  std::string text = "[";
+  for (int i = 0; i < 5000; ++i) text += "{\"x\": " + std::to_string(i) + "}, ";
+  nlohmann::json j;
+  std::string path;
+  EXPECT_EQ(parse_json_text(text + "{\"x\": 1e999}]", &j, &path).find("number '1e999'"), 0u);
+  EXPECT_EQ(path, "[5000].x");
+  EXPECT_EQ(parse_json_text(text + "{}]", &j), "");
+  EXPECT_EQ(j, nlohmann::json::parse(text + "{}]"));
+}
+
 }  // namespace
 }  // namespace lamina
