@@ -9,7 +9,7 @@
 # About 5 minutes on 2 cores for the first two, 15 for head_spectral.
 # Then the leaves by pigment (scenes/leaves_spectral, written by
 # scripts/make_leaves_spectral_scene.py: five chlorophyll contents, from green to yellowing),
-# front and back lit, the RGB mode rendering each leaf's RGB projection (the scene's material
+# front and back lit, the RGB mode rendering each leaf's fitted RGB reading (the scene's material
 # map): docs/images/spectral_leaves_pigment_{front,back}.png. About 6 minutes more.
 #
 #   scripts/spectral_pictures.sh [NAME...]   only the pictures named (head_skin, leaves_back, head_spectral,
@@ -50,7 +50,7 @@ if [ ${#SELECTED[@]} -eq 0 ] || [[ " ${SELECTED[*]} " == *" head_spectral "* ]];
     scenes/head_skin/fitted_albedo.png --mosaic 3x1 --resize 768x256 -o docs/images/head_spectral_albedo.png
 fi
 
-# The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their projection.
+# The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their fitted RGB reading.
 RGB_ARGS=(--materials scenes/leaves_spectral/leaves_rgb_materials.json)
 for side in front back; do
   picture "leaves_pigment_$side" "scenes/leaves_spectral/leaves_spectral_$side.gltf" --width 240 --height 180
