@@ -3,7 +3,13 @@
 ../leaves/leaves.bin, and the same front and back point light) as layered leaves by pigment
 (docs/spectral.md, "Layered leaf"), one chlorophyll content per leaf from green to yellowing:
 leaves_spectral_front.gltf, leaves_spectral_back.gltf and the five material files
-leaf_chlorophyll_NN.json (NN the leaf's chlorophyll a+b, ug/cm2).
+leaf_chlorophyll_NN.json (NN the leaf's chlorophyll a+b, ug/cm2); and
+leaves_yellowing_back.gltf, the back-lit fan of one leaf (scenes/spectral/leaf_layered.json)
+whose chlorophyll comes from a map, leaf_yellowing.png (DATA, stored values): 1 (40 ug/cm2, the
+file's) at the base of the blade, falling to 0 (3 ug/cm2) at the tip and along the margin, as
+a leaf yellows from its tip and edges; both pigment layers bound to it, each in its share of the
+file's chlorophyll (docs/stack_bindings.md, "Leaf parameters"). UV: u along the midrib from base
+to tip, v across the blade (scripts/make_leaves_scene.py).
 
 Each material is scenes/spectral/leaf_layered.json (the fitted mature green leaf, 40 ug/cm2)
 with its chlorophyll scaled in both pigment layers (palisade and spongy mesophyll keep their
@@ -265,6 +271,54 @@ def scene(side):
     return g
 
 
+YELLOWING_SIZE = 256
+
+
+def yellowing_map():
+    """The stored values t of leaf_yellowing.png, rows from v = 0: 1 - smoothstep(0.45, 0.95, d)
+    with d = u + 0.45 |2v - 1|^2, which reaches the tip first and the margin before the midrib."""
+    vals = []
+    for y in range(YELLOWING_SIZE):
+        v = (y + 0.5) / YELLOWING_SIZE
+        for x in range(YELLOWING_SIZE):
+            u = (x + 0.5) / YELLOWING_SIZE
+            d = u + 0.45 * abs(2 * v - 1) ** 2
+            e = min(1.0, max(0.0, (d - 0.45) / 0.5))
+            vals.append(1.0 - e * e * (3 - 2 * e))
+    return vals
+
+
+def yellowing_scene():
+    """The back-lit fan, every leaf the fitted leaf with its chlorophyll bound to the map."""
+    g = scene('back')
+    leaf = material(CHLOROPHYLL[0])
+    binds = []
+    for i, layer in enumerate(leaf['layers']):
+        c = layer['leaf'].get('chlorophyll', 0.0)
+        if c > 0.0:
+            lo = round(c * CHLOROPHYLL[-1] / CHLOROPHYLL[0], 4)
+            binds.append({'parameter': 'layers[%d].leaf.chlorophyll' % i, 'texture': 'leaf_yellowing.png', 'channel': 'r',
+                          'range': [lo, c]})
+    m = copy.deepcopy(g['materials'][0])
+    m['name'] = 'leaf_yellowing'
+    m['extras'] = {'lamina': {'stack': '../spectral/leaf_layered.json', 'bind': binds}}
+    g['materials'] = [m]
+    for mesh in g['meshes']:
+        mesh['primitives'][0]['material'] = 0
+    for sc in g.get('scenes', []):
+        sc['name'] = 'leaves_yellowing_back'
+    return g
+
+
+def write_yellowing_map(path):
+    with tempfile.TemporaryDirectory() as tmp:
+        pgm = os.path.join(tmp, 'y.pgm')
+        with open(pgm, 'wb') as f:
+            f.write(b'P5 %d %d 255\n' % (YELLOWING_SIZE, YELLOWING_SIZE))
+            f.write(bytes(max(0, min(255, round(255 * v))) for v in yellowing_map()))
+        subprocess.run(['oiiotool', pgm, '-o', path], check=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--lamina', default=LAMINA, help='the lamina program (default build/renderer/lamina)')
@@ -290,6 +344,10 @@ def main():
         with open(os.path.join(OUT, 'leaves_spectral_%s.gltf' % side), 'w') as f:
             json.dump(scene(side), f, indent=1)
             f.write('\n')
+    write_yellowing_map(os.path.join(OUT, 'leaf_yellowing.png'))
+    with open(os.path.join(OUT, 'leaves_yellowing_back.gltf'), 'w') as f:
+        json.dump(yellowing_scene(), f, indent=1)
+        f.write('\n')
 
 
 if __name__ == '__main__':
