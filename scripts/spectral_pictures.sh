@@ -9,12 +9,17 @@
 # About 5 minutes on 2 cores for the first two, 15 for head_spectral.
 # Then the leaves by pigment (scenes/leaves_spectral, written by
 # scripts/make_leaves_spectral_scene.py: five chlorophyll contents, from green to yellowing),
-# front and back lit, the RGB mode rendering each leaf's RGB projection (the scene's material
-# map): docs/images/spectral_leaves_pigment_{front,back}.png. About 6 minutes more.
+# front and back lit, the RGB mode rendering each leaf's fitted RGB reading (the scene's material
+# map), at 160 x 120 with SP_LEAF_SPP samples (default 1024, chosen by the leaves' measured noise,
+# docs/spectral.md "Leaves by pigment"): docs/images/spectral_leaves_pigment_{front,back}.png; and
+# leaves_yellowing, the back-lit fan whose chlorophyll comes from a map, in the spectral mode
+# alone (the RGB mode reads no leaf layers): docs/images/spectral_leaves_yellowing.png. About
+# 15 minutes more on the 2 shared cores.
 #
 #   scripts/spectral_pictures.sh [NAME...]   only the pictures named (head_skin, leaves_back, head_spectral,
-#                                            leaves_pigment_front, leaves_pigment_back)
-#                                            SP_SPP (default 64) sets the samples per pixel
+#                                            leaves_pigment_front, leaves_pigment_back, leaves_yellowing)
+#                                            SP_SPP (default 64) sets the samples per pixel,
+#                                            SP_LEAF_SPP (default 1024) those of the last three
 set -euo pipefail
 cd "$(dirname "$0")/.."
 LAMINA=${LAMINA_BUILD_DIR:-build}/renderer/lamina
@@ -50,8 +55,14 @@ if [ ${#SELECTED[@]} -eq 0 ] || [[ " ${SELECTED[*]} " == *" head_spectral "* ]];
     scenes/head_skin/fitted_albedo.png --mosaic 3x1 --resize 768x256 -o docs/images/head_spectral_albedo.png
 fi
 
-# The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their projection.
+# The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their fitted RGB reading.
+SPP=${SP_LEAF_SPP:-1024}
 RGB_ARGS=(--materials scenes/leaves_spectral/leaves_rgb_materials.json)
 for side in front back; do
-  picture "leaves_pigment_$side" "scenes/leaves_spectral/leaves_spectral_$side.gltf" --width 240 --height 180
+  picture "leaves_pigment_$side" "scenes/leaves_spectral/leaves_spectral_$side.gltf" --width 160 --height 120
 done
+# The leaf whose chlorophyll comes from a map (docs/stack_bindings.md, "Leaf parameters").
+if [ ${#SELECTED[@]} -eq 0 ] || [[ " ${SELECTED[*]} " == *" leaves_yellowing "* ]]; then
+  "$LAMINA" render scenes/leaves_spectral/leaves_yellowing_back.gltf --width 160 --height 120 --spp "$SPP" --spectral \
+    -o "$OUT/leaves_yellowing_spectral.exr" --png docs/images/spectral_leaves_yellowing.png
+fi

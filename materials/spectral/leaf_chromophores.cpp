@@ -1,6 +1,7 @@
 #include "materials/spectral/leaf_chromophores.h"
 
 #include <cmath>
+#include <limits>
 
 namespace lamina {
 
@@ -20,6 +21,29 @@ double LeafChromophores::absorption(double nm, double thickness_mm) const {
 
 double LeafChromophores::scattering_coefficient(double nm, double thickness_mm) const {
   return plates * plate_reduced_scattering_depth(nm) * std::pow(nm / 1000.0, -scattering_power) / (thickness_mm * (1.0 - g));
+}
+
+const std::array<LeafKey, std::size(kLeafContentKeys) + 3>& leaf_keys() {
+  static const auto keys = [] {
+    const double inf = std::numeric_limits<double>::infinity();
+    std::array<LeafKey, std::size(kLeafContentKeys) + 3> k{};
+    std::size_t i = 0;
+    for (const LeafContentKey& c : kLeafContentKeys) k[i++] = {c.key, 0.0, inf, c.member, nullptr};
+    k[i++] = {"plates", 0.0, inf, nullptr, &LeafChromophores::plates};
+    k[i++] = {"scattering_power", -4.0, 4.0, nullptr, &LeafChromophores::scattering_power};
+    k[i++] = {"g", -1.0, 1.0, nullptr, &LeafChromophores::g};
+    return k;
+  }();
+  return keys;
+}
+
+const std::vector<const char*>& leaf_key_names() {
+  static const std::vector<const char*> names = [] {
+    std::vector<const char*> n;
+    for (const LeafKey& k : leaf_keys()) n.push_back(k.name);
+    return n;
+  }();
+  return names;
 }
 
 }  // namespace lamina

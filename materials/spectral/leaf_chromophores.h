@@ -4,12 +4,17 @@
 // refractive index PROSPECT-D's. Derivations and sources: docs/spectral.md, "Layered leaf".
 #pragma once
 
+#include <array>
+#include <iterator>
+#include <vector>
+
 #include "materials/spectral/prospect.h"
 
 namespace lamina {
 
 // The keys of a leaf layer's contents, with their units, declared once: the material file's
-// "leaf" object, the fit's parameter paths and the docs' table follow this list.
+// "leaf" object, the fit's parameter paths, the texture bindings (leaf_keys below) and the docs'
+// table follow this list.
 struct LeafContentKey {
   const char* key;
   double LeafContents::*member;
@@ -40,5 +45,21 @@ struct LeafChromophores {
   // PROSPECT-D's refractive index of leaf material, the layer's at every wavelength.
   static double refractive_index(double nm) { return prospect_refractive_index(nm); }
 };
+
+// Every key of a material file's "leaf" object with its range, declared once (the contents from
+// kLeafContentKeys, then plates, scattering_power and g): the file reader
+// (materials/stack/stack_file.cpp) accepts these keys, and a texture may drive any of them
+// (layers[i].leaf.KEY, materials/stack/stack_parameters.h).
+struct LeafKey {
+  const char* name;
+  double lo, hi;                   // the range; g's is open (|g| < 1), the others closed
+  double LeafContents::*content;   // a content per leaf area, or null
+  double LeafChromophores::*own;   // plates, scattering_power or g, or null
+  double& of(LeafChromophores& c) const { return content ? c.contents.*content : c.*own; }
+  double of(const LeafChromophores& c) const { return content ? c.contents.*content : c.*own; }
+};
+const std::array<LeafKey, std::size(kLeafContentKeys) + 3>& leaf_keys();
+// Their names, in the same order (for the readers' unknown-key checks, materials/stack/json_keys.h).
+const std::vector<const char*>& leaf_key_names();
 
 }  // namespace lamina

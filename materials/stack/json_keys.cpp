@@ -4,7 +4,10 @@
 
 namespace lamina {
 
-const std::string* first_unknown_key(const nlohmann::json& object, std::initializer_list<const char*> allowed) {
+namespace {
+
+template <class Names>
+const std::string* first_unknown(const nlohmann::json& object, const Names& allowed) {
   if (!object.is_object()) return nullptr;
   for (auto it = object.begin(); it != object.end(); ++it) {
     bool known = false;
@@ -14,10 +17,25 @@ const std::string* first_unknown_key(const nlohmann::json& object, std::initiali
   return nullptr;
 }
 
-std::string key_list(std::initializer_list<const char*> allowed) {
+template <class Names>
+std::string list_of(const Names& allowed) {
   std::string list;
   for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
   return list;
 }
+
+}  // namespace
+
+const std::string* first_unknown_key(const nlohmann::json& object, std::initializer_list<const char*> allowed) {
+  return first_unknown(object, allowed);
+}
+
+const std::string* first_unknown_key(const nlohmann::json& object, const std::vector<const char*>& allowed) {
+  return first_unknown(object, allowed);
+}
+
+std::string key_list(std::initializer_list<const char*> allowed) { return list_of(allowed); }
+
+std::string key_list(const std::vector<const char*>& allowed) { return list_of(allowed); }
 
 }  // namespace lamina

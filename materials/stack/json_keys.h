@@ -6,6 +6,7 @@
 
 #include <initializer_list>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -17,5 +18,9 @@ const std::string* first_unknown_key(const nlohmann::json& object, std::initiali
 
 // The allowed keys for a message: "stack, bind, freckles".
 std::string key_list(std::initializer_list<const char*> allowed);
+
+// The same for a list made at run time (keys declared once beside their data, e.g. leaf_keys()).
+const std::string* first_unknown_key(const nlohmann::json& object, const std::vector<const char*>& allowed);
+std::string key_list(const std::vector<const char*>& allowed);
 
 }  // namespace lamina

@@ -167,18 +167,15 @@ class Reader {
     return c;
   }
 
-  // A layer's "leaf" object (docs/spectral.md, "Layered leaf"): contents per leaf area
-  // (kLeafContentKeys), "plates", "scattering_power" and "g"; every key optional.
+  // A layer's "leaf" object (docs/spectral.md, "Layered leaf"): the keys of leaf_keys() (contents
+  // per leaf area, "plates", "scattering_power" and "g"); every key optional.
   LeafChromophores leaf(const json& j, const std::string& path) const {
     require_object(j, path);
-    check_keys(j, path, {"chlorophyll", "carotenoids", "anthocyanins", "brown", "water", "dry_matter", "plates", "scattering_power", "g"});
+    if (const std::string* key = first_unknown_key(j, leaf_key_names()))
+      fail(join(path, *key), "unknown key (allowed here: " + key_list(leaf_key_names()) + ")");
     LeafChromophores c;
-    const double inf = std::numeric_limits<double>::infinity();
-    for (const LeafContentKey& k : kLeafContentKeys)
-      if (j.contains(k.key)) c.contents.*k.member = bounded(j[k.key], join(path, k.key), 0.0, inf);
-    if (j.contains("plates")) c.plates = bounded(j["plates"], join(path, "plates"), 0.0, inf);
-    if (j.contains("scattering_power"))
-      c.scattering_power = bounded(j["scattering_power"], join(path, "scattering_power"), -4.0, 4.0);
+    for (const LeafKey& k : leaf_keys())
+      if (j.contains(k.name) && k.own != &LeafChromophores::g) k.of(c) = bounded(j[k.name], join(path, k.name), k.lo, k.hi);
     if (j.contains("g")) {
       if (!j["g"].is_number()) fail(join(path, "g"), "expected a number (one g at every wavelength), got " + type_name(j["g"]));
       c.g = asymmetry(j["g"], join(path, "g"))[0];
@@ -228,7 +225,7 @@ class Reader {
                                  "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
       if (!(layer.thickness > 0.0) || layer.thickness == kInfiniteThickness)
         fail(join(path, "thickness"), "a leaf layer needs a finite thickness > 0 (its contents are per leaf area)");
-      *leaf_out = leaf(j["leaf"], join(path, "leaf"));
+      *leaf_out = desc->leaf = leaf(j["leaf"], join(path, "leaf"));
       const LeafChromophores& c = **leaf_out;  // placeholders at 550 nm, as for chromophores below
       layer.sigma_a = Spectrum(c.absorption(550.0, layer.thickness));
       layer.lobes.push_back({Spectrum(c.scattering_coefficient(550.0, layer.thickness)), Spectrum(c.g)});
@@ -408,6 +405,11 @@ SpectralStack parse_spectral_stack_json(const std::string& text, const std::stri
 }
 
 SpectralStack load_spectral_stack(const std::string& path) { return parse_spectral_stack_json(read_material_file(path), path); }
+
+StackTemplate load_spectral_stack_template(const std::string& path) {
+  SpectralStack s;
+  return parse(read_material_file(path), path, &s.chromophores, &s.leaves);
+}
 
 LayerStack parse_stack_json(const std::string& text, const std::string& source_name) {
   return parse_stack_template_json(text, source_name).stack;

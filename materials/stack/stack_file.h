@@ -42,5 +42,8 @@ StackTemplate load_stack_template(const std::string& path);
 // require the other layers and a Lambert substrate to be grey.
 SpectralStack parse_spectral_stack_json(const std::string& text, const std::string& source_name);
 SpectralStack load_spectral_stack(const std::string& path);
+// The same file as a template whose layer descriptions keep their chromophores and leaf
+// contents, for parameters bound to maps (stack_parameters.h; the spectral mode's leaf stacks).
+StackTemplate load_spectral_stack_template(const std::string& path);
 
 }  // namespace lamina

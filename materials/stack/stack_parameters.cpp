@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "materials/stack/json_keys.h"
+
 namespace lamina {
 
 namespace {
@@ -60,6 +62,21 @@ StackParameter chromophore_parameter(const LayerDesc& desc, const std::string& k
   fail(p.path, "unknown chromophore key '" + key + "' (a texture can drive " + names + ")");
 }
 
+// Whether leaf key k is g, whose range is open (|g| < 1): its bound values stop at kMaxAbsG.
+bool leaf_is_g(int k) { return leaf_keys()[k].own == &LeafChromophores::g; }
+
+// layers[i].leaf.KEY, `key` the text after "leaf.".
+StackParameter leaf_parameter(const LayerDesc& desc, const std::string& key, StackParameter p) {
+  if (!desc.leaf) fail(p.path, "layers[" + std::to_string(p.layer) + "] is not given by leaf contents");
+  for (std::size_t k = 0; k < leaf_keys().size(); ++k)
+    if (key == leaf_keys()[k].name) {
+      p.kind = Kind::kLeaf;
+      p.leaf_key = static_cast<int>(k);
+      return p;
+    }
+  fail(p.path, "unknown leaf key '" + key + "' (a texture can drive " + key_list(leaf_key_names()) + ")");
+}
+
 double clamp_value(Kind kind, double v) {
   if (std::isnan(v)) v = 0.0;
   switch (kind) {
@@ -85,6 +102,7 @@ bool StackParameter::spectral() const {
 
 double StackParameter::min_value() const {
   switch (kind) {
+    case Kind::kLeaf: return leaf_is_g(leaf_key) ? -kMaxAbsG : leaf_keys()[leaf_key].lo;
     case Kind::kG: return -kMaxAbsG;
     case Kind::kIor:
     case Kind::kBelowIor: return 1e-6;
@@ -99,6 +117,7 @@ double StackParameter::max_value() const {
     case Kind::kBelowLambert: return 1.0;
     case Kind::kG: return kMaxAbsG;
     case Kind::kChromophore: return chromophore_max;
+    case Kind::kLeaf: return leaf_is_g(leaf_key) ? kMaxAbsG : leaf_keys()[leaf_key].hi;
     default: return std::numeric_limits<double>::infinity();
   }
 }
@@ -111,6 +130,7 @@ Spectrum StackParameter::template_value(const StackTemplate& t) const {
     case Kind::kBelowIor: return Spectrum(t.stack.below.ior);
     case Kind::kRoughness: return Spectrum(t.stack.top_roughness);
     case Kind::kChromophore: return Spectrum((*t.layers[layer].chromophores).*chromophore_keys()[chromophore].member);
+    case Kind::kLeaf: return Spectrum(leaf_keys()[leaf_key].of(*t.layers[layer].leaf));
     default: break;
   }
   const ComponentDesc& c = t.layers[layer].components[component < 0 ? 0 : component];
@@ -153,6 +173,7 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
     fail(path, "the stack has " + std::to_string(n) + " layer(s) (layers[0] .. layers[" + std::to_string(n - 1) + "])");
   const LayerDesc& desc = t.layers[p.layer];
   if (path.compare(pos, 14, ".chromophores.") == 0) return chromophore_parameter(desc, path.substr(pos + 14), p);
+  if (path.compare(pos, 6, ".leaf.") == 0) return leaf_parameter(desc, path.substr(pos + 6), p);
   if (path.compare(pos, 12, ".components[") == 0) {
     if (!desc.composite) fail(path, "layers[" + std::to_string(p.layer) + "] has no components (it gives sigma_a, sigma_s, g)");
     pos += 11;
@@ -176,6 +197,10 @@ StackParameter parse_stack_parameter(const StackTemplate& t, const std::string& 
   if (key == "thickness") {
     if (t.stack.layers[p.layer].semi_infinite()) fail(path, "the layer is semi-infinite (\"inf\"); its thickness cannot be bound");
     p.kind = Kind::kThickness;
+  } else if (desc.leaf) {
+    // The spectral mode evaluates a leaf layer from its contents, its index PROSPECT-D's.
+    fail(path, "layers[" + std::to_string(p.layer) + "] is given by leaf contents: bind layers[" + std::to_string(p.layer) +
+                   "].leaf.KEY");
   } else if (key == "ior") {
     p.kind = Kind::kIor;
   } else if (key == "sigma_a" || key == "sigma_s" || key == "g") {
@@ -196,7 +221,7 @@ void check_parameter_set(const std::vector<StackParameter>& ps) {
   for (std::size_t a = 0; a < ps.size(); ++a)
     for (std::size_t b = 0; b < a; ++b) {
       if (ps[a].kind == ps[b].kind && ps[a].layer == ps[b].layer && ps[a].component == ps[b].component &&
-          ps[a].chromophore == ps[b].chromophore)
+          ps[a].chromophore == ps[b].chromophore && ps[a].leaf_key == ps[b].leaf_key)
         fail(ps[a].path, "bound twice (also as '" + ps[b].path + "')");
       if (ps[a].kind == Kind::kChromophore && ps[b].kind == Kind::kChromophore && ps[a].layer == ps[b].layer &&
           chromophore_keys()[ps[a].chromophore].volume_fraction && chromophore_keys()[ps[b].chromophore].volume_fraction)
@@ -237,6 +262,18 @@ SkinChromophores bound_chromophores(const StackTemplate& t, const std::vector<St
   return c;
 }
 
+LeafChromophores bound_leaf(const StackTemplate& t, const std::vector<StackParameter>& ps, const Spectrum* values,
+                            int l) {
+  LeafChromophores c = *t.layers[l].leaf;
+  for (std::size_t e = 0; e < ps.size(); ++e) {
+    const StackParameter& p = ps[e];
+    if (p.layer != l || p.kind != Kind::kLeaf) continue;
+    const double v = std::isnan(values[e][0]) ? 0.0 : values[e][0];
+    leaf_keys()[p.leaf_key].of(c) = std::clamp(v, p.min_value(), p.max_value());
+  }
+  return c;
+}
+
 namespace {
 
 // ps[first] the first parameter naming the layer: its RGB absorption recomputed as the file
@@ -270,7 +307,8 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
   // Re-mix each layer that has a composition parameter, once (the first parameter naming it).
   for (std::size_t k = 0; k < ps.size(); ++k) {
     const int l = ps[k].layer;
-    if (l < 0 || ps[k].kind == Kind::kThickness || ps[k].kind == Kind::kIor) continue;
+    // A leaf layer's contents are read per wavelength (bound_leaf); its placeholders stay.
+    if (l < 0 || ps[k].kind == Kind::kThickness || ps[k].kind == Kind::kIor || ps[k].kind == Kind::kLeaf) continue;
     if (ps[k].kind == Kind::kChromophore) {
       apply_chromophores(t, ps, values, k, out);
       continue;

@@ -17,6 +17,10 @@
 //   layers[i].chromophores.KEY     scalar, of a layer given by chromophores (KEY one of
 //                                  chromophore_keys(): melanin, blood, ...); the layer's RGB
 //                                  sigma_a is recomputed from its chromophores with the value set
+//   layers[i].leaf.KEY             scalar, of a layer given by leaf contents (KEY one of
+//                                  leaf_keys(): chlorophyll, ..., plates, scattering_power, g);
+//                                  read by the spectral mode alone (bound_leaf): the stack's
+//                                  leaf layer keeps the file's placeholders at 550 nm
 //   below.lambert                  colour in [0, 1] (a Lambert substrate)
 //   below.ior                      scalar, > 0 (a dielectric below)
 //
@@ -26,7 +30,7 @@
 // Values outside a parameter's physical range are clamped to it (a freckle added on top of a
 // map can overshoot): fraction to [0, 1], coefficients to >= 0, |g| to <= 1 - 1e-6, thickness to
 // >= 0, ior to >= 1e-6, Lambert albedo to [0, 1], a chromophore to [0, its max_value()] (a volume
-// fraction so that the layer's fractions still sum to at most 1).
+// fraction so that the layer's fractions still sum to at most 1), a leaf key to its range.
 #pragma once
 
 #include <cstddef>
@@ -39,6 +43,7 @@
 
 #include "materials/base/spectrum.h"
 #include "materials/spectral/chromophores.h"
+#include "materials/spectral/leaf_chromophores.h"
 #include "materials/stack/stack.h"
 
 namespace lamina {
@@ -57,6 +62,8 @@ struct LayerDesc {
   std::vector<ComponentDesc> components;
   // A layer given by chromophores: them (its one component holds their RGB coefficients).
   std::optional<SkinChromophores> chromophores;
+  // A layer given by leaf contents (a spectral file, load_spectral_stack_template): them.
+  std::optional<LeafChromophores> leaf;
 };
 
 // A compiled stack and the description it was mixed from; layers[i] describes stack.layers[i].
@@ -71,13 +78,14 @@ struct StackParameterError : std::runtime_error {
 
 struct StackParameter {
   enum class Kind { kThickness, kIor, kSigmaA, kSigmaS, kG, kFraction, kBelowLambert, kBelowIor, kRoughness,
-                    kChromophore };
+                    kChromophore, kLeaf };
   std::string path;  // as given, for messages
   Kind kind = Kind::kThickness;
   int layer = -1;      // -1 for below.*
   int component = -1;  // -1 for a whole-layer parameter
   int chromophore = -1;  // kChromophore: the index into chromophore_keys()
   double chromophore_max = 1.0;  // kChromophore: its largest value in this stack
+  int leaf_key = -1;  // kLeaf: the index into leaf_keys()
   // True if the parameter is a colour (sigma_a, sigma_s, g, lambert); false for a scalar.
   bool spectral() const;
   // The physical range of one channel (used to check binding ranges at load time).
@@ -104,6 +112,12 @@ void apply_parameters(const StackTemplate& t, const std::vector<StackParameter>&
 // spectral mode evaluates them at its wavelengths.
 SkinChromophores bound_chromophores(const StackTemplate& t, const std::vector<StackParameter>& parameters,
                                     const Spectrum* values, int l);
+
+// Layer l's leaf contents (a layer given by leaf contents) with the kLeaf parameters naming it set
+// to their values, clamped to their keys' ranges (g to |g| <= 1 - 1e-6). The spectral mode
+// evaluates them at its wavelengths; apply_parameters leaves the RGB placeholders alone.
+LeafChromophores bound_leaf(const StackTemplate& t, const std::vector<StackParameter>& parameters,
+                            const Spectrum* values, int l);
 
 // Throws StackParameterError if the set is ambiguous: the same path twice, or two fractions of
 // one layer (each would renormalise the other away).

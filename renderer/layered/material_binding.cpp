@@ -55,12 +55,9 @@ std::shared_ptr<const LayeredMaterial> load_bound(const std::string& named_in, c
     stack = load_stack_template(resolved);
   } catch (const StackFileError& e) {
     // The spectral mode reads leaf layers, which the RGB reader refuses (wavelength_stack.h).
-    std::optional<LayerStack> leaf = spectral ? leaf_stack(resolved) : std::nullopt;
+    std::optional<StackTemplate> leaf = spectral ? leaf_stack(resolved) : std::nullopt;
     if (!leaf) throw SceneError(e.what());
-    if (bound) throw SceneError(named_in + ": material '" + material + "': " + resolved + ": a stack with leaf layers takes no parameter maps yet");
-    auto m = std::make_shared<const LayeredMaterial>(std::move(*leaf), resolved);
-    (*cache)[key] = m;
-    return m;
+    stack = std::move(*leaf);
   }
   std::shared_ptr<const LayeredMaterial> m;
   if (bound) {

@@ -86,11 +86,12 @@ bool has_leaf_layers(const SpectralStack& spectral) {
   return false;
 }
 
-std::optional<LayerStack> leaf_stack(const std::string& path) {
+std::optional<StackTemplate> leaf_stack(const std::string& path) {
   if (!gives_spectral_layers(path)) return std::nullopt;
   try {
-    SpectralStack s = load_spectral_stack(path);
-    if (has_leaf_layers(s)) return std::move(s.stack);
+    StackTemplate t = load_spectral_stack_template(path);
+    for (const LayerDesc& d : t.layers)
+      if (d.leaf) return t;
   } catch (const StackFileError&) {
   }
   return std::nullopt;
@@ -102,10 +103,14 @@ void bind_chromophores(const SpectralStack& spectral, const StackBindings& bindi
   const std::vector<StackParameter>& ps = bindings.parameters();
   ParameterValues values(ps.size());
   bindings.values(uv, values.data());
-  for (const StackParameter& p : ps)
-    if (p.kind == StackParameter::Kind::kChromophore && p.layer >= 0 &&
-        static_cast<std::size_t>(p.layer) < out->chromophores.size() && out->chromophores[p.layer])
-      out->chromophores[p.layer] = bound_chromophores(bindings.stack_template(), ps, values.data(), p.layer);
+  for (const StackParameter& p : ps) {
+    if (p.layer < 0) continue;
+    const auto l = static_cast<std::size_t>(p.layer);
+    if (p.kind == StackParameter::Kind::kChromophore && l < out->chromophores.size() && out->chromophores[l])
+      out->chromophores[l] = bound_chromophores(bindings.stack_template(), ps, values.data(), p.layer);
+    if (p.kind == StackParameter::Kind::kLeaf && l < out->leaves.size() && out->leaves[l])
+      out->leaves[l] = bound_leaf(bindings.stack_template(), ps, values.data(), p.layer);
+  }
 }
 
 std::vector<std::shared_ptr<const SpectralStack>> spectral_stacks(const LayeredBindings& bindings) {

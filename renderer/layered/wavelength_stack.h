@@ -44,14 +44,16 @@ void stack_at_wavelength_channel(const LayerStack& stack, const SpectralStack* c
 bool has_leaf_layers(const SpectralStack& spectral);
 
 // The stack of a material file with leaf layers, as the spectral mode reads it (coefficients and
-// indices at 550 nm until stack_at_wavelengths sets them): the RGB reader refuses leaf layers.
+// indices at 550 nm until stack_at_wavelengths sets them), as a template whose leaf layers keep
+// their contents for maps (layers[i].leaf.KEY): the RGB reader refuses leaf layers.
 // nullopt if the file has no leaf layer or is not a readable material file (the RGB reader's
 // error then stands).
-std::optional<LayerStack> leaf_stack(const std::string& path);
+std::optional<StackTemplate> leaf_stack(const std::string& path);
 
-// The chromophore layers of `spectral` with the values `bindings` give at uv (the RGB mode's
-// binding semantics, bound_chromophores in materials/stack/stack_parameters.h) into *out
-// (reusing its storage); `bindings` is the material's, over the same file as `spectral`.
+// The chromophore and leaf layers of `spectral` with the values `bindings` give at uv (the RGB
+// mode's binding semantics, bound_chromophores, and bound_leaf, in
+// materials/stack/stack_parameters.h) into *out (reusing its storage); `bindings` is the
+// material's, over the same file as `spectral`.
 void bind_chromophores(const SpectralStack& spectral, const StackBindings& bindings, glm::dvec2 uv,
                        SpectralStack* out);
 

@@ -357,6 +357,94 @@ TEST(StackParameters, ChromophoreRangesAndErrors) {
   EXPECT_NO_THROW(check_parameter_set(two));
 }
 
+// A leaf layer's contents (layers[i].leaf.KEY): every key the file reader accepts can be bound,
+// and binding one sets that member of that layer alone (bound_leaf), clamped to the key's range;
+// the RGB placeholders of the stack stay the file's (the spectral mode reads the contents per
+// wavelength). Paths that name no leaf key, or coefficients a leaf layer computes, say why.
+TEST(StackParameters, LeafKeysSetThatContentOfThatLayer) {
+  const std::string path = std::string(LAMINA_SOURCE_DIR) + "/scenes/spectral/leaf_layered.json";
+  const StackTemplate t = load_spectral_stack_template(path);
+  ASSERT_EQ(t.layers.size(), 3u);
+  ASSERT_TRUE(t.layers[1].leaf && t.layers[2].leaf);
+  EXPECT_FALSE(t.layers[0].leaf->contents.chlorophyll > 0.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < leaf_keys().size(); ++k) {
+    const LeafKey& key = leaf_keys()[k];
+    SCOPED_TRACE(key.name);
+    const StackParameter p = parse_stack_parameter(t, std::string("layers[1].leaf.") + key.name);
+    EXPECT_EQ(p.kind, StackParameter::Kind::kLeaf);
+    EXPECT_EQ(p.layer, 1);
+    EXPECT_FALSE(p.spectral());
+    EXPECT_EQ(p.template_value(t), Spectrum(key.of(*t.layers[1].leaf)));
+    // A value inside the range is set as given; the other members and the other layers stay.
+    const double v = key.name == std::string("g") ? 0.5 : key.name == std::string("scattering_power") ? -1.5 : 3.25;
+    const std::vector<StackParameter> ps = {p};
+    const Spectrum values[] = {Spectrum(v)};
+    const LeafChromophores got = bound_leaf(t, ps, values, 1);
+    for (const LeafKey& other : leaf_keys())
+      EXPECT_EQ(other.of(got), &other == &key ? v : other.of(*t.layers[1].leaf)) << other.name;
+    for (const LeafKey& other : leaf_keys()) EXPECT_EQ(other.of(bound_leaf(t, ps, values, 2)), other.of(*t.layers[2].leaf));
+    LayerStack out;
+    apply_parameters(t, ps, values, &out);
+    expect_same_stack(out, t.stack);
+  }
+  // Ranges: contents and plates >= 0, scattering_power [-4, 4], |g| < 1; clamped there.
+  EXPECT_EQ(parse_stack_parameter(t, "layers[2].leaf.chlorophyll").max_value(), inf);
+  EXPECT_EQ(parse_stack_parameter(t, "layers[2].leaf.chlorophyll").min_value(), 0.0);
+  EXPECT_EQ(parse_stack_parameter(t, "layers[2].leaf.scattering_power").min_value(), -4.0);
+  EXPECT_LT(parse_stack_parameter(t, "layers[2].leaf.g").max_value(), 1.0);
+  const std::vector<StackParameter> ps = {parse_stack_parameter(t, "layers[2].leaf.chlorophyll"),
+                                          parse_stack_parameter(t, "layers[2].leaf.scattering_power"),
+                                          parse_stack_parameter(t, "layers[2].leaf.g")};
+  const Spectrum values[] = {Spectrum(-3.0), Spectrum(9.0), Spectrum(1.0)};
+  const LeafChromophores clamped = bound_leaf(t, ps, values, 2);
+  EXPECT_EQ(clamped.contents.chlorophyll, 0.0);
+  EXPECT_EQ(clamped.scattering_power, 4.0);
+  EXPECT_EQ(clamped.g, ps[2].max_value());
+  EXPECT_NO_THROW(check_parameter_set(ps));
+  auto error = [&](const StackTemplate& st, const std::string& p) {
+    try {
+      parse_stack_parameter(st, p);
+    } catch (const StackParameterError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error(t, "layers[1].leaf.chlorophyl"),
+            "layers[1].leaf.chlorophyl: unknown leaf key 'chlorophyl' (a texture can drive chlorophyll, carotenoids, "
+            "anthocyanins, brown, water, dry_matter, plates, scattering_power, g)");
+  EXPECT_EQ(error(t, "layers[1].sigma_a"), "layers[1].sigma_a: layers[1] is given by leaf contents: bind layers[1].leaf.KEY");
+  EXPECT_EQ(error(t, "layers[1].ior"), "layers[1].ior: layers[1] is given by leaf contents: bind layers[1].leaf.KEY");
+  EXPECT_EQ(error(load_stack_template(preset("skin.json")), "layers[0].leaf.chlorophyll"),
+            "layers[0].leaf.chlorophyll: layers[0] is not given by leaf contents");
+  EXPECT_EQ(error(t, "layers[1].thickness"), "");  // contents are per leaf area: R and T do not depend on it
+  std::vector<StackParameter> twice = {parse_stack_parameter(t, "layers[1].leaf.water"), parse_stack_parameter(t, "layers[1].leaf.water")};
+  EXPECT_THROW(check_parameter_set(twice), StackParameterError);
+}
+
+// The file reader and the bindings read one list of leaf keys (leaf_keys()): a "leaf" object
+// holding every key, each with its own value, sets the members leaf_keys() names; a key beyond it
+// is refused, and the message lists the same keys.
+TEST(StackParameters, TheReaderAcceptsExactlyTheLeafKeys) {
+  nlohmann::json leaf = nlohmann::json::object();
+  double v = 0.01;
+  for (const LeafKey& k : leaf_keys()) leaf[k.name] = (v += 0.01);
+  const nlohmann::json file = {{"lamina_material", 1},
+                               {"layers", {{{"thickness", 0.1}, {"leaf", leaf}}}}};
+  const SpectralStack s = parse_spectral_stack_json(file.dump(), "leaf.json");
+  ASSERT_TRUE(s.leaves[0]);
+  for (const LeafKey& k : leaf_keys()) EXPECT_EQ(k.of(*s.leaves[0]), leaf[k.name].get<double>()) << k.name;
+  nlohmann::json bad = file;
+  bad["layers"][0]["leaf"]["chlorophyl"] = 1.0;
+  try {
+    parse_spectral_stack_json(bad.dump(), "leaf.json");
+    FAIL() << "expected an error";
+  } catch (const StackFileError& e) {
+    EXPECT_EQ(std::string(e.what()), "leaf.json: layers[0].leaf.chlorophyl: unknown key (allowed here: chlorophyll, "
+                                     "carotenoids, anthocyanins, brown, water, dry_matter, plates, scattering_power, g)");
+  }
+}
+
 TEST(StackParameters, SplitStackPathGivesKeysAndIndices) {
   const std::vector<StackPathStep> steps = split_stack_path("layers[1].components[0].fraction");
   ASSERT_EQ(steps.size(), 5u);

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/renderer/cli/cli_runner.h"
+#include "tests/support/image_files.h"
 
 namespace {
 
@@ -239,12 +240,23 @@ TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
                           "leaf_layered.json: leaf layers are rendered spectrally by the walk alone");
   expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
                         "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
-  // Leaf layers bound to maps are refused in one line naming the map, the material and the file.
-  std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered.json",
-      "bind": [{"parameter": "layers[1].leaf.chlorophyll", "texture": "pigment.png", "channel": "r", "range": [5, 40]}]}})";
-  expect_one_line_error("render " + src + "/scenes/leaves/leaves_back.gltf --width 8 --height 8 --spp 1 --spectral --materials " +
-                            dir_ + "/leaf_map.json -o " + dir_ + "/x.exr",
-                        1, "leaf_map.json: material 'leaf': ");
+  // Leaf layers bound to maps (a chlorophyll map) render spectrally; a bad key or range is refused
+  // in one line naming the map, the material and the binding; the RGB mode refuses the stack.
+  lamina::test::write_png8(dir_ + "/pigment.png", 2, 1, 1, {0, 255});
+  auto leaf_map = [&](const std::string& parameter, const std::string& range) {
+    std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered.json",
+        "bind": [{"parameter": ")" << parameter << R"(", "texture": "pigment.png", "channel": "r", "range": )" << range << "}]}}";
+    return "render " + src + "/scenes/leaves/leaves_back.gltf --width 8 --height 8 --spp 1 --materials " + dir_ + "/leaf_map.json -o " +
+           dir_ + "/leaf_map.exr";
+  };
+  const CliResult mapped = run(leaf_map("layers[1].leaf.chlorophyll", "[5, 40]") + " --spectral");
+  EXPECT_EQ(mapped.exit_code, 0) << mapped.err;
+  expect_one_line_error(leaf_map("layers[1].leaf.chlorophyl", "[5, 40]") + " --spectral", 1,
+                        "leaf_map.json: material 'leaf': bind[0].parameter: layers[1].leaf.chlorophyl: unknown leaf key");
+  expect_one_line_error(leaf_map("layers[1].leaf.scattering_power", "[0, 5]") + " --spectral", 1,
+                        "leaf_map.json: material 'leaf': bind[0].range[1]: outside the range of layers[1].leaf.scattering_power");
+  expect_one_line_error(leaf_map("layers[1].leaf.chlorophyll", "[5, 40]"), 1,
+                        "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
   // A skin by chromophores renders (the stack at each path's wavelengths).
   EXPECT_EQ(run("render " + box + "--spectral --stack " + skin_ + " -o " + dir_ + "/skin.exr").exit_code, 0);
 }

@@ -6,21 +6,26 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <optional>
 #include <string>
 
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "materials/adding_doubling/spectral_totals.h"
 #include "materials/spectral/sampled_wavelengths.h"
 #include "materials/stack/stack_file.h"
 #include "renderer/image/image_io.h"
 #include "renderer/layered/layered_shading.h"
+#include "renderer/layered/stack_bindings.h"
 #include "renderer/layered/wavelength_stack.h"
 #include "renderer/render/film.h"
 #include "tests/materials/spectral/colour_quadrature.h"
 #include "tests/renderer/render_fixtures.h"
+#include "tests/support/image_files.h"
 
 namespace lamina {
 namespace {
@@ -45,22 +50,20 @@ EnvironmentMap half_sky(bool lower) {
   return env;
 }
 
-// A flat slab of `stack` (its top facing +y) under the upper sky, seen at theta degrees from above
-// (below: false) or from below. From above every pixel shows the directional reflectance at
+// A flat slab of material `m` (its top facing +y) under the upper sky, seen at theta degrees from
+// above (below: false) or from below. From above every pixel shows the directional reflectance at
 // theta, from below the directional transmittance of light arriving from below at theta (by
 // reciprocity, the same medium, air, on both sides): the totals of adding-doubling. Under the
-// lower sky (lower_sky), seen from below: the reflectance of the bottom face.
-Image render_slab(const std::string& json, bool spectral, bool one_wavelength_walks, bool below, double theta, int size,
-                  int spp, std::uint64_t seed, bool lower_sky = false) {
-  // A file with leaf layers as the spectral mode reads it (render_job: spectral_stacks), any
-  // other as the RGB mode does (in the spectral mode its coefficients are uplifted).
-  const bool leaf = json.find("\"leaf\"") != std::string::npos;
+// lower sky (lower_sky), seen from below: the reflectance of the bottom face. `spectral_layers`:
+// the file's chromophore and leaf layers, as render_job gives them (spectral_stacks), or null.
+Image render_material(std::shared_ptr<const LayeredMaterial> m, std::shared_ptr<const SpectralStack> spectral_layers,
+                      bool spectral, bool one_wavelength_walks, bool below, double theta, int size, int spp,
+                      std::uint64_t seed, bool lower_sky = false) {
   LayeredBindings b;
-  b.by_material.push_back(std::make_shared<const LayeredMaterial>(
-      leaf ? parse_spectral_stack_json(json, "leaf").stack : parse_stack_json(json, "slab"), "slab"));
+  b.by_material.push_back(std::move(m));
   LayeredShading layered;
   layered.bindings = &b;
-  if (leaf) layered.spectral = {std::make_shared<const SpectralStack>(parse_spectral_stack_json(json, "leaf"))};
+  if (spectral_layers) layered.spectral = {std::move(spectral_layers)};
   layered.test_hooks.one_wavelength_walks = one_wavelength_walks;
   const Scene scene{make_scene({test::slab_plane(0)})};
   RenderSettings s;
@@ -70,6 +73,18 @@ Image render_slab(const std::string& json, bool spectral, bool one_wavelength_wa
   s.layered = &layered;
   s.spectral = spectral;
   return test::render_valid(scene, half_sky(lower_sky), test::camera_towards(test::world_dir(theta, 0.0, below)), s);
+}
+
+// The slab of the material file `json` (render_material).
+Image render_slab(const std::string& json, bool spectral, bool one_wavelength_walks, bool below, double theta, int size,
+                  int spp, std::uint64_t seed, bool lower_sky = false) {
+  // A file with leaf layers as the spectral mode reads it (render_job: spectral_stacks), any
+  // other as the RGB mode does (in the spectral mode its coefficients are uplifted).
+  const bool leaf = json.find("\"leaf\"") != std::string::npos;
+  auto m = std::make_shared<const LayeredMaterial>(leaf ? parse_spectral_stack_json(json, "leaf").stack : parse_stack_json(json, "slab"),
+                                                   "slab");
+  return render_material(std::move(m), leaf ? std::make_shared<const SpectralStack>(parse_spectral_stack_json(json, "leaf")) : nullptr,
+                         spectral, one_wavelength_walks, below, theta, size, spp, seed, lower_sky);
 }
 
 // A grey slab that transmits, given in RGB: in the spectral mode its index is the same at every
@@ -144,6 +159,36 @@ Spectrum colour_of(const std::vector<double>& nm, const std::vector<double>& r) 
   return test::colour_by_quadrature([&](double l) { return refl(l); });
 }
 
+// The colour of `seen`'s reflectance (or transmittance) at mu by adding-doubling every `step` nm,
+// integrated as the film integrates; *error (if not null): the colour of the solver's own
+// discretisation error estimate.
+Spectrum adding_doubling_colour(const SpectralStack& seen, double mu, bool transmitted, double step, Spectrum* error) {
+  const SpectralTotals t = adding_doubling_spectrum(seen, WavelengthGrid::from_to(kSpectralFirstNm, kSpectralLastNm, step), mu);
+  std::vector<double> v, e;
+  for (const AddingDoublingEstimate& est : t.estimates) {
+    const AddingDoublingTotals& a = est.totals;
+    const AddingDoublingTotals& d = est.error;
+    v.push_back(transmitted ? a.T_ballistic[0] + a.T_diffuse[0] : a.R_specular[0] + a.R_diffuse[0]);
+    e.push_back(transmitted ? d.T_ballistic[0] + d.T_diffuse[0] : d.R_specular[0] + d.R_diffuse[0]);
+  }
+  if (error) *error = colour_of(t.nm, e);
+  return colour_of(t.nm, v);
+}
+
+// The tolerance of a rendered image mean against adding-doubling every 2 nm: 3 standard errors,
+// plus the solver's own discretisation error and the 2-nm grid's interpolation (its difference
+// from a 4-nm grid's colour). Fills *expected.
+Spectrum adding_doubling_tolerance(const SpectralStack& seen, double mu, bool transmitted, const ImageStats& rendered,
+                                   Spectrum* expected) {
+  Spectrum solver_error;
+  *expected = adding_doubling_colour(seen, mu, transmitted, 2.0, &solver_error);
+  const Spectrum coarser = adding_doubling_colour(seen, mu, transmitted, 4.0, nullptr);
+  Spectrum tol;
+  for (int c = 0; c < 3; ++c)
+    tol[c] = 3.0 * rendered.stderr_[c] + std::abs(solver_error[c]) + std::abs((*expected)[c] - coarser[c]);
+  return tol;
+}
+
 // The leaf under the upper sky, rendered spectrally from above (its reflectance) and from below
 // (its transmittance), against adding-doubling per wavelength every 2 nm (the leaf seen from
 // below: the flipped stack) integrated as the film integrates. Tolerance: 3 standard errors of
@@ -163,26 +208,13 @@ TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
                         Case{"reflectance of the bottom (camera below, the sky below)", true, true, false}}) {
     const ImageStats rendered = stats_of(render_slab(kLeaf, true, false, k.below, theta, 32, 64, 7, k.lower_sky));
     const SpectralStack seen = k.below ? flipped(leaf) : leaf;
-    auto reference = [&](double step, Spectrum* error) {
-      const SpectralTotals t = adding_doubling_spectrum(seen, WavelengthGrid::from_to(kSpectralFirstNm, kSpectralLastNm, step), mu);
-      std::vector<double> v, e;
-      for (const AddingDoublingEstimate& est : t.estimates) {
-        const AddingDoublingTotals& a = est.totals;
-        const AddingDoublingTotals& d = est.error;
-        v.push_back(k.transmitted ? a.T_ballistic[0] + a.T_diffuse[0] : a.R_specular[0] + a.R_diffuse[0]);
-        e.push_back(k.transmitted ? d.T_ballistic[0] + d.T_diffuse[0] : d.R_specular[0] + d.R_diffuse[0]);
-      }
-      if (error) *error = colour_of(t.nm, e);
-      return colour_of(t.nm, v);
-    };
-    Spectrum solver_error;
-    const Spectrum expected = reference(2.0, &solver_error), coarser = reference(4.0, nullptr);
+    Spectrum expected;
+    const Spectrum tol = adding_doubling_tolerance(seen, mu, k.transmitted, rendered, &expected);
     for (int c = 0; c < 3; ++c) {
-      const double tol = 3.0 * rendered.stderr_[c] + std::abs(solver_error[c]) + std::abs(expected[c] - coarser[c]);
       if (verbose())
-        std::printf("%s, channel %d: rendered %g +- %g, adding-doubling %g (solver error %g, grid %g)\n", k.what, c,
-                    rendered.mean[c], rendered.stderr_[c], expected[c], solver_error[c], expected[c] - coarser[c]);
-      EXPECT_NEAR(rendered.mean[c], expected[c], tol)
+        std::printf("%s, channel %d: rendered %g +- %g, adding-doubling %g (tolerance %g)\n", k.what, c, rendered.mean[c],
+                    rendered.stderr_[c], expected[c], tol[c]);
+      EXPECT_NEAR(rendered.mean[c], expected[c], tol[c])
           << k.what << ", channel " << c << ": rendered " << rendered.mean[c] << " +- " << rendered.stderr_[c]
           << ", adding-doubling " << expected[c];
     }
@@ -219,6 +251,136 @@ TEST(SpectralLeaf, TheWalksStackIsTheFilesStackAtTheFollowedWavelength) {
   // The index differs between the path's wavelengths (so the walk must follow one).
   EXPECT_NE(LeafChromophores::refractive_index(w.nm(0)), LeafChromophores::refractive_index(w.nm(1)));
   EXPECT_TRUE(has_leaf_layers(leaf));
+}
+
+// Leaf pigment maps (docs/stack_bindings.md, "Leaf parameters"): the leaf of kLeaf written to a
+// file and read as the spectral mode reads a bound material (material_binding: leaf_stack, the
+// template whose leaf layers keep their contents), with `spec`'s bindings; textures resolve
+// against `dir`. Returns the material and, through *spectral_layers, the file's leaf layers.
+std::shared_ptr<const LayeredMaterial> bound_leaf_material(const nlohmann::json& spec, const std::filesystem::path& dir,
+                                                           std::shared_ptr<const SpectralStack>* spectral_layers) {
+  const std::string file = (dir / "leaf.json").string();
+  std::ofstream(file) << kLeaf;
+  const std::optional<StackTemplate> t = leaf_stack(file);
+  EXPECT_TRUE(t.has_value());
+  auto templ = std::make_shared<const StackTemplate>(*t);
+  static const SceneDesc desc = make_scene({test::slab_plane(0)});
+  auto b = std::make_shared<const StackBindings>(spec, templ, desc, file, "leaf", file);
+  *spectral_layers = std::make_shared<const SpectralStack>(load_spectral_stack(file));
+  return std::make_shared<const LayeredMaterial>(templ->stack, file, std::move(b));
+}
+
+std::filesystem::path pigment_dir() {
+  const auto dir = std::filesystem::temp_directory_path() / ("lamina_leaf_maps_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  test::write_png8((dir / "grey.png").string(), 2, 2, 1, {77, 77, 77, 77});
+  test::write_png8((dir / "ramp.png").string(), 2, 1, 1, {0, 255});  // t = 0 at u < 0.25, 1 at u > 0.75
+  return dir;
+}
+
+// kLeaf's chlorophyll (palisade 15.936, spongy 24.064 ug/cm2) bound by constant maps to `total`,
+// shared as in the file: the bindings of a leaf whose chlorophyll is `total`.
+nlohmann::json constant_chlorophyll(double total) {
+  const double palisade = 15.936 * total / 40.0, spongy = 24.064 * total / 40.0;
+  return {{"bind",
+           {{{"parameter", "layers[1].leaf.chlorophyll"}, {"texture", "grey.png"}, {"range", {palisade, palisade}}},
+            {{"parameter", "layers[2].leaf.chlorophyll"}, {"texture", "grey.png"}, {"range", {spongy, spongy}}}}}};
+}
+
+// A map that holds the file's values gives the unbound leaf's image bit for bit (the same seed),
+// seen from above and from below (the bound contents flipped with the layers).
+TEST(SpectralLeafMaps, AConstantMapEqualsTheUnboundLeafBitForBit) {
+  const auto dir = pigment_dir();
+  nlohmann::json spec = constant_chlorophyll(40.0);
+  spec["bind"].push_back({{"parameter", "layers[2].leaf.plates"}, {"texture", "grey.png"}, {"range", {1.5433, 1.5433}}});
+  for (const bool below : {false, true}) {
+    std::shared_ptr<const SpectralStack> layers;
+    auto m = bound_leaf_material(spec, dir, &layers);
+    const Image bound = render_material(m, layers, true, false, below, 30.0, 12, 8, 11);
+    const Image unbound = render_slab(kLeaf, true, false, below, 30.0, 12, 8, 11);
+    ASSERT_EQ(bound.width, unbound.width);
+    int differing = 0;
+    for (int y = 0; y < bound.height; ++y)
+      for (int x = 0; x < bound.width; ++x)
+        for (int c = 0; c < 3; ++c) differing += bound.pixel(x, y)[c] != unbound.pixel(x, y)[c] ? 1 : 0;
+    EXPECT_EQ(differing, 0) << "below " << below;
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// The map's value at a hit sets the bound layer's contents, and the walk's stack at the path's
+// wavelengths is the leaf with that content: a ramp from 0 to 60 ug/cm2 in the palisade
+// (layers[1]) raises its absorption at every visible wavelength, most at chlorophyll's red and
+// blue bands, and leaves the spongy mesophyll (layers[2]) the file's.
+TEST(SpectralLeafMaps, TheMapSetsTheBoundLayersContentsAtEachHit) {
+  const auto dir = pigment_dir();
+  const nlohmann::json spec = {
+      {"bind", {{{"parameter", "layers[1].leaf.chlorophyll"}, {"texture", "ramp.png"}, {"range", {0.0, 60.0}}}}}};
+  std::shared_ptr<const SpectralStack> layers;
+  auto m = bound_leaf_material(spec, dir, &layers);
+  const SpectralStack file = *layers;
+  SpectralStack at_hit;
+  const double wavelengths[] = {440.0, 550.0, 670.0};
+  double absorption[2][3];
+  for (const double u : {0.1, 0.9}) {
+    bind_chromophores(file, *m->bindings(), {u, 0.5}, &at_hit);
+    const double chlorophyll = u < 0.5 ? 0.0 : 60.0;
+    EXPECT_EQ(at_hit.leaves[1]->contents.chlorophyll, chlorophyll) << "u " << u;
+    EXPECT_EQ(at_hit.leaves[1]->contents.carotenoids, file.leaves[1]->contents.carotenoids);
+    EXPECT_EQ(at_hit.leaves[2]->contents.chlorophyll, file.leaves[2]->contents.chlorophyll);
+    SpectralStack edited = file;
+    edited.leaves[1]->contents.chlorophyll = chlorophyll;
+    // The walk's stack at each of the path's wavelengths is the edited file's there.
+    const SampledWavelengths w = SampledWavelengths::from_uniform(0.3);
+    for (int h = 0; h < kChannels; ++h) {
+      LayerStack walk;
+      stack_at_wavelength_channel(m->base_stack(), &at_hit, false, w, h, &walk);
+      const LayerStack expected = stack_at_wavelength(edited, w.nm(h));
+      for (int l : {1, 2}) {
+        EXPECT_EQ(walk.layers[l].sigma_a[0], expected.layers[l].sigma_a[0]) << "u " << u << ", layer " << l << ", " << w.nm(h) << " nm";
+        EXPECT_EQ(walk.layers[l].lobes[0].sigma_s[0], expected.layers[l].lobes[0].sigma_s[0]);
+        EXPECT_EQ(walk.layers[l].ior, expected.layers[l].ior);
+      }
+    }
+    for (int i = 0; i < 3; ++i) absorption[u < 0.5 ? 0 : 1][i] = stack_at_wavelength(edited, wavelengths[i]).layers[1].sigma_a[0];
+  }
+  for (int i = 0; i < 3; ++i) EXPECT_GT(absorption[1][i], absorption[0][i]) << wavelengths[i] << " nm";
+  // Chlorophyll absorbs in the red and the blue, little in the green.
+  EXPECT_GT(absorption[1][2] - absorption[0][2], 3.0 * (absorption[1][1] - absorption[0][1]));
+  EXPECT_GT(absorption[1][0] - absorption[0][0], 3.0 * (absorption[1][1] - absorption[0][1]));
+  std::filesystem::remove_all(dir);
+}
+
+// Rendered: a leaf whose chlorophyll comes from a map equals, within 3 standard errors (plus the
+// solver's and the grid's errors), adding-doubling of the file with that chlorophyll; more
+// chlorophyll is darker in the red and the green. (Linear Rec. 709's blue of a leaf's reflectance
+// rises with chlorophyll although the leaf reflects less at every blue wavelength: the blue
+// channel's colour-matching function is negative in the green, which chlorophyll darkens.)
+TEST(SpectralLeafMaps, ChlorophyllMapsRenderAsTheLeafWithThatChlorophyll) {
+  const auto dir = pigment_dir();
+  const double theta = 30.0, mu = std::cos(theta * kPi / 180.0);
+  ImageStats rendered[2];
+  const double totals[] = {8.0, 80.0};
+  for (int k = 0; k < 2; ++k) {
+    std::shared_ptr<const SpectralStack> layers;
+    auto m = bound_leaf_material(constant_chlorophyll(totals[k]), dir, &layers);
+    rendered[k] = stats_of(render_material(m, layers, true, false, false, theta, 24, 32, 13 + k));
+    SpectralStack edited = *layers;
+    edited.leaves[1]->contents.chlorophyll = 15.936 * totals[k] / 40.0;
+    edited.leaves[2]->contents.chlorophyll = 24.064 * totals[k] / 40.0;
+    Spectrum expected;
+    const Spectrum tol = adding_doubling_tolerance(edited, mu, false, rendered[k], &expected);
+    for (int c = 0; c < 3; ++c) {
+      if (verbose())
+        std::printf("chlorophyll %g, channel %d: rendered %g +- %g, adding-doubling %g (tolerance %g)\n", totals[k], c,
+                    rendered[k].mean[c], rendered[k].stderr_[c], expected[c], tol[c]);
+      EXPECT_NEAR(rendered[k].mean[c], expected[c], tol[c]) << "chlorophyll " << totals[k] << ", channel " << c;
+    }
+  }
+  for (int c = 0; c < 2; ++c)
+    EXPECT_LT(rendered[1].mean[c] + 3.0 * std::hypot(rendered[0].stderr_[c], rendered[1].stderr_[c]), rendered[0].mean[c])
+        << "channel " << c;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
