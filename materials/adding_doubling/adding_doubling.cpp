@@ -825,6 +825,8 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   if (settings.quadrature_points < 2)
     throw std::invalid_argument(std::string(who) + ": quadrature_points must be at least 2");
   if (stack.layers.empty()) throw std::invalid_argument(std::string(who) + ": the stack has no layers");
+  if (stack.any_diffuse_interface())
+    throw std::invalid_argument(stack.first_diffuse_interface_path() + ": adding-doubling does not model diffuse interfaces yet");
   Problem p;
   p.stack = &stack;
   p.lambert = stack.below.kind == Below::Kind::Lambert;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "materials/phase/dwivedi.h"
 #include "materials/interfaces/fresnel.h"
@@ -511,6 +512,8 @@ double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const 
 }
 
 void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan) {
+  if (stack.any_diffuse_interface())
+    throw std::invalid_argument(stack.first_diffuse_interface_path() + ": the random walk does not model diffuse interfaces yet");
   plan->stack = &stack;
   plan->settings = settings;
   const int n_layers = static_cast<int>(stack.layers.size());

@@ -95,6 +95,15 @@ TEST_F(CliBrdf, FirstOrderTotalsSumToOne) {
   }
 }
 
+// A diffuse interface (top_diffuse): the first-order solution does not model it and says so in
+// one line naming the file and the JSON path.
+TEST_F(CliBrdf, FirstOrderRefusesDiffuseInterfaces) {
+  const std::string diffuse = dir_ + "/diffuse.json";
+  std::ofstream(diffuse) << R"({ "lamina_material": 1, "top_diffuse": true,
+      "layers": [ { "ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 8.0, "g": 0.5 } ], "below": { "ior": 1.0 } })";
+  expect_one_line_error("brdf " + diffuse + " --theta-i 30 --method first-order", diffuse + ": top_diffuse: the first-order");
+}
+
 TEST_F(CliBrdf, SameSeedSameBytes) {
   const std::string a = dir_ + "/a.csv", b = dir_ + "/b.csv";
   ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + a).exit_code, 0);
