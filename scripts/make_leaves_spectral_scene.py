@@ -5,7 +5,8 @@
 leaves_spectral_front.gltf, leaves_spectral_back.gltf and the five material files
 leaf_chlorophyll_NN.json (NN the leaf's chlorophyll a+b, ug/cm2).
 
-Each material is scenes/spectral/leaf_layered.json (the fitted mature green leaf, 40 ug/cm2)
+Each material is scenes/spectral/leaf_layered_smooth.json (the mature green leaf as fitted with
+smooth faces, 40 ug/cm2: the renderer does not read the diffuse faces of leaf_layered.json yet)
 with its chlorophyll scaled in both pigment layers (palisade and spongy mesophyll keep their
 shares); the carotenoids, water, dry matter and scattering stay, as in a leaf that yellows: its
 chlorophyll is broken down before its carotenoids (the senescent leaf of docs/spectral.md keeps
@@ -33,7 +34,7 @@ CHLOROPHYLL = [40.0, 28.0, 18.0, 9.0, 3.0]  # ug/cm2, leaf0 .. leaf4
 
 
 def material(chlorophyll):
-    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered.json')) as f:
+    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered_smooth.json')) as f:
         leaf = json.load(f)
     total = sum(layer['leaf'].get('chlorophyll', 0.0) for layer in leaf['layers'])
     for layer in leaf['layers']:

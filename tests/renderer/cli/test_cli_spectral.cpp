@@ -230,17 +230,17 @@ TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
   EXPECT_NE(lambert.out.find("spectral mode: tables and albedos on 48 wavelengths"), std::string::npos) << lambert.out;
   // A leaf (its index varies with the wavelength) renders spectrally by the walk, and by auto's
   // walk; the tabulated modes refuse it, and the RGB mode refuses leaf layers.
-  const std::string leaf = " --stack " + src + "/scenes/spectral/leaf_layered.json";
+  const std::string leaf = " --stack " + src + "/scenes/spectral/leaf_layered_smooth.json";
   EXPECT_EQ(run("render " + box + "--spectral" + leaf + " -o " + dir_ + "/leaf.exr").exit_code, 0);
   const CliResult leaf_auto = run("render " + box + "--spectral --subsurface auto --tolerance 0.05" + leaf + " -o " + dir_ + "/leaf_auto.exr");
   EXPECT_EQ(leaf_auto.exit_code, 0) << leaf_auto.err;
   for (const char* mode : {"table", "lambert", "first-order"})
     expect_one_line_error("render " + box + "--spectral --subsurface " + mode + leaf + " -o " + dir_ + "/x.exr", 1,
-                          "leaf_layered.json: leaf layers are rendered spectrally by the walk alone");
-  expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
+                          "leaf_layered_smooth.json: leaf layers are rendered spectrally by the walk alone");
+  expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered_smooth.json -o " + dir_ + "/x.exr", 1,
                         "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
   // Leaf layers bound to maps are refused in one line naming the map, the material and the file.
-  std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered.json",
+  std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered_smooth.json",
       "bind": [{"parameter": "layers[1].leaf.chlorophyll", "texture": "pigment.png", "channel": "r", "range": [5, 40]}]}})";
   expect_one_line_error("render " + src + "/scenes/leaves/leaves_back.gltf --width 8 --height 8 --spp 1 --spectral --materials " +
                             dir_ + "/leaf_map.json -o " + dir_ + "/x.exr",
