@@ -6,7 +6,9 @@ agrees with it within 5e-11), which span the ANGERS leaves' range.
 
 Each leaf's contents (chlorophyll a+b, carotenoids, anthocyanins, brown pigments, water, dry
 matter) are PROSPECT's, shared between the palisade (a fitted share of all of them) and the spongy
-mesophyll (the rest); the cuticle holds none. Four numbers are fitted per leaf: the palisade's
+mesophyll (the rest); the cuticle holds none. The cuticle's top is a diffuse interface
+(materials/interfaces/diffuse_interface.h: PROSPECT's plate surface), and so is the leaf's lower
+face where that fits better (--interfaces auto: both variants are fitted, the better kept). Four numbers are fitted per leaf: the palisade's
 share, the palisade's and the spongy mesophyll's plates (their scattering) and the scattering's
 wavelength power b of both; the Henyey-Greenstein g of both is G (only the reduced scattering
 matters: g 0.95 to 0.98 at the same reduced scattering moves R and T by at most 0.001). The
@@ -61,7 +63,14 @@ def read_reference():
     return leaves, data
 
 
-def material(name, leaf, plates_palisade, plates_spongy, power, share, g=G, digits=4):
+# Which of the leaf's two faces are diffuse interfaces (materials/interfaces/diffuse_interface.h,
+# PROSPECT's plate surface): 'both', 'top' (the cuticle's alone) or 'smooth' (Fresnel interfaces,
+# the earlier model); --interfaces. 'auto', the default, fits 'both' and 'top' and keeps the one
+# whose largest deviation is smaller: whether the lower face is diffuse is a fitted choice.
+INTERFACES = 'both'
+
+
+def material(name, leaf, plates_palisade, plates_spongy, power, share, g=G, digits=4, interfaces=None):
     pigments = {'chlorophyll': leaf['cab'], 'carotenoids': leaf['car'], 'anthocyanins': leaf['ant'], 'brown': leaf['brown']}
     volume = {'water': leaf['cw'], 'dry_matter': leaf['cm']}
 
@@ -72,10 +81,29 @@ def material(name, leaf, plates_palisade, plates_spongy, power, share, g=G, digi
         out.update({'plates': round(plates, digits), 'scattering_power': round(power, digits), 'g': round(g, digits)})
         return out
 
-    return {'lamina_material': 1, 'name': f'leaf_{name}', 'layers': [
+    interfaces = interfaces or INTERFACES
+    doc = {'lamina_material': 1, 'name': f'leaf_{name}', 'layers': [
         {'name': 'cuticle', 'thickness': THICKNESS['cuticle'], 'leaf': {}},
         {'name': 'palisade', 'thickness': THICKNESS['palisade'], 'leaf': layer(share, plates_palisade)},
         {'name': 'spongy', 'thickness': THICKNESS['spongy'], 'leaf': layer(1 - share, plates_spongy)}]}
+    if interfaces in ('top', 'both'):
+        doc = {'lamina_material': 1, 'name': doc['name'], 'top_diffuse': True, 'layers': doc['layers']}
+    if interfaces == 'both':
+        doc['layers'][-1]['bottom_diffuse'] = True
+    return doc
+
+
+def flipped(doc):
+    """The same leaf seen from below: layers reversed, the top's diffuse flag and the last layer's
+    bottom one swapped (LayerStack's flipped(); the leaf's inner interfaces are index-matched)."""
+    layers = [{k: v for k, v in layer.items() if k != 'bottom_diffuse'} for layer in doc['layers'][::-1]]
+    out = {k: v for k, v in doc.items() if k not in ('top_diffuse', 'layers')}
+    if doc['layers'][-1].get('bottom_diffuse'):
+        out['top_diffuse'] = True
+    if doc.get('top_diffuse'):
+        layers[-1]['bottom_diffuse'] = True
+    out['layers'] = layers
+    return out
 
 
 class Model:
@@ -87,7 +115,7 @@ class Model:
     def rt(self, doc, grid, abaxial=False):
         """Cone-averaged R and T of a material document (seen from below if abaxial)."""
         if abaxial:
-            doc = dict(doc, layers=doc['layers'][::-1])
+            doc = flipped(doc)
         path = os.path.join(self.dir, 'leaf.json')
         with open(path, 'w') as f:
             json.dump(doc, f)
@@ -141,7 +169,7 @@ def plot(path, rows, curves):
         ax.plot(nm, 1 - t, color='tab:blue', lw=0.9, label='layered 1 - T')
         ax.plot(nm, r_ab, color='tab:orange', lw=0.8, ls='--', label='layered R (abaxial)')
         row = next(x for x in rows if x['leaf'] == name)
-        ax.set_title(f"{name}: N {row['N']}, Cab {row['chlorophyll']}\nmax |dR| {row['max_dR']:.4f}, "
+        ax.set_title(f"{name}: N {row['N']}, Cab {row['chlorophyll']}, diffuse faces {row['diffuse_faces']}\nmax |dR| {row['max_dR']:.4f}, "
                      f"max |dT| {row['max_dT']:.4f}", fontsize=9)
         ax.set_xlabel('wavelength (nm)')
         ax.set_xlim(400, 2500)
@@ -153,13 +181,18 @@ def plot(path, rows, curves):
 
 
 def main():
+    global INTERFACES
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--lamina', default=os.path.join(ROOT, 'build', 'renderer', 'lamina'))
     parser.add_argument('--out', default=os.path.join(ROOT, 'build', 'leaf_fit.csv'))
     parser.add_argument('--scene', help='write the first leaf\'s fitted material file here')
     parser.add_argument('--plot', help='write the measured-against-modelled plot (PNG) here')
     parser.add_argument('--leaves', help='comma-separated names (default: all five)')
+    parser.add_argument('--interfaces', choices=('auto', 'both', 'top', 'smooth'), default='auto',
+                        help='the diffuse faces: both, the top alone, none (smooth Fresnel interfaces), or auto '
+                             '(default: both and top fitted, the better kept)')
     args = parser.parse_args()
+    variants = ['both', 'top'] if args.interfaces == 'auto' else [args.interfaces]
 
     leaves, data = read_reference()
     if args.leaves:
@@ -179,11 +212,21 @@ def main():
 
         t0, solves0 = time.process_time(), model.solves
         children0 = os.times()
-        p = fit_leaf(model, name, leaf, target)
-        doc = material(name, leaf, *p)  # rounded as written: evaluated as a user would read it
-        nm, r, t = model.rt(doc, '400:2500:1')
+        best = None
+        for variant in variants:
+            INTERFACES = variant
+            p = fit_leaf(model, name, leaf, target)
+            doc = material(name, leaf, *p)  # rounded as written: evaluated as a user would read it
+            nm, r, t = model.rt(doc, '400:2500:1')
+            ref_r, ref_t = target(nm)
+            worst = max(np.abs(r - ref_r).max(), np.abs(t - ref_t).max())
+            if len(variants) > 1:
+                print(f'{name}: diffuse faces {variant}: largest deviation {worst:.4f}', flush=True)
+            if best is None or worst < best[0]:
+                best = (worst, variant, p, doc, nm, r, t)
+        _, faces, p, doc, nm, r, t = best
+        INTERFACES = faces
         _, r_ab, t_ab = model.rt(doc, '400:2500:1', abaxial=True)
-        ref_r, ref_t = target(nm)
         children1 = os.times()
         cpu = (children1.children_user + children1.children_system - children0.children_user - children0.children_system +
                time.process_time() - t0)
@@ -194,14 +237,14 @@ def main():
         palisade, spongy = doc['layers'][1]['leaf'], doc['layers'][2]['leaf']
         rows.append({'leaf': name, 'N': leaf['N'], 'chlorophyll': leaf['cab'], 'carotenoids': leaf['car'],
                      'anthocyanins': leaf['ant'], 'brown': leaf['brown'], 'water': leaf['cw'], 'dry_matter': leaf['cm'],
-                     'palisade_share': round(p[3], 4), 'plates_palisade': palisade['plates'],
+                     'diffuse_faces': faces, 'palisade_share': round(p[3], 4), 'plates_palisade': palisade['plates'],
                      'plates_spongy': spongy['plates'], 'g': palisade['g'],
                      'scattering_power': palisade['scattering_power'],
                      'max_dR': round(dr, 4), 'max_dR_nm': dr_nm, 'max_dT': round(dt, 4), 'max_dT_nm': dt_nm,
                      'rmse': round(float(np.sqrt(np.mean(np.concatenate([r - ref_r, t - ref_t]) ** 2))), 4),
                      'abaxial_max_dR': round(ab_r, 4), 'abaxial_max_dT': round(ab_t, 4),
                      'spectra_solved': model.solves - solves0, 'cpu_seconds': round(cpu, 1)})
-        print(f"{name}: palisade share {p[3]:.4f}, plates {palisade['plates']}, {spongy['plates']}, "
+        print(f"{name}: diffuse faces {faces}, palisade share {p[3]:.4f}, plates {palisade['plates']}, {spongy['plates']}, "
               f"b {palisade['scattering_power']}: max |dR| {dr:.4f} at {dr_nm} nm, "
               f"max |dT| {dt:.4f} at {dt_nm} nm; abaxial {ab_r:.4f}, {ab_t:.4f}", flush=True)
         curves.append((name, nm, ref_r, ref_t, r, t, r_ab))

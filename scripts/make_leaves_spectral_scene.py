@@ -11,7 +11,8 @@ a leaf yellows from its tip and edges; both pigment layers bound to it, each in 
 file's chlorophyll (docs/stack_bindings.md, "Leaf parameters"). UV: u along the midrib from base
 to tip, v across the blade (scripts/make_leaves_scene.py).
 
-Each material is scenes/spectral/leaf_layered.json (the fitted mature green leaf, 40 ug/cm2)
+Each material is scenes/spectral/leaf_layered_smooth.json (the mature green leaf as fitted with
+smooth faces, 40 ug/cm2: the renderer does not read the diffuse faces of leaf_layered.json yet)
 with its chlorophyll scaled in both pigment layers (palisade and spongy mesophyll keep their
 shares); the carotenoids, water, dry matter and scattering stay, as in a leaf that yellows: its
 chlorophyll is broken down before its carotenoids (the senescent leaf of docs/spectral.md keeps
@@ -59,7 +60,7 @@ CHLOROPHYLL = [40.0, 28.0, 18.0, 9.0, 3.0]  # ug/cm2, leaf0 .. leaf4
 
 
 def material(chlorophyll):
-    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered.json')) as f:
+    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered_smooth.json')) as f:
         leaf = json.load(f)
     total = sum(layer['leaf'].get('chlorophyll', 0.0) for layer in leaf['layers'])
     for layer in leaf['layers']:

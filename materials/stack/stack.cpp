@@ -116,8 +116,11 @@ void flip_into(const LayerStack& stack, LayerStack* out) {
   // top, and new layer j's bottom is the old interface above old layer N - 1 - j.
   const std::size_t n = stack.layers.size();
   out->top_roughness = n > 0 ? stack.layers[n - 1].bottom_roughness : 0.0;
-  for (std::size_t j = 0; j < n; ++j)
+  out->top_diffuse = n > 0 && stack.layers[n - 1].bottom_diffuse;
+  for (std::size_t j = 0; j < n; ++j) {
     out->layers[j].bottom_roughness = j + 1 < n ? stack.layers[n - 2 - j].bottom_roughness : stack.top_roughness;
+    out->layers[j].bottom_diffuse = j + 1 < n ? stack.layers[n - 2 - j].bottom_diffuse : stack.top_diffuse;
+  }
 }
 
 LayerStack with_smooth_top(LayerStack stack) {
@@ -141,6 +144,22 @@ bool LayerStack::energy_conserving_rough() const {
   return false;
 }
 
+bool LayerStack::diffuse_interface(int k) const {
+  const int n = static_cast<int>(layers.size());
+  if (k < 0 || k > n || n == 0) return false;
+  if (!(k == 0 ? top_diffuse : layers[k - 1].bottom_diffuse)) return false;
+  if (k == n && below.kind != Below::Kind::Dielectric) return false;
+  return ior_above_interface(k) != ior_below_interface(k);
+}
+
+bool LayerStack::any_diffuse_interface() const { return !first_diffuse_interface_path().empty(); }
+
+std::string LayerStack::first_diffuse_interface_path() const {
+  for (int k = 0; k <= static_cast<int>(layers.size()); ++k)
+    if (diffuse_interface(k)) return k == 0 ? "top_diffuse" : "layers[" + std::to_string(k - 1) + "].bottom_diffuse";
+  return {};
+}
+
 std::string stack_fingerprint(const LayerStack& stack) {
   std::ostringstream out;
   out << std::hexfloat;
@@ -149,10 +168,12 @@ std::string stack_fingerprint(const LayerStack& stack) {
   };
   out << "above " << stack.above_ior << '\n';
   if (stack.rough_top()) out << "top_roughness " << stack.top_roughness << '\n';
+  if (stack.diffuse_interface(0)) out << "top_diffuse\n";
   if (stack.interface_model == InterfaceModel::EnergyConserving) out << "energy_conserving\n";
   for (const Layer& l : stack.layers) {
     out << "layer " << l.ior << ' ' << l.thickness << " sigma_a";
     if (l.bottom_roughness > 0.0) out << " bottom_roughness " << l.bottom_roughness;
+    if (l.bottom_diffuse) out << " bottom_diffuse";
     spectrum(l.sigma_a);
     for (const PhaseLobe& lobe : l.lobes) {
       out << " lobe";
@@ -206,6 +227,9 @@ std::string validate_stack(const LayerStack& stack) {
     os << "roughness: must be a number in [0, 1] (GGX alpha; got " << stack.top_roughness << ")";
     return os.str();
   }
+  if (stack.top_diffuse && stack.top_roughness > 0.0)
+    return "top_diffuse: a diffuse interface cannot also be rough (roughness " + std::to_string(stack.top_roughness) +
+           "): give one of them";
   for (std::size_t i = 0; i < stack.layers.size(); ++i) {
     const Layer& layer = stack.layers[i];
     const std::string p = "layers[" + std::to_string(i) + "]";
@@ -221,6 +245,13 @@ std::string validate_stack(const LayerStack& stack) {
     if (layer.bottom_roughness > 0.0 && i + 1 == stack.layers.size() &&
         (stack.below.kind != Below::Kind::Dielectric || layer.semi_infinite()))
       return p + ".bottom_roughness: the last layer has no bottom interface (a lambert substrate or a "
+                 "semi-infinite layer)";
+    if (layer.bottom_diffuse && layer.bottom_roughness > 0.0)
+      return p + ".bottom_diffuse: a diffuse interface cannot also be rough (bottom_roughness " +
+             std::to_string(layer.bottom_roughness) + "): give one of them";
+    if (layer.bottom_diffuse && i + 1 == stack.layers.size() &&
+        (stack.below.kind != Below::Kind::Dielectric || layer.semi_infinite()))
+      return p + ".bottom_diffuse: the last layer has no bottom interface (a lambert substrate or a "
                  "semi-infinite layer)";
     if (std::isnan(layer.thickness) || layer.thickness < 0.0)
       return p + ".thickness: must be >= 0 or \"inf\"";

@@ -34,6 +34,9 @@ struct Layer {
   // GGX alpha of the interface BELOW this layer (the next layer's top, or the stack's bottom on a
   // dielectric): 0 smooth. Only with LayerStack::interface_model EnergyConserving (validate_stack).
   double bottom_roughness = 0.0;
+  // The interface BELOW this layer transmits diffusely (materials/interfaces/diffuse_interface.h:
+  // PROSPECT's plate surface); never also rough (validate_stack). See LayerStack::diffuse_interface.
+  bool bottom_diffuse = false;
 
   Spectrum sigma_s() const;  // sum of the lobes' scattering
   Spectrum sigma_t() const { return sigma_a + sigma_s(); }
@@ -70,6 +73,9 @@ struct LayerStack {
   // reflection is a glossy lobe and whose transmission spreads directions. With the
   // single-scattering model only for stacks that do not transmit (validate_stack).
   double top_roughness = 0.0;
+  // The top interface (interface 0) transmits diffusely (materials/interfaces/diffuse_interface.h);
+  // never also rough (validate_stack). JSON "top_diffuse".
+  bool top_diffuse = false;
   // The rough interfaces' model (materials/interfaces/microsurface.h): EnergyConserving, the
   // default (of this struct and of a material file without "interface_model"), is Heitz et al.'s
   // multiple-scattering microsurface at every rough interface (top_roughness and each layer's
@@ -98,6 +104,15 @@ struct LayerStack {
   double energy_conserving_alpha(int k) const;
   // Some interface is an energy-conserving rough one.
   bool energy_conserving_rough() const;
+  // Interface k (numbered as below: 0 the top, N the bottom) is a diffuse one: flagged
+  // (top_diffuse, layers[k-1].bottom_diffuse) and an index step there (an index-matched interface
+  // is no interface at all).
+  bool diffuse_interface(int k) const;
+  // Some interface is a diffuse one.
+  bool any_diffuse_interface() const;
+  // "top_diffuse" or "layers[i].bottom_diffuse" (the JSON path) of the first diffuse interface, or
+  // "" if there is none: for the one-line refusals of the modes that do not model it.
+  std::string first_diffuse_interface_path() const;
   // Index of refraction on the far side of interface k: interface 0 is the top surface
   // (above_ior | layers[0]); interface k (1 <= k < N) lies between layers[k-1] and layers[k];
   // interface N is the bottom (layers[N-1] | below).

@@ -75,6 +75,11 @@ class Reader {
     return path.empty() ? key : path + "." + key;
   }
 
+  bool boolean(const json& j, const std::string& path) const {
+    if (!j.is_boolean()) fail(path, "expected a boolean (true or false), got " + type_name(j));
+    return j.get<bool>();
+  }
+
   // A finite number.
   double number(const json& j, const std::string& path) const {
     if (!j.is_number()) fail(path, "expected a number, got " + type_name(j));
@@ -193,7 +198,7 @@ class Reader {
   Layer layer(const json& j, const std::string& path, bool last, LayerDesc* desc,
               std::optional<SkinChromophores>* spectral, std::optional<LeafChromophores>* leaf_out = nullptr) const {
     require_object(j, path);
-    check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "sigma_a", "sigma_s", "g", "components",
+    check_keys(j, path, {"name", "ior", "thickness", "bottom_roughness", "bottom_diffuse", "sigma_a", "sigma_s", "g", "components",
                          "chromophores", "leaf"});
     Layer layer;
     if (j.contains("name")) layer.name = string(j["name"], join(path, "name"));
@@ -203,6 +208,7 @@ class Reader {
     // A leaf layer's placeholder index: PROSPECT-D's at 550 nm (stack_at_wavelength sets each).
     layer.ior = is_leaf ? LeafChromophores::refractive_index(550.0) : ior(member(j, path, "ior"), join(path, "ior"));
     if (j.contains("bottom_roughness")) layer.bottom_roughness = number(j["bottom_roughness"], join(path, "bottom_roughness"));
+    if (j.contains("bottom_diffuse")) layer.bottom_diffuse = boolean(j["bottom_diffuse"], join(path, "bottom_diffuse"));
 
     const json& t = member(j, path, "thickness");
     const std::string tp = join(path, "thickness");
@@ -324,7 +330,8 @@ class Reader {
 
   StackTemplate stack(const json& root) const {
     require_object(root, "");
-    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "interface_model", "layers", "below"});
+    check_keys(root, "", {"lamina_material", "name", "above_ior", "roughness", "top_diffuse", "interface_model", "layers",
+                             "below"});
     const json& version = member(root, "", "lamina_material");
     if (!version.is_number() || version.get<double>() != 1.0)
       fail("lamina_material", "unsupported version " + version.dump() + " (this build reads version 1)");
@@ -334,6 +341,7 @@ class Reader {
     if (root.contains("name")) s.name = string(root["name"], "name");
     if (root.contains("above_ior")) s.above_ior = ior(root["above_ior"], "above_ior");
     if (root.contains("roughness")) s.top_roughness = number(root["roughness"], "roughness");
+    if (root.contains("top_diffuse")) s.top_diffuse = boolean(root["top_diffuse"], "top_diffuse");
     if (root.contains("interface_model")) s.interface_model = interface_model(root["interface_model"]);
     const json& layers = member(root, "", "layers");
     if (!layers.is_array()) fail("layers", "expected an array of layers, got " + type_name(layers));

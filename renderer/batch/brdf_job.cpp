@@ -149,6 +149,9 @@ BrdfResult adding_doubling(const LayerStack& stack, const BrdfRequest& request) 
 }  // namespace
 
 void check_brdf_method(const LayerStack& stack, const std::string& source, BrdfMethod method) {
+  if (method == BrdfMethod::FirstOrder && stack.any_diffuse_interface())
+    throw std::runtime_error(source + ": " + stack.first_diffuse_interface_path() +
+                             ": the first-order solution has no diffuse interfaces; use --method monte-carlo or adding-doubling");
   if (method == BrdfMethod::FirstOrder && stack.rough_top())
     throw std::runtime_error(source + ": roughness: the first-order solution is for a smooth top interface; "
                              "use --method monte-carlo or adding-doubling");

@@ -3,6 +3,8 @@
 #include "materials/stack/stack_file.h"
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -331,6 +333,93 @@ TEST(StackFlip, ReversesLayersAndSwapsMedia) {
 TEST(StackFlip, RejectsOpaqueStacks) {
   const LayerStack s = parse_stack_json(kGood, "skin.json");  // Lambert below
   EXPECT_THROW(flipped(s), std::invalid_argument);
+}
+
+
+// A leaf-like transmitting stack with a diffuse top and a diffuse interface below the cuticle:
+// the flags come back from a file on disk, count only where the index steps, and enter the
+// fingerprint.
+const char* kDiffuse = R"({
+  "lamina_material": 1,
+  "top_diffuse": true,
+  "layers": [
+    { "name": "cuticle", "ior": 1.5, "thickness": 0.01, "sigma_a": 0.1, "sigma_s": 0, "g": 0, "bottom_diffuse": true },
+    { "name": "mesophyll", "ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.5, "bottom_diffuse": false },
+    { "name": "lower", "ior": 1.4, "thickness": 0.1, "sigma_a": 0.5, "sigma_s": 20, "g": 0.5, "bottom_diffuse": true }
+  ],
+  "below": { "ior": 1.0 }
+})";
+
+TEST(StackFileDiffuse, FlagsRoundTripThroughAFile) {
+  const std::string path = ::testing::TempDir() + "/diffuse_stack.json";
+  {
+    std::ofstream out(path);
+    out << kDiffuse;
+  }
+  const LayerStack s = load_stack_file(path);
+  std::remove(path.c_str());
+  EXPECT_TRUE(s.top_diffuse);
+  EXPECT_TRUE(s.layers[0].bottom_diffuse);
+  EXPECT_FALSE(s.layers[1].bottom_diffuse);
+  EXPECT_TRUE(s.layers[2].bottom_diffuse);
+  EXPECT_TRUE(s.diffuse_interface(0));
+  EXPECT_TRUE(s.diffuse_interface(1));   // 1.5 | 1.4
+  EXPECT_FALSE(s.diffuse_interface(2));  // not flagged
+  EXPECT_TRUE(s.diffuse_interface(3));   // 1.4 | air
+  EXPECT_EQ(s.first_diffuse_interface_path(), "top_diffuse");
+  EXPECT_TRUE(validate_stack(s).empty());
+  // Without the flags: the same file as before the keys existed, and another fingerprint.
+  LayerStack plain = s;
+  plain.top_diffuse = false;
+  for (Layer& l : plain.layers) l.bottom_diffuse = false;
+  EXPECT_FALSE(plain.any_diffuse_interface());
+  EXPECT_EQ(plain.first_diffuse_interface_path(), "");
+  EXPECT_NE(stack_fingerprint(s), stack_fingerprint(plain));
+  LayerStack bottom_only = plain;
+  bottom_only.layers[2].bottom_diffuse = true;
+  EXPECT_EQ(bottom_only.first_diffuse_interface_path(), "layers[2].bottom_diffuse");
+  EXPECT_NE(stack_fingerprint(bottom_only), stack_fingerprint(plain));
+  EXPECT_NE(stack_fingerprint(bottom_only), stack_fingerprint(s));
+}
+
+TEST(StackFileDiffuse, IndexMatchedInterfaceIsNotDiffuse) {
+  LayerStack s = parse_stack_json(kDiffuse, "leaf.json");
+  s.layers[0].ior = 1.4;  // cuticle | mesophyll matched: no interface there
+  EXPECT_FALSE(s.diffuse_interface(1));
+  s.above_ior = 1.4;
+  EXPECT_FALSE(s.diffuse_interface(0));
+  EXPECT_EQ(s.first_diffuse_interface_path(), "layers[2].bottom_diffuse");
+}
+
+TEST(StackFileDiffuse, FlipMovesTheFlags) {
+  LayerStack s = parse_stack_json(kDiffuse, "leaf.json");
+  s.layers[2].bottom_diffuse = false;  // top diffuse, bottom smooth: the flip swaps them
+  const LayerStack f = flipped(s);
+  EXPECT_FALSE(f.top_diffuse);
+  EXPECT_TRUE(f.layers[2].bottom_diffuse);  // the old top
+  EXPECT_TRUE(f.layers[1].bottom_diffuse);  // the old interface below the cuticle (now above it)
+  EXPECT_FALSE(f.layers[0].bottom_diffuse);
+  for (int k = 0; k <= 3; ++k) EXPECT_EQ(f.diffuse_interface(k), s.diffuse_interface(3 - k)) << k;
+  EXPECT_EQ(stack_fingerprint(flipped(f)), stack_fingerprint(s));
+  LayerStack into;
+  flip_into(s, &into);
+  EXPECT_EQ(stack_fingerprint(into), stack_fingerprint(f));
+}
+
+TEST(StackFileDiffuseErrors, NotABoolean) {
+  expect_error(replaced(kDiffuse, "\"top_diffuse\": true", "\"top_diffuse\": 1"), "top_diffuse", "expected a boolean");
+  expect_error(replaced(kDiffuse, "\"bottom_diffuse\": false", "\"bottom_diffuse\": \"no\""), "layers[1].bottom_diffuse",
+               "expected a boolean");
+}
+TEST(StackFileDiffuseErrors, DiffuseAndRough) {
+  expect_error(replaced(kDiffuse, "\"top_diffuse\": true", "\"top_diffuse\": true, \"roughness\": 0.3"), "top_diffuse",
+               "cannot also be rough");
+  expect_error(replaced(kDiffuse, "\"bottom_diffuse\": true }", "\"bottom_diffuse\": true, \"bottom_roughness\": 0.2 }"),
+               "layers[0].bottom_diffuse", "cannot also be rough");
+}
+TEST(StackFileDiffuseErrors, NoBottomInterface) {
+  expect_error(replaced(kDiffuse, "{ \"ior\": 1.0 }", "{ \"lambert\": 0.5 }"), "layers[2].bottom_diffuse",
+               "no bottom interface");
 }
 
 }  // namespace

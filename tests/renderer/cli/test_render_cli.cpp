@@ -266,6 +266,18 @@ TEST(RenderCliLayered, MaterialsMapAndModes) {
                  dir / "bad_map.json", "nothere.json", dir / "x.exr");
 }
 
+// A diffuse interface: the renderer refuses the material in one line naming its file and the
+// JSON path, in every mode.
+TEST(RenderCliLayered, RefusesDiffuseInterfaces) {
+  TempDir dir("cli-diffuse");
+  write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3, "bottom_diffuse": true}], "below": {"ior": 1.0}})");
+  for (const char* mode : {"random-walk", "table"})
+    expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + " --materials " + dir / "map.json" +
+                                " --width 6 --height 4 --spp 2 --env 1 --subsurface " + mode),
+                   "m/leaf.json", "layers[0].bottom_diffuse: the renderer does not model diffuse interfaces", dir / "x.exr");
+}
+
 // A rough top (roughness 0.3): the first-order mode renders it through a mirror and says so, on
 // stderr and in the header (lamina:ignored:MATERIAL); random-walk renders it and says nothing.
 TEST(RenderCliLayered, ModesSayWhatTheyIgnore) {
