@@ -113,20 +113,33 @@ const char* kRgbLeaf = R"({"lamina_material": 1, "layers": [
       {"fraction": 0.7, "sigma_a": [0.1643, 0.1643, 0.4757], "sigma_s": 24.0, "g": 0.5}]}],
     "below": {"ior": 1.0}})";
 
-TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafEqualItsThreeWavelengthWalks) {
+void expect_one_wavelength_walks_equal_three(const std::string& json, const char* leaf) {
   for (const bool below : {false, true}) {
-    const char* side = below ? "RGB leaf, transmittance (camera below)" : "RGB leaf, reflectance (camera above)";
-    const ImageStats three = stats_of(render_slab(kRgbLeaf, true, false, below, 30.0, 24, 32, 5));
-    const ImageStats one = stats_of(render_slab(kRgbLeaf, true, true, below, 30.0, 24, 32, 6));
+    const std::string side = std::string(leaf) + (below ? ", transmittance (camera below)" : ", reflectance (camera above)");
+    const ImageStats three = stats_of(render_slab(json, true, false, below, 30.0, 24, 32, 5));
+    const ImageStats one = stats_of(render_slab(json, true, true, below, 30.0, 24, 32, 6));
     for (int c = 0; c < 3; ++c) {
       EXPECT_NEAR(one.mean[c], three.mean[c], 3.0 * std::hypot(three.stderr_[c], one.stderr_[c]))
           << side << ", channel " << c << ": three wavelengths " << three.mean[c] << " +- " << three.stderr_[c]
           << ", one " << one.mean[c] << " +- " << one.stderr_[c];
       if (verbose())
-        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side, c, one.mean[c],
+        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side.c_str(), c, one.mean[c],
                     std::pow(one.stderr_[c] / three.stderr_[c], 2.0));
     }
   }
+}
+
+TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafEqualItsThreeWavelengthWalks) {
+  expect_one_wavelength_walks_equal_three(kRgbLeaf, "RGB leaf");
+}
+
+// The same with a diffusely transmitting top (docs/layered_rendering.md, "Diffusely transmitting
+// interfaces"): the one-wavelength walks pass through the diffuse surface's arrivals and sources
+// as the three-wavelength walks do.
+TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafWithADiffuseTopEqualItsThreeWavelengthWalks) {
+  std::string json = kRgbLeaf;
+  json.insert(json.find("\"layers\""), "\"top_diffuse\": true, ");
+  expect_one_wavelength_walks_equal_three(json, "RGB leaf with a diffuse top");
 }
 
 // A flat layered leaf (the fitted mature green leaf of docs/spectral.md, "Layered leaf":
