@@ -110,6 +110,13 @@
 //    light that entered the stack. The cells: each segment's Gauss nodes t_i take, in order of
 //    t, consecutive intervals of s = t^2 as long as their weights 2 t_i w_i (which sum to
 //    t_max^2), so a cell's measure is its node's weight exactly.
+// 13. A diffuse interface (materials/interfaces/diffuse_interface.h: PROSPECT's plate surface,
+//    docs/adding_doubling.md, "Diffuse interfaces") is a full element as a rough one is, built on
+//    the nodes (diffuse_interface_element): specular reflection on its light side, Lambertian
+//    transmission into the dense side, and from the dense side a constant transmission t_hi and a
+//    Lambertian reflection 1 - t_hi. Its diffuse parts have no azimuthal modes above 0. The
+//    light that crossed one is spread, so, as with energy-conserving rough interfaces (11.), the
+//    totals split by the unscattered solution.
 #include "materials/adding_doubling/adding_doubling.h"
 
 #include <algorithm>
@@ -743,6 +750,10 @@ struct RoughInterface {
   // direct[mode] and the element's Rt is 0 (10.).
   std::vector<Element> elements;
   std::vector<Matrix> direct;
+  // 13. A diffuse interface (f null): its elements per mode, made once (diffuse_interface_element).
+  bool diffuse = false;
+  // The interface is added by its own elements, not as a smooth Fresnel diagonal.
+  bool full() const { return f != nullptr || diffuse; }
 };
 
 // The discretised stack for a set of incidence cosines.
@@ -752,7 +763,8 @@ struct Problem {
   Medium above, below;  // below: only for a transmitting stack
   std::vector<Medium> media;
   bool lambert = false, semi = false, transmits = false;
-  // rough[k]: interface k if it is rough (its f set), else smooth; rough_top: rough[0] is.
+  // rough[k]: interface k if it is rough (its f set) or diffuse, else smooth; rough_top: rough[0]
+  // is rough.
   std::vector<RoughInterface> rough;
   bool rough_top = false;
   // Under a rough top: each finite layer's medium without the incidences, and their cosines there
@@ -792,6 +804,50 @@ Element rough_interface_element(const Problem& p, int k, int size, int mode, boo
   return e;
 }
 
+// 13. Diffuse interface k (materials/interfaces/diffuse_interface.h) of mode `mode` on all nodes.
+// Light side (index n_lo): node j reflects F_j = F(mu_j) into itself (every mode: Fresnel does
+// not depend on azimuth) and transmits 1 - F_j into the dense side's real nodes in proportion to
+// their W (Lambert's law, 7.). Dense side (n_hi): every node transmits t_hi into the light
+// side's real nodes in proportion to (1 - F_i) W_i and reflects 1 - t_hi in proportion to W
+// (Lambert). The diffuse parts are mode 0 alone (isotropic in azimuth, 8.). Normalised on the
+// nodes: with S_hi = sum W_hi and tau_lo = sum_i (1 - F_i) W_lo,i,
+// Td(i, j) = (1 - F_j) W_hi,i / S_hi and Tu(j, i) = t_hi (1 - F_j) W_lo,j / tau_lo with
+// t_hi = (n_lo/n_hi)^2 tau_lo / S_hi, so every column sums to 1 exactly (no loss, whatever the
+// order) and M_ij / (n_i^2 W_i) = M_ji / (n_j^2 W_j) holds exactly: reciprocity in flux form (the
+// nodes' etendue n^2 W is the same measure du on both sides, 1.). As S -> 1 and tau_lo ->
+// 1 - rbar_lo with the order, t_hi -> (n_lo/n_hi)^2 (1 - rbar_lo), the interface's own.
+Element diffuse_interface_element(const Problem& p, int k, int size, int mode) {
+  const int nl = static_cast<int>(p.stack->layers.size());
+  const Medium& a = k == 0 ? p.above : p.media[k - 1];
+  const Medium& b = k == nl ? p.below : p.media[k];
+  Element e{Matrix(size), Matrix(size), Matrix(size), Matrix(size), false, {}};
+  const bool light_above = a.n < b.n;
+  const Medium& lo = light_above ? a : b;
+  const Medium& hi = light_above ? b : a;
+  Matrix& R_lo = light_above ? e.Rt : e.Rb;  // reflection on the light side
+  Matrix& R_hi = light_above ? e.Rb : e.Rt;
+  Matrix& T_up = light_above ? e.Td : e.Tu;  // light side -> dense side
+  Matrix& T_down = light_above ? e.Tu : e.Td;
+  std::vector<double> F(lo.active.size());
+  double s_hi = 0.0, tau_lo = 0.0;
+  for (std::size_t q = 0; q < lo.active.size(); ++q) {
+    F[q] = fresnel_dielectric(lo.mu[q], lo.n, hi.n);
+    R_lo(lo.active[q], lo.active[q]) = F[q];
+    tau_lo += (1.0 - F[q]) * lo.W[q];
+  }
+  if (mode > 0) return e;
+  for (double w : hi.W) s_hi += w;
+  const double t_hi = (lo.n / hi.n) * (lo.n / hi.n) * tau_lo / s_hi;
+  for (std::size_t j = 0; j < lo.active.size(); ++j)
+    for (std::size_t i = 0; i < hi.active.size(); ++i) T_up(hi.active[i], lo.active[j]) = (1.0 - F[j]) * hi.W[i] / s_hi;
+  for (std::size_t j = 0; j < hi.active.size(); ++j) {
+    for (std::size_t i = 0; i < lo.active.size(); ++i)
+      T_down(lo.active[i], hi.active[j]) = t_hi * (1.0 - F[i]) * lo.W[i] / tau_lo;
+    for (std::size_t i = 0; i < hi.active.size(); ++i) R_hi(hi.active[i], hi.active[j]) = (1.0 - t_hi) * hi.W[i] / s_hi;
+  }
+  return e;
+}
+
 // A medium's real nodes (W > 0) as the projection's directions, and their global indices.
 FourierDirections real_directions(const Medium& m, std::vector<int>* global) {
   FourierDirections d;
@@ -825,8 +881,6 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   if (settings.quadrature_points < 2)
     throw std::invalid_argument(std::string(who) + ": quadrature_points must be at least 2");
   if (stack.layers.empty()) throw std::invalid_argument(std::string(who) + ": the stack has no layers");
-  if (stack.any_diffuse_interface())
-    throw std::invalid_argument(stack.first_diffuse_interface_path() + ": adding-doubling does not model diffuse interfaces yet");
   Problem p;
   p.stack = &stack;
   p.lambert = stack.below.kind == Below::Kind::Lambert;
@@ -890,6 +944,11 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
   p.rough_top = p.rough[0].f != nullptr;
   for (int k = 0; k <= nl; ++k)
     if (p.rough[k].f) make_elements(k);
+  for (int k = 0; k <= nl; ++k)
+    if (stack.diffuse_interface(k) && (k < nl || p.transmits)) {
+      p.rough[k].diffuse = true;
+      for (int mode = 0; mode < modes; ++mode) p.rough[k].elements.push_back(diffuse_interface_element(p, k, p.size(), mode));
+    }
   if (p.rough_top && !adding_doubling_test_hooks::double_on_every_node)
     for (const Medium& m : p.media) {
       Medium real = m;
@@ -913,7 +972,9 @@ Problem make_problem(const LayerStack& stack, const std::vector<double>& cos_the
       p.layer_media.push_back(std::move(real));
       p.dropped.push_back(std::move(d));
     }
-  if (stack.energy_conserving_rough()) p.unscattered = std::make_shared<LayerStack>(without_scattering(stack));
+  // 11. and 13.: light through a diffuse interface is spread as through a rough one.
+  if (stack.energy_conserving_rough() || stack.any_diffuse_interface())
+    p.unscattered = std::make_shared<LayerStack>(without_scattering(stack));
   return p;
 }
 
@@ -932,7 +993,7 @@ Element add_bottom_run(const Problem& p, const LayerStack& stack, int c, int mod
   Element acc = add_over(layer_element(stack.layers[nl - 1], c, local, n, mode, doublings, p.dropped[nl - 1]),
                          lambert_element(stack.below.albedo, c, local, n, mode));
   int k = nl - 2;
-  for (; k >= 0 && !p.rough[k + 1].f && stack.layers[k].ior == stack.layers[k + 1].ior && doubled_to_depth(stack.layers[k], c);
+  for (; k >= 0 && !p.rough[k + 1].full() && stack.layers[k].ior == stack.layers[k + 1].ior && doubled_to_depth(stack.layers[k], c);
        --k) {
     const Layer& layer = stack.layers[k];
     // The clear layer of solve_stack is skipped as there.
@@ -971,13 +1032,13 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings, const Lay
     acc.Td = Matrix();
   } else {
     const Element bottom = p.lambert       ? lambert_element(stack.below.albedo, c, p.media[nl - 1], size, mode)
-                           : p.rough[nl].f ? Element()
-                                           : interface_element(p.media[nl - 1], p.below, size);
-    acc = add_over(layer_element(nl - 1), p.rough[nl].f ? p.rough[nl].elements[mode] : bottom);
+                           : p.rough[nl].full() ? Element()
+                                                : interface_element(p.media[nl - 1], p.below, size);
+    acc = add_over(layer_element(nl - 1), p.rough[nl].full() ? p.rough[nl].elements[mode] : bottom);
     if (p.lambert) acc.Td = Matrix();
   }
   for (; k >= 0; --k) {
-    if (p.rough[k + 1].f)
+    if (p.rough[k + 1].full())
       acc = add_over(p.rough[k + 1].elements[mode], acc);
     else if (stack.layers[k].ior != stack.layers[k + 1].ior)
       acc = add_over(interface_element(p.media[k], p.media[k + 1], size), acc);
@@ -993,6 +1054,8 @@ Element solve_stack(const Problem& p, int c, int mode, int* doublings, const Lay
     // 10. The top's own reflection is kept apart (Rt_direct) and the rest added as usual.
     acc = add_over(p.rough[0].elements[mode], acc);
     acc.Rt_direct = p.rough[0].direct[mode];
+  } else if (p.rough[0].diffuse) {
+    acc = add_over(p.rough[0].elements[mode], acc);
   } else if (stack.above_ior != stack.layers[0].ior) {
     acc = add_over(interface_element(p.above, p.media[0], size), acc);
   }
@@ -1087,12 +1150,12 @@ void fill_totals(const Problem& p, const Element& acc, const ZerothOrder& z, int
 }  // namespace
 
 ZerothOrder zeroth_order_above_rough(const LayerStack& stack, double cos_theta_i) {
-  if (!stack.energy_conserving_rough()) return zeroth_order(stack, cos_theta_i);
-  // The stack down to the first rough interface, over a black substrate (which has no interface
-  // and reflects nothing unscattered): the light that met no rough interface.
+  if (!stack.energy_conserving_rough() && !stack.any_diffuse_interface()) return zeroth_order(stack, cos_theta_i);
+  // The stack down to the first rough (or diffuse) interface, over a black substrate (which has
+  // no interface and reflects nothing unscattered): the light that met no rough interface.
   const int first = [&] {
     int k = 0;
-    while (!(stack.energy_conserving_alpha(k) > 0.0)) ++k;
+    while (!(stack.energy_conserving_alpha(k) > 0.0) && !stack.diffuse_interface(k)) ++k;
     return k;
   }();
   if (first == 0) {

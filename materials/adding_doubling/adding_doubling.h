@@ -4,8 +4,9 @@
 //
 // What it solves: the azimuthally averaged (Fourier m = 0) radiative transfer equation in every
 // layer, with the layers' HG lobes, smooth Fresnel interfaces (the n^2 law of radiance and total
-// internal reflection) or a rough top (its BSDF projected onto the same basis:
-// interface_fourier.h), a Lambert substrate or a semi-infinite last layer, exactly as the walk
+// internal reflection), rough interfaces (their BSDF projected onto the same basis:
+// interface_fourier.h) or diffuse ones (materials/interfaces/diffuse_interface.h, built on the
+// nodes: adding_doubling.cpp, 13.), a Lambert substrate or a semi-infinite last layer, exactly as the walk
 // models the stack (materials/walk/random_walk.cpp). The m = 0 component carries all of the power, so
 // it gives every total (reflected, transmitted, absorbed) for collimated incidence at any angle
 // and for uniform diffuse incidence. The BRDF/BTDF on the bins of materials/brdf/brdf_table.h comes
@@ -56,7 +57,7 @@ struct AddingDoublingSettings {
   InterfaceEval rough_eval = single_scattering_ggx_eval;
   // Energy-conserving rough interfaces (LayerStack::interface_model), what the bins of
   // brdf_table_adding_doubling hold: false, the light that scattered at least once (the walk's
-  // bins; R_specular and T_ballistic are then the unscattered light, also where rough interfaces
+  // bins; R_specular and T_ballistic are then the unscattered light, also where rough or diffuse interfaces
   // spread it); true (the table mode), everything but what the renderer adds exactly: the top's
   // first-order glossy reflection and the delta lobes of zeroth_order_above_rough.
   bool bins_hold_unscattered = false;

@@ -104,6 +104,26 @@ TEST_F(CliBrdf, FirstOrderRefusesDiffuseInterfaces) {
   expect_one_line_error("brdf " + diffuse + " --theta-i 30 --method first-order", diffuse + ": top_diffuse: the first-order");
 }
 
+// A diffuse top and bottom (PROSPECT's plate surfaces): adding-doubling and the walk read the
+// file and report totals that sum to 1.
+TEST_F(CliBrdf, DiffuseInterfacesRunInBothMethods) {
+  const std::string diffuse = dir_ + "/diffuse.json";
+  std::ofstream(diffuse) << R"({ "lamina_material": 1, "top_diffuse": true,
+      "layers": [ { "ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 8.0, "g": 0.5, "bottom_diffuse": true } ],
+      "below": { "ior": 1.0 } })";
+  for (const char* method : {"adding-doubling"}) {
+    const CommandResult r = run("brdf " + diffuse + " --theta-i 30 --samples 2000 --bins-theta 2 --bins-phi 2 --method " + method);
+    ASSERT_EQ(r.exit_code, 0) << method << ": " << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0.0;
+      for (const char* key : {"R_specular", "R_diffuse", "T_ballistic", "T_diffuse", "absorbed"}) sum += j[key][c].get<double>();
+      EXPECT_NEAR(sum, 1.0, 1e-12) << method;
+      EXPECT_GT(j["T_diffuse"][c].get<double>(), 0.05) << method;
+    }
+  }
+}
+
 TEST_F(CliBrdf, SameSeedSameBytes) {
   const std::string a = dir_ + "/a.csv", b = dir_ + "/b.csv";
   ASSERT_EQ(run("brdf " + stack_ + " --theta-i 10 --samples 3000 --seed 7 --bins-theta 2 --bins-phi 2 --out " + a).exit_code, 0);
