@@ -1018,6 +1018,33 @@ TEST(LayeredDiffuse, PlateWithDiffuseTopAndBottomMatchesItsClosedForms) {
   expect_plate_matches(plate, world_dir(0, 0), world_dir(30, 0, true), true, "sky, view below");
 }
 
+// The table mode (tables by adding-doubling) on the plate under the uniform sky, seen from above
+// and from below at a node's cosine (no interpolation between nodes): its reflectance plus
+// transmittance, within 3 standard errors of the image mean plus the solver's discretisation
+// (1e-4: docs/adding_doubling.md's accuracy at its default nodes).
+TEST(LayeredDiffuse, TableModeUnderASkyGivesThePlatesClosedForms) {
+  const double theta_node = std::acos(table_node_cosine(TableSettings{}, 6)) * 180.0 / kPi;
+  for (const test::Plate& plate : {test::Plate{true, false}, test::Plate{true, true}}) {
+    const LayeredBindings b = bind(test::plate_stack(plate));
+    const LayeredTables tables(b, TableSettings{});
+    for (const bool below : {false, true}) {
+      RenderSetup setup;
+      setup.mode = SubsurfaceMode::Table;
+      setup.tables = &tables;
+      setup.spp = 32;
+      const ImageStats s = stats_of(render_layered(make_scene({slab_plane(0)}), b, EnvironmentMap::constant(Spectrum(1.0)),
+                                                   camera_towards(world_dir(theta_node, 0, below)), setup));
+      const test::Plate seen = below ? test::Plate{plate.bottom, plate.top, plate.sigma_a, plate.thickness} : plate;
+      for (int c = 0; c < 3; ++c) {
+        const test::PlateOptics o = test::plate_optics(seen, local_dir(world_dir(theta_node, 0)), c);
+        const double expected = o.specular + o.reflected + o.transmitted;
+        EXPECT_NEAR(s.mean[c], expected, 3.0 * s.stderr_[c] + 1e-4)
+            << "plate " << plate.top << plate.bottom << (below ? ", from below" : ", from above") << ", channel " << c;
+      }
+    }
+  }
+}
+
 // A scattering leaf with a diffuse top and bottom (cuticle over mesophyll, air on both sides).
 LayerStack diffuse_leaf() {
   LayerStack s;
