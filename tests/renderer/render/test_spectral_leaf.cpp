@@ -164,8 +164,8 @@ Spectrum colour_of(const std::vector<double>& nm, const std::vector<double>& r) 
 // (its difference from a 4-nm grid's colour). Fails if the leaf's index were not followed per
 // wavelength (the index at 550 nm moves the reflectance of the top surface), if the flipped
 // stack's layers kept the file's order, or if the factor 3 were missing.
-TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
-  const SpectralStack leaf = parse_spectral_stack_json(kLeaf, "leaf");
+void expect_flat_leaf_matches_adding_doubling(const char* json, std::uint64_t seed) {
+  const SpectralStack leaf = parse_spectral_stack_json(json, "leaf");
   const double theta = 30.0, mu = std::cos(theta * kPi / 180.0);
   struct Case {
     const char* what;
@@ -174,7 +174,7 @@ TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
   for (const Case& k : {Case{"reflectance of the top (camera above)", false, false, false},
                         Case{"transmittance (camera below)", true, false, true},
                         Case{"reflectance of the bottom (camera below, the sky below)", true, true, false}}) {
-    const ImageStats rendered = stats_of(render_slab(kLeaf, true, false, k.below, theta, 32, 64, 7, k.lower_sky));
+    const ImageStats rendered = stats_of(render_slab(json, true, false, k.below, theta, 32, 64, seed, k.lower_sky));
     const SpectralStack seen = k.below ? flipped(leaf) : leaf;
     auto reference = [&](double step, Spectrum* error) {
       const SpectralTotals t = adding_doubling_spectrum(seen, WavelengthGrid::from_to(kSpectralFirstNm, kSpectralLastNm, step), mu);
@@ -200,6 +200,16 @@ TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
           << ", adding-doubling " << expected[c];
     }
   }
+}
+
+TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) { expect_flat_leaf_matches_adding_doubling(kLeaf, 7); }
+
+// The same leaf with a diffusely transmitting top (PROSPECT's plate surface; docs/
+// layered_rendering.md, "Diffusely transmitting interfaces"): seen from below its diffuse face is
+// the flipped stack's bottom, whose arrivals connect to the sky above.
+TEST(SpectralLeaf, FlatLeafWithADiffuseTopAgreesWithAddingDoublingPerWavelength) {
+  const std::string json = std::string(kLeaf).replace(std::string(kLeaf).find("\"layers\""), 0, "\"top_diffuse\": true, ");
+  expect_flat_leaf_matches_adding_doubling(json.c_str(), 8);
 }
 
 // The stack a leaf's walk sees at a hit is the file's stack at the path's wavelength `channel`
