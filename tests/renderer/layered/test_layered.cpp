@@ -22,6 +22,7 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include "materials/adding_doubling/adding_doubling.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/analytic/first_order.h"
 #include "materials/base/sampling.h"
@@ -1055,6 +1056,36 @@ LayerStack diffuse_leaf() {
   s.top_diffuse = true;
   s.layers[1].bottom_diffuse = true;
   return s;
+}
+
+// The scattering leaf (a diffuse top, or a diffuse top and bottom) rendered by the walk under a
+// uniform sky, seen from above and from below: its reflectance plus transmittance at the view,
+// adding-doubling's totals of the stack seen (flipped from below), within 3 standard errors of
+// the image mean plus the solver's own error estimate (adding_doubling_with_error).
+TEST(LayeredDiffuse, ScatteringLeafUnderASkyGivesAddingDoublingsTotals) {
+  for (const bool bottom : {false, true}) {
+    LayerStack leaf = diffuse_leaf();
+    leaf.layers[1].bottom_diffuse = bottom;
+    const LayeredBindings b = bind(leaf);
+    for (const bool below : {false, true}) {
+      const double theta = below ? 35.0 : 55.0;
+      RenderSetup setup;
+      setup.spp = 32;
+      const ImageStats s = stats_of(render_layered(make_scene({slab_plane(0)}), b, EnvironmentMap::constant(Spectrum(1.0)),
+                                                   camera_towards(world_dir(theta, 0, below)), setup));
+      const AddingDoublingEstimate ad = adding_doubling_with_error(below ? flipped(leaf) : leaf, std::cos(theta * kPi / 180.0));
+      const AddingDoublingTotals &t = ad.totals, &e = ad.error;
+      for (int c = 0; c < 3; ++c) {
+        const double expected = t.R_specular[c] + t.R_diffuse[c] + t.T_ballistic[c] + t.T_diffuse[c];
+        const double solver = std::abs(e.R_specular[c]) + std::abs(e.R_diffuse[c]) + std::abs(e.T_ballistic[c]) + std::abs(e.T_diffuse[c]);
+        if (std::getenv("LAMINA_TEST_VERBOSE"))
+          std::printf("bottom %d below %d c%d: rendered %g +- %g, adding-doubling %g (+- %g)\n", bottom, below, c, s.mean[c],
+                      s.stderr_[c], expected, solver);
+        EXPECT_NEAR(s.mean[c], expected, 3.0 * s.stderr_[c] + solver)
+            << (bottom ? "diffuse top and bottom" : "diffuse top") << (below ? ", from below" : ", from above") << ", channel " << c;
+      }
+    }
+  }
 }
 
 // The arrivals' and the entry's own light samples (per-event pool samples) against the shared
