@@ -141,9 +141,13 @@ BrdfTable brdf_table_monte_carlo(const LayerStack& stack, const BrdfOptions& opt
   // Energy-conserving rough interfaces: the walk reflects the glossy lobe itself (an unscattered
   // exit at the top, WalkResult::entry_reflection), and the unscattered light that crosses rough
   // interfaces has no closed form: R_specular and T_ballistic are then the walks' unscattered exits.
-  const bool microsurfaces = stack.energy_conserving_rough();
+  // Diffuse interfaces spread the unscattered light likewise; a diffuse top met from its dense
+  // side reflects (diffusely) in the walk too.
+  const bool microsurfaces = stack.energy_conserving_rough() || stack.any_diffuse_interface();
   const bool walk_specular = rough || microsurfaces;
-  const double top_specular_smooth = stack.energy_conserving_alpha(0) > 0.0 ? 0.0 : r_top;
+  const bool walk_reflects_entry =
+      stack.energy_conserving_alpha(0) > 0.0 || (stack.diffuse_interface(0) && stack.above_ior > stack.layers[0].ior);
+  const double top_specular_smooth = walk_reflects_entry ? 0.0 : r_top;
   const std::size_t nb = table.value.size();
   // Layout: totals [slot][channel][sum, sum2], ends, then bins [bin][channel][sum, sum2, single,
   // single2].

@@ -190,7 +190,7 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
   double tx = through_rough ? rough->inside.x : w.x, ty = through_rough ? rough->inside.y : w.y;
   double mu_ref = through_rough ? rough->inside.z : mu_out;
   double sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
-  bool crossed_microsurface = false;  // an energy-conserving rough interface lies between here and w
+  bool crossed_microsurface = false;  // an energy-conserving rough (or a diffuse) interface lies between here and w
   // ... and the walk's density of the exit through it is known: it is the top, the only one
   // crossed (below).
   bool microsurface_density = through_rough && rough->energy_conserving;
@@ -211,7 +211,32 @@ void prepare_exit_impl(const LayerStack& stack, const glm::dvec3& w, ExitDirecti
     bool sampled_here = through_rough && l == 0;
     const int k_out = up ? l : l + 1;
     const double alpha = reachable && !sampled_here ? stack.energy_conserving_alpha(k_out) : 0.0;
-    if (alpha > 0.0) {
+    if (reachable && !sampled_here && stack.diffuse_interface(k_out)) {
+      // A diffuse interface (materials/interfaces/diffuse_interface.h): the inside direction t is
+      // sampled by cosine (density |t.z| / pi), so the crossing's estimate of the transmitted
+      // radiance, f_t |t.z| / p, is pi f_t: (n_beyond / n_l)^2 (1 - F(mu_beyond)) leaving a dense
+      // layer, (1 - F(mu_t)) leaving a light one. fresnel_t keeps it over the n^2 law's
+      // (n_beyond / n_l)^2, which radiance_scale applies. The walk's density of its own exits
+      // through it has no closed form here: jacobian 0, as behind a microsurface (random_walk.h).
+      const glm::dvec3 beyond = step == 0 ? w : out->layers[up ? l - 1 : l + 1].inside;
+      const double n_beyond = up ? stack.ior_above_interface(k_out) : stack.ior_below_interface(k_out);
+      if (rng == nullptr) {
+        reachable = false;
+        continue;
+      }
+      const glm::dvec3 t = sample_cosine_hemisphere({rng->uniform(), rng->uniform()});
+      const double mu_beyond = std::abs(beyond.z);
+      const double q = n_beyond / layer.ior;
+      fresnel_t *= layer.ior > n_beyond ? 1.0 - fresnel_dielectric(mu_beyond, n_beyond, layer.ior)
+                                        : (1.0 - fresnel_dielectric(t.z, layer.ior, n_beyond)) / (q * q);
+      n_ref = layer.ior;
+      tx = t.x;
+      ty = t.y;
+      mu_ref = t.z;
+      sin2_ref = std::max(0.0, (1.0 - mu_ref) * (1.0 + mu_ref));
+      microsurface_density = false;
+      sampled_here = crossed_microsurface = true;
+    } else if (alpha > 0.0) {
       const glm::dvec3 beyond = step == 0 ? w : out->layers[up ? l - 1 : l + 1].inside;
       const MicrosurfaceDielectric surface{{alpha}, stack.ior_above_interface(k_out), stack.ior_below_interface(k_out)};
       glm::dvec3 t;
@@ -512,8 +537,6 @@ double connection_pdf(const LayerStack& stack, const ScatterEvent& event, const 
 }
 
 void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan) {
-  if (stack.any_diffuse_interface())
-    throw std::invalid_argument(stack.first_diffuse_interface_path() + ": the random walk does not model diffuse interfaces yet");
   plan->stack = &stack;
   plan->settings = settings;
   const int n_layers = static_cast<int>(stack.layers.size());
@@ -526,6 +549,13 @@ void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan
   if (plan->microsurfaces_used)
     for (int k = 0; k <= n_layers; ++k)
       plan->microsurfaces.push_back({{stack.energy_conserving_alpha(k)}, stack.ior_above_interface(k), stack.ior_below_interface(k)});
+  plan->diffuse_used = stack.any_diffuse_interface();
+  plan->diffuse.clear();
+  if (plan->diffuse_used)
+    for (int k = 0; k <= n_layers; ++k)
+      plan->diffuse.push_back(stack.diffuse_interface(k)
+                                  ? DiffuseInterface(stack.ior_above_interface(k), stack.ior_below_interface(k))
+                                  : DiffuseInterface());
   // [0, n_layers): the stack; [n_layers, 2 n_layers): the similar stack, if any.
   plan->layers.resize(plan->may_switch ? 2 * n_layers : n_layers);
   for (int k = 0; k < static_cast<int>(plan->layers.size()); ++k) {

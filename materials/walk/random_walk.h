@@ -25,6 +25,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "materials/interfaces/diffuse_interface.h"
 #include "materials/interfaces/microfacet.h"
 #include "materials/interfaces/microsurface.h"
 #include "materials/base/sampling.h"
@@ -104,9 +105,12 @@ struct WalkResult {
   // microsurface.h), which the walk samples exactly (weight 1, nothing lost):
   // entry_reflection: the rough top reflected the light at its entry (the glossy lobe: an exit at
   //   the top with scatter_count 0 and weight 1; with a smooth or single-scattering top the walk
-  //   never reflects at entry, the caller adds that part);
+  //   never reflects at entry, the caller adds that part). A diffuse top met from its dense side
+  //   (above_ior > layers[0].ior) reflects at entry the same way (diffusely); met from its light
+  //   side it leaves the specular reflection to the caller, as a smooth top;
   // crossed_rough: the walk's straight exit (straight_from_last_event) crossed such an interface
-  //   other than the top on its way out (an inner one, or the bottom). The light connections
+  //   other than the top on its way out (an inner one, or the bottom), or any diffuse interface
+  //   (materials/interfaces/diffuse_interface.h), the top included. The light connections
   //   through one are sampled (prepare_exit with an Rng) and have no MIS density there: they
   //   alone estimate such exits, whose exit_pdf stays 0. An exit through the top alone has its
   //   density (from top_inside, prepare_exit_through), and the connections through it theirs.
@@ -173,6 +177,11 @@ struct WalkPlan {
   bool microsurfaces_used = false;
   std::vector<MicrosurfaceDielectric> microsurfaces;
   bool rough_at(int k) const { return microsurfaces_used && microsurfaces[k].distribution.alpha > 0.0; }
+  // Diffuse interfaces (LayerStack::diffuse_interface): interface k's formulas (n_lo == n_hi
+  // where it is not diffuse), and whether there is any.
+  bool diffuse_used = false;
+  std::vector<DiffuseInterface> diffuse;
+  bool diffuse_at(int k) const { return diffuse_used && diffuse[k].n_lo != diffuse[k].n_hi; }
 };
 void prepare_walk(const LayerStack& stack, const WalkOptions& settings, WalkPlan* plan);
 WalkResult random_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const EventCallback& on_event = {},
@@ -244,6 +253,10 @@ struct ExitDirection {
 // such interface no closed-form density of the walk's own exits exists: those layers get
 // jacobian 0 (so pdf_for_mis 0: the connections estimate those exits alone,
 // WalkResult::crossed_rough). Without an rng, the layers behind such an interface are unreachable.
+// Diffuse interfaces (materials/interfaces/diffuse_interface.h) are crossed likewise, with `rng`:
+// the inside direction is cosine-sampled, and the crossing's estimate of the radiance
+// transmission is (n_beyond / n_layer)^2 (1 - F(mu_beyond)) out of a dense layer and
+// 1 - F(mu_inside) out of a light one (random_walk.cpp); jacobian 0 behind any of them.
 void prepare_exit(const LayerStack& stack, const glm::dvec3& w, ExitDirection* out, double guiding = 0.0,
                   glm::dvec2 u_interface = {0.5, 0.5}, Rng* rng = nullptr);
 // The stack's top interface as a rough dielectric (+z outside, -z layer 0); meaningful when

@@ -108,7 +108,28 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
   const double n_top = stack.layers[0].ior;
   PathWeight pw;
   glm::dvec3 d = -wi;
-  if (plan.rough_at(0)) {
+  if (plan.diffuse_at(0)) {
+    // A diffuse top (materials/interfaces/diffuse_interface.h). From its light side the walk
+    // carries the transmitted part 1 - F (the specular reflection F is the caller's delta lobe,
+    // as for a smooth top) in a cosine-distributed direction; from its dense side the interface
+    // decides with weight 1, and a reflection is the walk's exit (entry_reflection).
+    const DiffuseInterface& top_diffuse = plan.diffuse[0];
+    if (stack.above_ior < n_top) {
+      pw.scale = 1.0 - top_diffuse.fresnel(wi.z);
+      d = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+      d.z = -d.z;
+    } else {
+      d = top_diffuse.sample(-wi, stack.above_ior, rng);
+      if (d.z > 0.0) {
+        result.side = WalkResult::Side::Top;
+        result.end = WalkResult::End::ExitTop;
+        result.direction = d;
+        result.weight = Spectrum(1.0);
+        result.entry_reflection = true;
+        return result;
+      }
+    }
+  } else if (plan.rough_at(0)) {
     // An energy-conserving rough top: one walk on its microsurface decides, with weight 1,
     // between the glossy reflection (the walk's exit, WalkResult::entry_reflection) and the
     // direction the light enters along.
@@ -374,27 +395,33 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       // An energy-conserving rough interface (materials/interfaces/microsurface.h): one walk on
       // its microsurface from -d (weight 1) reflects or transmits the packet.
       const int k_interface = down ? l + 1 : l;
-      const bool microsurface = plan.rough_at(k_interface) &&
-                                !(down && l == n_layers - 1 && stack.below.kind == Below::Kind::Lambert);
+      const bool no_interface = down && l == n_layers - 1 && stack.below.kind == Below::Kind::Lambert;
+      const bool microsurface = plan.rough_at(k_interface) && !no_interface;
+      // A diffuse interface (materials/interfaces/diffuse_interface.h) decides as a microsurface
+      // does, with weight 1; the walk's density of an exit through it is never known in closed
+      // form (crossed_rough), and the connections estimate those exits alone.
+      const bool diffuse = plan.diffuse_at(k_interface) && !no_interface;
       glm::dvec3 crossed{0.0};
       if (microsurface && !plan.microsurfaces[k_interface].sample(-d, rng, &crossed)) {
         result.end = WalkResult::End::Absorbed;  // past MicrosurfaceDielectric::kMaxOrder
         return result;
       }
-      const bool transmitted = microsurface && crossed.z * d.z > 0.0;
-      if (microsurface && !transmitted) {
+      if (diffuse) crossed = plan.diffuse[k_interface].sample(d, layer.ior, rng);
+      const bool spread = microsurface || diffuse;
+      const bool transmitted = spread && crossed.z * d.z > 0.0;
+      if (spread && !transmitted) {
         d = crossed;
         reflected_since_event = true;
-      } else if (microsurface && (k_interface == 0 || k_interface == n_layers)) {  // out of the stack
+      } else if (spread && (k_interface == 0 || k_interface == n_layers)) {  // out of the stack
         if (flight_q > 0.0) guided_flight_end(tau, tau_g, false);
         else flight_escaped(&pw, tau, hero);
         // Through the top the walk's density of this exit is known (prepare_exit_through, from
         // top_inside); through the bottom it is not.
-        if (k_interface == 0) result.top_inside = d;
+        if (k_interface == 0 && microsurface) result.top_inside = d;
         else crossed_rough_since_event = true;
         finish_exit(k_interface == 0 ? WalkResult::Side::Top : WalkResult::Side::Bottom, crossed);
         return result;
-      } else if (microsurface) {  // into the next layer
+      } else if (spread) {  // into the next layer
         d = crossed;
         l = down ? l + 1 : l - 1;
         z = down ? 0.0 : (*layers)[l].thickness;

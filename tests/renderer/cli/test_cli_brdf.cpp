@@ -111,7 +111,7 @@ TEST_F(CliBrdf, DiffuseInterfacesRunInBothMethods) {
   std::ofstream(diffuse) << R"({ "lamina_material": 1, "top_diffuse": true,
       "layers": [ { "ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 8.0, "g": 0.5, "bottom_diffuse": true } ],
       "below": { "ior": 1.0 } })";
-  for (const char* method : {"adding-doubling"}) {
+  for (const char* method : {"adding-doubling", "monte-carlo"}) {
     const CommandResult r = run("brdf " + diffuse + " --theta-i 30 --samples 2000 --bins-theta 2 --bins-phi 2 --method " + method);
     ASSERT_EQ(r.exit_code, 0) << method << ": " << r.err;
     const nlohmann::json j = nlohmann::json::parse(r.out);
