@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <sstream>
-#include <stdexcept>
 
 #include "materials/tables/albedo.h"
 #include "materials/stack/stack_parameters.h"
@@ -23,11 +22,6 @@ Spectrum albedo_of(const LayerStack& stack, int /*walks*/, Spectrum* standard_er
 
 LayeredMaterial::LayeredMaterial(LayerStack stack, std::string source, int albedo_walks)
     : stack_(std::move(stack)), source_(std::move(source)), albedo_walks_(albedo_walks) {
-  // The renderer's one refusal of diffuse interfaces (materials/interfaces/diffuse_interface.h),
-  // until its surfaces model them.
-  if (stack_.any_diffuse_interface())
-    throw std::runtime_error(source_ + ": " + stack_.first_diffuse_interface_path() +
-                             ": the renderer does not model diffuse interfaces yet");
   if (stack_.transmits()) flipped_ = flipped(stack_);
 }
 

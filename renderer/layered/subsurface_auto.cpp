@@ -490,8 +490,10 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
   // A rough top: the first-order mode refracts through a smooth mirror, which the prediction
   // (delta parts D, a glossy lobe's total among them) cannot tell from the glossy lobe: never
   // chosen. The table mode renders the lobe exactly and the lambert mode's error includes it.
-  // Energy-conserving rough inner interfaces too: the first-order mode's interfaces are mirrors.
-  const bool rough = material.base_stack().rough_top() || material.base_stack().energy_conserving_rough();
+  // Energy-conserving rough inner interfaces too: the first-order mode's interfaces are mirrors;
+  // and it does not model diffuse interfaces at all.
+  const bool rough = material.base_stack().rough_top() || material.base_stack().energy_conserving_rough() ||
+                     material.base_stack().any_diffuse_interface();
   if (ch.error_lambert <= tol) ch.mode = SubsurfaceMode::Lambert;
   else if (!rough && ch.error_first_order <= tol) ch.mode = SubsurfaceMode::FirstOrder;
   else if (ch.error_table <= tol) ch.mode = SubsurfaceMode::Table;
@@ -507,7 +509,8 @@ AutoChoice choose_subsurface_mode(const LayeredMaterial& material, const AutoSet
                 short_name(ch.mode), chosen, ch.mode == SubsurfaceMode::RandomWalk ? "reference," : "<=", tol,
                 ch.error_lambert, ch.error_first_order, ch.error_table, ch.noise_floor);
   ch.reason = buf;
-  if (rough) ch.reason += " [rough top: first-order excluded]";
+  if (rough) ch.reason += material.base_stack().any_diffuse_interface() ? " [diffuse interface: first-order excluded]"
+                                                                       : " [rough top: first-order excluded]";
   if (exact) {
     ch.reason += string_printf(" [reference: adding-doubling, %d points", reference_points);
     if (reference_points < full_points)

@@ -207,6 +207,35 @@ void measure_similarity_bias(const ShadingInputs& in, const RenderLog& log, Prep
   say(log.info, string_printf("similarity: bias measured in %.2f s", seconds_since(t0)));
 }
 
+// Diffusely transmitting interfaces (docs/layered_rendering.md): first-order does not model them
+// (under auto a material that has one is walked instead of first-order), and the walk models
+// them on the stack's outside alone. Refused in one line naming the file.
+void check_diffuse_interfaces(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
+  const auto& by_material = in.bindings->by_material;
+  for (std::size_t i = 0; i < by_material.size(); ++i) {
+    if (!by_material[i] || !by_material[i]->base_stack().any_diffuse_interface()) continue;
+    const LayerStack& stack = by_material[i]->base_stack();
+    bool inner = false;  // a diffuse interface between two layers
+    for (int k = 1; k < static_cast<int>(stack.layers.size()); ++k) inner = inner || stack.diffuse_interface(k);
+    const std::string& source = by_material[i]->source();
+    if (in.subsurface.automatic && out->layered.per_material[i] == SubsurfaceMode::FirstOrder) {
+      out->layered.per_material[i] = SubsurfaceMode::RandomWalk;
+      AutoChoice& c = out->choices[i];
+      c.mode = SubsurfaceMode::RandomWalk;
+      c.reason += "; random-walk (first-order does not model a diffusely transmitting interface)";
+      say(log.info, "auto: material " + (*in.material_names)[i] + ": " + c.reason);
+    }
+    const SubsurfaceMode mode = mode_of(in, *out, i);
+    if (mode == SubsurfaceMode::FirstOrder)
+      throw std::runtime_error(source + ": " + stack.first_diffuse_interface_path() +
+                               ": first-order does not model a diffuse interface: use random-walk, table, lambert or auto");
+    if (mode == SubsurfaceMode::RandomWalk && inner)
+      throw std::runtime_error(source + ": " + stack.first_diffuse_interface_path() +
+                               ": the walk renders a diffuse interface at the top or the bottom only, not between two "
+                               "layers: use table or lambert");
+  }
+}
+
 }  // namespace
 
 void prepare_shading(const ShadingInputs& in, const RenderLog& log, PreparedShading* out) {
@@ -216,6 +245,7 @@ void prepare_shading(const ShadingInputs& in, const RenderLog& log, PreparedShad
     for (const auto& m : bindings.by_material)
       if (m) load_lambert_albedo(*in.cache, *m);
   if (in.subsurface.automatic) choose_modes(in, log, out);
+  check_diffuse_interfaces(in, log, out);
   if (in.spectral && !in.subsurface.automatic && in.subsurface.mode != SubsurfaceMode::RandomWalk) refuse_unwalked_leaves(in);
   if (in.subsurface.automatic && in.spectral) walk_untabulated_materials(in, log, out);
   const bool any = bindings.count() > 0;

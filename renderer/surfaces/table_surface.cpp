@@ -23,9 +23,9 @@ TableSurface::TableSurface(const LayeredTable& table, const LayerStack& hit_stac
     lobes_.p_diffuse = std::max(0.0, 1.0 - lobes_.p_ballistic);
     lobes_.zeroth.R_specular = Spectrum(0.0);
   }
-  if (hit_stack.energy_conserving_rough()) {
-    // Only the unscattered light that meets no rough interface is a delta (the table holds the
-    // rest: materials/adding_doubling/adding_doubling.h, zeroth_order_above_rough).
+  if (hit_stack.energy_conserving_rough() || hit_stack.any_diffuse_interface()) {
+    // Only the unscattered light that meets no rough or diffuse interface is a delta (the table
+    // holds the rest: materials/adding_doubling/adding_doubling.h, zeroth_order_above_rough).
     lobes_.zeroth.R_specular = glossy_ ? Spectrum(0.0) : zeroth_order_above_rough(hit_stack, std::clamp(wo.z, 0.0, 1.0)).R_specular;
     lobes_.zeroth.T_ballistic = Spectrum(0.0);
     lobes_.p_specular = std::clamp(lobes_.zeroth.R_specular.average(), 0.0, 1.0);

@@ -266,16 +266,25 @@ TEST(RenderCliLayered, MaterialsMapAndModes) {
                  dir / "bad_map.json", "nothere.json", dir / "x.exr");
 }
 
-// A diffuse interface: the renderer refuses the material in one line naming its file and the
-// JSON path, in every mode.
-TEST(RenderCliLayered, RefusesDiffuseInterfaces) {
+// A diffuse interface (docs/layered_rendering.md, "Diffusely transmitting interfaces"): the walk
+// renders one at the bottom (finite, non-negative pixels); first-order refuses it, and the walk
+// one between two layers, each in one line naming the file and the JSON path.
+TEST(RenderCliLayered, RendersDiffuseInterfacesAndRefusesThemWhereAModeCannot) {
   TempDir dir("cli-diffuse");
   write_layered_quad(dir, "leaf.gltf", "leaf", "m/leaf.json",
                      R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3, "bottom_diffuse": true}], "below": {"ior": 1.0}})");
-  for (const char* mode : {"random-walk", "table"})
-    expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + " --materials " + dir / "map.json" +
-                                " --width 6 --height 4 --spp 2 --env 1 --subsurface " + mode),
-                   "m/leaf.json", "layers[0].bottom_diffuse: the renderer does not model diffuse interfaces", dir / "x.exr");
+  const std::string args = " --materials " + dir / "map.json" + " --width 6 --height 4 --spp 2 --env 1 --subsurface ";
+  const std::string out = dir / "walk.exr";
+  const Result r = run(dir, dir / "leaf.gltf -o " + out + args + "random-walk");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (float v : read_image(out).rgb) EXPECT_TRUE(std::isfinite(v) && v >= 0.0f);
+  expect_failure(run(dir, dir / "leaf.gltf -o " + dir / "x.exr" + args + "first-order"), "m/leaf.json",
+                 "layers[0].bottom_diffuse: first-order does not model a diffuse interface", dir / "x.exr");
+  write_layered_quad(dir, "inner.gltf", "leaf", "m/inner.json",
+                     R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3, "bottom_diffuse": true},
+                         {"ior": 1.5, "thickness": 0.1, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3}], "below": {"ior": 1.0}})");
+  expect_failure(run(dir, dir / "inner.gltf -o " + dir / "x.exr" + args + "random-walk"), "m/inner.json",
+                 "layers[0].bottom_diffuse: the walk renders a diffuse interface at the top or the bottom only", dir / "x.exr");
 }
 
 // A rough top (roughness 0.3): the first-order mode renders it through a mirror and says so, on

@@ -22,6 +22,7 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include "materials/adding_doubling/adding_doubling.h"
 #include "materials/brdf/brdf_table.h"
 #include "materials/analytic/first_order.h"
 #include "materials/base/sampling.h"
@@ -37,6 +38,7 @@
 #include "renderer/surfaces/table_surface.h"
 #include "renderer/layered/subsurface_auto.h"
 #include "tests/materials/stack_fixtures.h"
+#include "tests/renderer/surfaces/diffuse_plate.h"
 #include "renderer/layered/layered_shading.h"
 #include "renderer/layered/material_binding.h"
 #include "renderer/layered/subsurface_mode.h"
@@ -964,6 +966,144 @@ TEST(LayeredHero, StratifiedHeroLowersChromaNoise) {
   EXPECT_LT(luma[1].value, luma[0].value + 4.0 * std::hypot(luma[0].stderr_, luma[1].stderr_));
   for (int ch = 0; ch < 3; ++ch)
     EXPECT_NEAR(st[1].mean[ch], st[0].mean[ch], 4.0 * std::hypot(st[0].stderr_[ch], st[1].stderr_[ch])) << ch;
+}
+
+
+// ---- Diffusely transmitting outer interfaces (docs/layered_rendering.md) ----
+
+// The plate of tests/renderer/surfaces/diffuse_plate.h (diffuse faces, absorbing, not scattering)
+// rendered flat by the walk, against its closed forms within 3 standard errors of the image mean:
+// under a directional light (E f |cos|) and under a uniform sky of radiance 1 (reflectance plus
+// transmittance), seen from above and from below (then the surface walks the flipped stack, whose
+// diffuse faces are swapped: the closed form of the swapped plate, directions mirrored).
+void expect_plate_matches(const test::Plate& plate, const glm::dvec3& wl_world, const glm::dvec3& wo_world, bool sky,
+                          const char* what) {
+  const double E = 3.0;
+  SceneDesc d = make_scene({slab_plane(0)});
+  if (!sky) d.lights.push_back(sun(wl_world, E));
+  RenderSetup setup;
+  setup.spp = 128;
+  const ImageStats s = stats_of(render_layered(d, bind(test::plate_stack(plate)), sky ? EnvironmentMap::constant(Spectrum(1.0)) : EnvironmentMap(),
+                                               camera_towards(wo_world), setup));
+  glm::dvec3 wl = local_dir(wl_world), wo = local_dir(wo_world);
+  test::Plate seen = plate;
+  if (wo.z < 0.0) {
+    seen = test::Plate{plate.bottom, plate.top, plate.sigma_a, plate.thickness};
+    wl.z = -wl.z;
+    wo.z = -wo.z;
+  }
+  for (int c = 0; c < 3; ++c) {
+    const test::PlateOptics o = test::plate_optics(seen, wo, c);
+    const double expected = sky ? o.specular + o.reflected + o.transmitted : E * o.f_cos(wl);
+    if (std::getenv("LAMINA_TEST_VERBOSE")) std::printf("%s c%d: rendered %g +- %g expected %g\n", what, c, s.mean[c], s.stderr_[c], expected);
+    EXPECT_NEAR(s.mean[c], expected, 3.0 * s.stderr_[c] + 1e-12) << what << " channel " << c;
+    EXPECT_GT(s.mean[c], 10.0 * s.stderr_[c]) << what << " channel " << c;
+  }
+}
+
+TEST(LayeredDiffuse, PlateWithADiffuseTopMatchesItsClosedForms) {
+  const test::Plate plate{true, false};
+  expect_plate_matches(plate, world_dir(30, 0), world_dir(50, 180), false, "light above, view above");
+  expect_plate_matches(plate, world_dir(40, 0, true), world_dir(35, 0), false, "light below, view above");
+  expect_plate_matches(plate, world_dir(20, 0), world_dir(45, 90, true), false, "light above, view below");
+  expect_plate_matches(plate, world_dir(0, 0), world_dir(60, 0), true, "sky, view above");
+  expect_plate_matches(plate, world_dir(0, 0), world_dir(30, 0, true), true, "sky, view below");
+}
+
+TEST(LayeredDiffuse, PlateWithDiffuseTopAndBottomMatchesItsClosedForms) {
+  const test::Plate plate{true, true};
+  expect_plate_matches(plate, world_dir(30, 0), world_dir(50, 180), false, "light above, view above");
+  expect_plate_matches(plate, world_dir(40, 0, true), world_dir(35, 0), false, "light below, view above");
+  expect_plate_matches(plate, world_dir(20, 0), world_dir(45, 90, true), false, "light above, view below");
+  expect_plate_matches(plate, world_dir(0, 0), world_dir(60, 0), true, "sky, view above");
+  expect_plate_matches(plate, world_dir(0, 0), world_dir(30, 0, true), true, "sky, view below");
+}
+
+// The table mode (tables by adding-doubling) on the plate under the uniform sky, seen from above
+// and from below at a node's cosine (no interpolation between nodes): its reflectance plus
+// transmittance, within 3 standard errors of the image mean plus the solver's discretisation
+// (1e-4: docs/adding_doubling.md's accuracy at its default nodes).
+TEST(LayeredDiffuse, TableModeUnderASkyGivesThePlatesClosedForms) {
+  const double theta_node = std::acos(table_node_cosine(TableSettings{}, 6)) * 180.0 / kPi;
+  for (const test::Plate& plate : {test::Plate{true, false}, test::Plate{true, true}}) {
+    const LayeredBindings b = bind(test::plate_stack(plate));
+    const LayeredTables tables(b, TableSettings{});
+    for (const bool below : {false, true}) {
+      RenderSetup setup;
+      setup.mode = SubsurfaceMode::Table;
+      setup.tables = &tables;
+      setup.spp = 32;
+      const ImageStats s = stats_of(render_layered(make_scene({slab_plane(0)}), b, EnvironmentMap::constant(Spectrum(1.0)),
+                                                   camera_towards(world_dir(theta_node, 0, below)), setup));
+      const test::Plate seen = below ? test::Plate{plate.bottom, plate.top, plate.sigma_a, plate.thickness} : plate;
+      for (int c = 0; c < 3; ++c) {
+        const test::PlateOptics o = test::plate_optics(seen, local_dir(world_dir(theta_node, 0)), c);
+        const double expected = o.specular + o.reflected + o.transmitted;
+        EXPECT_NEAR(s.mean[c], expected, 3.0 * s.stderr_[c] + 1e-4)
+            << "plate " << plate.top << plate.bottom << (below ? ", from below" : ", from above") << ", channel " << c;
+      }
+    }
+  }
+}
+
+// A scattering leaf with a diffuse top and bottom (cuticle over mesophyll, air on both sides).
+LayerStack diffuse_leaf() {
+  LayerStack s;
+  s.name = "leaf";
+  s.layers.push_back(make_layer("cuticle", 1.5, 0.02, Spectrum(0.2), Spectrum(5.0), Spectrum(0.0)));
+  s.layers.push_back(make_layer("mesophyll", 1.4, 0.2, Spectrum(0.3, 1.0, 3.0), Spectrum(20.0), Spectrum(0.6)));
+  s.below.ior = 1.0;
+  s.top_diffuse = true;
+  s.layers[1].bottom_diffuse = true;
+  return s;
+}
+
+// The scattering leaf (a diffuse top, or a diffuse top and bottom) rendered by the walk under a
+// uniform sky, seen from above and from below: its reflectance plus transmittance at the view,
+// adding-doubling's totals of the stack seen (flipped from below), within 3 standard errors of
+// the image mean plus the solver's own error estimate (adding_doubling_with_error).
+TEST(LayeredDiffuse, ScatteringLeafUnderASkyGivesAddingDoublingsTotals) {
+  for (const bool bottom : {false, true}) {
+    LayerStack leaf = diffuse_leaf();
+    leaf.layers[1].bottom_diffuse = bottom;
+    const LayeredBindings b = bind(leaf);
+    for (const bool below : {false, true}) {
+      const double theta = below ? 35.0 : 55.0;
+      RenderSetup setup;
+      setup.spp = 32;
+      const ImageStats s = stats_of(render_layered(make_scene({slab_plane(0)}), b, EnvironmentMap::constant(Spectrum(1.0)),
+                                                   camera_towards(world_dir(theta, 0, below)), setup));
+      const AddingDoublingEstimate ad = adding_doubling_with_error(below ? flipped(leaf) : leaf, std::cos(theta * kPi / 180.0));
+      const AddingDoublingTotals &t = ad.totals, &e = ad.error;
+      for (int c = 0; c < 3; ++c) {
+        const double expected = t.R_specular[c] + t.R_diffuse[c] + t.T_ballistic[c] + t.T_diffuse[c];
+        const double solver = std::abs(e.R_specular[c]) + std::abs(e.R_diffuse[c]) + std::abs(e.T_ballistic[c]) + std::abs(e.T_diffuse[c]);
+        if (std::getenv("LAMINA_TEST_VERBOSE"))
+          std::printf("bottom %d below %d c%d: rendered %g +- %g, adding-doubling %g (+- %g)\n", bottom, below, c, s.mean[c],
+                      s.stderr_[c], expected, solver);
+        EXPECT_NEAR(s.mean[c], expected, 3.0 * s.stderr_[c] + solver)
+            << (bottom ? "diffuse top and bottom" : "diffuse top") << (below ? ", from below" : ", from above") << ", channel " << c;
+      }
+    }
+  }
+}
+
+// The arrivals' and the entry's own light samples (per-event pool samples) against the shared
+// ones, and the same bits on 1 and 2 threads.
+TEST(LayeredDiffuse, PerEventPoolSamplesAgreeAndThreadsGiveTheSameImage) {
+  RenderSetup per_event, shared;
+  per_event.walk.per_event_pool_samples = true;
+  expect_same_mean(diffuse_leaf(), per_event, shared, "per-event", "shared");
+  const LayeredBindings b = bind(diffuse_leaf());
+  const SceneDesc d = slab_under_every_light();
+  RenderSetup setup;
+  setup.spp = 2;
+  setup.threads = 1;
+  const Image one = render_layered(d, b, EnvironmentMap::constant(Spectrum(0.3)), camera_towards(world_dir(30, 0, true)), setup);
+  setup.threads = 2;
+  const Image two = render_layered(d, b, EnvironmentMap::constant(Spectrum(0.3)), camera_towards(world_dir(30, 0, true)), setup);
+  EXPECT_EQ(std::memcmp(one.rgb.data(), two.rgb.data(), one.rgb.size() * sizeof(float)), 0);
+  EXPECT_GT(stats_of(one).mean[1], 0.0);
 }
 
 }  // namespace

@@ -128,20 +128,33 @@ const char* kRgbLeaf = R"({"lamina_material": 1, "layers": [
       {"fraction": 0.7, "sigma_a": [0.1643, 0.1643, 0.4757], "sigma_s": 24.0, "g": 0.5}]}],
     "below": {"ior": 1.0}})";
 
-TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafEqualItsThreeWavelengthWalks) {
+void expect_one_wavelength_walks_equal_three(const std::string& json, const char* leaf) {
   for (const bool below : {false, true}) {
-    const char* side = below ? "RGB leaf, transmittance (camera below)" : "RGB leaf, reflectance (camera above)";
-    const ImageStats three = stats_of(render_slab(kRgbLeaf, true, false, below, 30.0, 24, 32, 5));
-    const ImageStats one = stats_of(render_slab(kRgbLeaf, true, true, below, 30.0, 24, 32, 6));
+    const std::string side = std::string(leaf) + (below ? ", transmittance (camera below)" : ", reflectance (camera above)");
+    const ImageStats three = stats_of(render_slab(json, true, false, below, 30.0, 24, 32, 5));
+    const ImageStats one = stats_of(render_slab(json, true, true, below, 30.0, 24, 32, 6));
     for (int c = 0; c < 3; ++c) {
       EXPECT_NEAR(one.mean[c], three.mean[c], 3.0 * std::hypot(three.stderr_[c], one.stderr_[c]))
           << side << ", channel " << c << ": three wavelengths " << three.mean[c] << " +- " << three.stderr_[c]
           << ", one " << one.mean[c] << " +- " << one.stderr_[c];
       if (verbose())
-        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side, c, one.mean[c],
+        std::printf("%s, channel %d: mean %g; pixel variance, one wavelength / three: %g\n", side.c_str(), c, one.mean[c],
                     std::pow(one.stderr_[c] / three.stderr_[c], 2.0));
     }
   }
+}
+
+TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafEqualItsThreeWavelengthWalks) {
+  expect_one_wavelength_walks_equal_three(kRgbLeaf, "RGB leaf");
+}
+
+// The same with a diffusely transmitting top (docs/layered_rendering.md, "Diffusely transmitting
+// interfaces"): the one-wavelength walks pass through the diffuse surface's arrivals and sources
+// as the three-wavelength walks do.
+TEST(SpectralLeaf, OneWavelengthWalksOfAnRgbLeafWithADiffuseTopEqualItsThreeWavelengthWalks) {
+  std::string json = kRgbLeaf;
+  json.insert(json.find("\"layers\""), "\"top_diffuse\": true, ");
+  expect_one_wavelength_walks_equal_three(json, "RGB leaf with a diffuse top");
 }
 
 // A flat layered leaf (the fitted mature green leaf of docs/spectral.md, "Layered leaf":
@@ -196,8 +209,8 @@ Spectrum adding_doubling_tolerance(const SpectralStack& seen, double mu, bool tr
 // (its difference from a 4-nm grid's colour). Fails if the leaf's index were not followed per
 // wavelength (the index at 550 nm moves the reflectance of the top surface), if the flipped
 // stack's layers kept the file's order, or if the factor 3 were missing.
-TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
-  const SpectralStack leaf = parse_spectral_stack_json(kLeaf, "leaf");
+void expect_flat_leaf_matches_adding_doubling(const char* json, std::uint64_t seed) {
+  const SpectralStack leaf = parse_spectral_stack_json(json, "leaf");
   const double theta = 30.0, mu = std::cos(theta * kPi / 180.0);
   struct Case {
     const char* what;
@@ -206,7 +219,7 @@ TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
   for (const Case& k : {Case{"reflectance of the top (camera above)", false, false, false},
                         Case{"transmittance (camera below)", true, false, true},
                         Case{"reflectance of the bottom (camera below, the sky below)", true, true, false}}) {
-    const ImageStats rendered = stats_of(render_slab(kLeaf, true, false, k.below, theta, 32, 64, 7, k.lower_sky));
+    const ImageStats rendered = stats_of(render_slab(json, true, false, k.below, theta, 32, 64, seed, k.lower_sky));
     const SpectralStack seen = k.below ? flipped(leaf) : leaf;
     Spectrum expected;
     const Spectrum tol = adding_doubling_tolerance(seen, mu, k.transmitted, rendered, &expected);
@@ -219,6 +232,16 @@ TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) {
           << ", adding-doubling " << expected[c];
     }
   }
+}
+
+TEST(SpectralLeaf, FlatLeafAgreesWithAddingDoublingPerWavelength) { expect_flat_leaf_matches_adding_doubling(kLeaf, 7); }
+
+// The same leaf with a diffusely transmitting top (PROSPECT's plate surface; docs/
+// layered_rendering.md, "Diffusely transmitting interfaces"): seen from below its diffuse face is
+// the flipped stack's bottom, whose arrivals connect to the sky above.
+TEST(SpectralLeaf, FlatLeafWithADiffuseTopAgreesWithAddingDoublingPerWavelength) {
+  const std::string json = std::string(kLeaf).replace(std::string(kLeaf).find("\"layers\""), 0, "\"top_diffuse\": true, ");
+  expect_flat_leaf_matches_adding_doubling(json.c_str(), 8);
 }
 
 // The stack a leaf's walk sees at a hit is the file's stack at the path's wavelength `channel`

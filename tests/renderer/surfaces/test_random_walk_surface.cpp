@@ -18,12 +18,14 @@
 #include "materials/walk/random_walk.h"
 #include "renderer/surfaces/random_walk_surface.h"
 #include "tests/support/sphere_quadrature.h"
+#include "tests/renderer/surfaces/sky_furnace.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
 namespace {
 
 using test::RunningStats;
+using test::sky_furnace;
 using test::WithinKSigma;
 
 LayerStack rough_skin(double alpha) {
@@ -48,27 +50,6 @@ double glossy_albedo(const RoughDielectric& top, const glm::dvec3& wo) {
   return test::integrate_sphere([&](const glm::dvec3& wi) { return top.eval(wo, wi) * wi.z; }, true);
 }
 
-double power(double a, double b) { return a * a + b * b > 0.0 ? a * a / (a * a + b * b) : 0.0; }
-
-// The surface under a uniform sky of radiance 1 sampled by the cosine: one light sample per call,
-// MIS against the surface's continuation (weight 1 for a delta continuation). Its mean is the
-// surface's albedo at wo (side -1: the sky below, the surface's transmittance).
-void sky_furnace(const RandomWalkSurface& surface, const glm::dvec3& wo, std::uint64_t seed, int calls, RunningStats* est,
-                 double side = 1.0) {
-  for (int k = 0; k < calls; ++k) {
-    Rng rng(seed, k);
-    LightDirection light;
-    light.wi = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-    light.pdf = light.wi.z * kInvPi;
-    light.wi.z *= side;
-    SurfaceScatter next;
-    Spectrum x(0.0);
-    if (surface.scatter(wo, rng, &light, 1, nullptr, &next) && next.wi.z * side > 0.0)
-      x = next.weight * (next.delta ? 1.0 : power(next.pdf, std::abs(next.wi.z) * kInvPi));
-    x += light.f_cos / light.pdf;
-    for (int c = 0; c < 3; ++c) est[c].add(x[c]);
-  }
-}
 
 // materials' walks: the mean weight of their top exits (with the walk's own glossy reflection
 // where it takes it), or of their bottom exits.
