@@ -11,9 +11,8 @@ a leaf yellows from its tip and edges; both pigment layers bound to it, each in 
 file's chlorophyll (docs/stack_bindings.md, "Leaf parameters"). UV: u along the midrib from base
 to tip, v across the blade (scripts/make_leaves_scene.py).
 
-Each material is scenes/spectral/leaf_layered_smooth.json (the mature green leaf as fitted with
-smooth faces, 40 ug/cm2: the renderer does not read the diffuse faces of leaf_layered.json yet)
-with its chlorophyll scaled in both pigment layers (palisade and spongy mesophyll keep their
+Each material is scenes/spectral/leaf_layered.json (the mature green leaf as fitted, 40 ug/cm2,
+its faces diffuse as the fit chose them) with its chlorophyll scaled in both pigment layers (palisade and spongy mesophyll keep their
 shares); the carotenoids, water, dry matter and scattering stay, as in a leaf that yellows: its
 chlorophyll is broken down before its carotenoids (the senescent leaf of docs/spectral.md keeps
 0.8 ug/cm2 of chlorophyll). Leaf k of the fan (leaf0 .. leaf4) gets CHLOROPHYLL[k].
@@ -60,7 +59,7 @@ CHLOROPHYLL = [40.0, 28.0, 18.0, 9.0, 3.0]  # ug/cm2, leaf0 .. leaf4
 
 
 def material(chlorophyll):
-    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered_smooth.json')) as f:
+    with open(os.path.join(ROOT, 'scenes', 'spectral', 'leaf_layered.json')) as f:
         leaf = json.load(f)
     total = sum(layer['leaf'].get('chlorophyll', 0.0) for layer in leaf['layers'])
     for layer in leaf['layers']:
@@ -128,6 +127,8 @@ def rgb_layer(layer):
     out = {'name': layer.get('name', ''), 'ior': prospect_row(550)[1], 'thickness': d,
            'sigma_a': [round(sa[c] / weights[c], 6) for c in range(3)],
            'sigma_s': [round(ss[c] / weights[c], 6) for c in range(3)], 'g': g}
+    if layer.get('bottom_diffuse'):
+        out['bottom_diffuse'] = True
     return out
 
 
@@ -180,7 +181,8 @@ def rgb_material(leaf, scales=None):
         out['sigma_a'] = [round(out['sigma_a'][c] * a[c], 6) for c in range(3)]
         out['sigma_s'] = [round(out['sigma_s'][c] * s[c], 6) for c in range(3)]
         layers.append(out)
-    return {'lamina_material': 1, 'name': leaf['name'] + '_rgb', 'layers': layers, 'below': {'ior': 1.0}}
+    faces = {'top_diffuse': True} if leaf.get('top_diffuse') else {}
+    return {'lamina_material': 1, 'name': leaf['name'] + '_rgb', **faces, 'layers': layers, 'below': {'ior': 1.0}}
 
 
 def targets(lamina, leaf, specular):

@@ -231,20 +231,26 @@ TEST_F(CliSpectral, RenderSpectralWritesItsKeyAndRefusesWhatItDoesNotRender) {
   EXPECT_NE(lambert.out.find("spectral mode: tables and albedos on 48 wavelengths"), std::string::npos) << lambert.out;
   // A leaf (its index varies with the wavelength) renders spectrally by the walk, and by auto's
   // walk; the tabulated modes refuse it, and the RGB mode refuses leaf layers.
-  const std::string leaf = " --stack " + src + "/scenes/spectral/leaf_layered_smooth.json";
+  const std::string leaf = " --stack " + src + "/scenes/spectral/leaf_layered.json";
   EXPECT_EQ(run("render " + box + "--spectral" + leaf + " -o " + dir_ + "/leaf.exr").exit_code, 0);
   const CliResult leaf_auto = run("render " + box + "--spectral --subsurface auto --tolerance 0.05" + leaf + " -o " + dir_ + "/leaf_auto.exr");
   EXPECT_EQ(leaf_auto.exit_code, 0) << leaf_auto.err;
-  for (const char* mode : {"table", "lambert", "first-order"})
+  for (const char* mode : {"table", "lambert"})
     expect_one_line_error("render " + box + "--spectral --subsurface " + mode + leaf + " -o " + dir_ + "/x.exr", 1,
-                          "leaf_layered_smooth.json: leaf layers are rendered spectrally by the walk alone");
-  expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered_smooth.json -o " + dir_ + "/x.exr", 1,
+                          "leaf_layered.json: leaf layers are rendered spectrally by the walk alone");
+  // The fitted leaf's faces are diffuse, which first-order refuses before its leaf layers.
+  expect_one_line_error("render " + box + "--spectral --subsurface first-order" + leaf + " -o " + dir_ + "/x.exr", 1,
+                        "leaf_layered.json: top_diffuse: first-order does not model a diffuse interface");
+  expect_one_line_error("render " + box + "--spectral --subsurface first-order --stack " + src +
+                            "/scenes/spectral/leaf_layered_smooth.json -o " + dir_ + "/x.exr",
+                        1, "leaf_layered_smooth.json: leaf layers are rendered spectrally by the walk alone");
+  expect_one_line_error("render " + box + "--stack " + src + "/scenes/spectral/leaf_layered.json -o " + dir_ + "/x.exr", 1,
                         "layers[0].leaf: a layer given by leaf contents has spectral coefficients");
   // Leaf layers bound to maps (a chlorophyll map) render spectrally; a bad key or range is refused
   // in one line naming the map, the material and the binding; the RGB mode refuses the stack.
   lamina::test::write_png8(dir_ + "/pigment.png", 2, 1, 1, {0, 255});
   auto leaf_map = [&](const std::string& parameter, const std::string& range) {
-    std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered_smooth.json",
+    std::ofstream(dir_ + "/leaf_map.json") << R"({"leaf": {"stack": ")" << src << R"(/scenes/spectral/leaf_layered.json",
         "bind": [{"parameter": ")" << parameter << R"(", "texture": "pigment.png", "channel": "r", "range": )" << range << "}]}}";
     return "render " + src + "/scenes/leaves/leaves_back.gltf --width 8 --height 8 --spp 1 --materials " + dir_ + "/leaf_map.json -o " +
            dir_ + "/leaf_map.exr";
