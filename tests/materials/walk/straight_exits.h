@@ -4,11 +4,14 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 
 #include <gtest/gtest.h>
 #include <glm/vec3.hpp>
 
+#include "materials/base/sampling.h"
 #include "materials/walk/random_walk.h"
+#include "tests/support/statistics.h"
 
 namespace lamina::test {
 
@@ -40,6 +43,35 @@ inline int check_straight_top_exits(const LayerStack& stack, const glm::dvec3& w
     ++checked;
   }
   return checked;
+}
+
+// The light that leaves straight from the walk's last event through one side (side +1 the top,
+// -1 the bottom), two independent ways: the connections towards a cosine-sampled direction w
+// (prepare_exit with an rng, which crosses rough and diffuse interfaces by sampling), weighted
+// |w.z| / p(w), against the exits' own weights; 100 000 walks from wi, Rng(seed, k). Expects the
+// two means within 4 standard errors and the exits' mean 30 standard errors above 0;
+// `on_straight_exit` sees every such exit's result.
+inline void expect_connections_match_straight_exits(
+    const LayerStack& s, const glm::dvec3& wi, double side, std::uint64_t seed,
+    const std::function<void(const WalkResult&)>& on_straight_exit = [](const WalkResult&) {}) {
+  RunningStats exits, connections;
+  ExitDirection exit;
+  for (int k = 0; k < 100000; ++k) {
+    Rng rng(seed, k);
+    glm::dvec3 w = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
+    const double p = w.z * kInvPi;
+    w.z *= side;
+    prepare_exit(s, w, &exit, 0.0, {0.5, 0.5}, &rng);
+    double sum = 0.0;
+    const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { sum += (e.throughput * connect_direct(s, e, exit).weight)[0]; });
+    connections.add(sum * std::abs(w.z) / p);
+    const bool straight_out = r.straight_from_last_event && r.direction.z * side > 0.0 && r.side != WalkResult::Side::None;
+    exits.add(straight_out ? r.weight[0] : 0.0);
+    if (straight_out) on_straight_exit(r);
+  }
+  const double se = std::hypot(exits.standard_error(), connections.standard_error());
+  EXPECT_NEAR(exits.mean(), connections.mean(), 4.0 * se) << "side " << side;
+  EXPECT_GT(exits.mean(), 30.0 * se) << "side " << side;
 }
 
 }  // namespace lamina::test

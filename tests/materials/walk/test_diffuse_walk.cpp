@@ -21,6 +21,7 @@
 #include "materials/walk/random_walk.h"
 #include "tests/materials/adding_doubling/walk_and_solver.h"
 #include "tests/materials/stack_fixtures.h"
+#include "tests/materials/walk/straight_exits.h"
 #include "tests/support/statistics.h"
 
 namespace lamina {
@@ -143,28 +144,11 @@ TEST(DiffuseWalk, ConnectionsMatchTheStraightExits) {
   // a cosine-sampled w weighted |w.z| / p(w), against the exits' weights), within 4 standard
   // errors.
   const LayerStack s = diffuse_leaf(1.0);
-  const glm::dvec3 wi = from_angle(35.0);
-  for (double side : {1.0, -1.0}) {
-    RunningStats exits, connections;
-    ExitDirection exit;
-    for (int k = 0; k < 100000; ++k) {
-      Rng rng(61 + (side > 0.0 ? 0 : 1), k);
-      glm::dvec3 w = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-      const double p = w.z * kInvPi;
-      w.z *= side;
-      prepare_exit(s, w, &exit, 0.0, {0.5, 0.5}, &rng);
-      double sum = 0.0;
-      const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { sum += (e.throughput * connect_direct(s, e, exit).weight)[0]; });
-      connections.add(sum * std::abs(w.z) / p);
-      const bool straight_out = r.straight_from_last_event && r.direction.z * side > 0.0 && r.side != WalkResult::Side::None;
-      exits.add(straight_out ? r.weight[0] : 0.0);
+  for (double side : {1.0, -1.0})
+    test::expect_connections_match_straight_exits(s, from_angle(35.0), side, 61 + (side > 0.0 ? 0 : 1), [](const WalkResult& r) {
       // Every straight exit crossed a diffuse interface: no closed-form density (connections alone).
-      if (straight_out) EXPECT_TRUE(r.crossed_rough);
-    }
-    const double se = std::hypot(exits.standard_error(), connections.standard_error());
-    EXPECT_NEAR(exits.mean(), connections.mean(), 4.0 * se) << "side " << side;
-    EXPECT_GT(exits.mean(), 30.0 * se) << "side " << side;
-  }
+      EXPECT_TRUE(r.crossed_rough);
+    });
 }
 
 TEST(DiffuseWalk, ConnectionBrdfIsReciprocal) {

@@ -216,26 +216,7 @@ TEST(EnergyConservingStack, ConnectionsMatchTheStraightExitsThroughEveryRoughInt
   // and the transmittance of those paths, two independent ways (connections towards a
   // cosine-sampled direction w weighted |w.z| / p(w), against the exits' weights).
   const LayerStack s = rough_leaf(0.4, 0.6, 0.25, 0.2);
-  const glm::dvec3 wi = from_angle(35.0);
-  for (double side : {1.0, -1.0}) {
-    RunningStats exits, connections;
-    ExitDirection exit;
-    for (int k = 0; k < 100000; ++k) {
-      Rng rng(51 + (side > 0.0 ? 0 : 1), k);
-      glm::dvec3 w = sample_cosine_hemisphere({rng.uniform(), rng.uniform()});
-      const double p = w.z * kInvPi;
-      w.z *= side;
-      prepare_exit(s, w, &exit, 0.0, {0.5, 0.5}, &rng);
-      double sum = 0.0;
-      const WalkResult r = random_walk(s, wi, rng, [&](const ScatterEvent& e) { sum += (e.throughput * connect_direct(s, e, exit).weight)[0]; });
-      connections.add(sum * std::abs(w.z) / p);
-      const bool straight_out = r.straight_from_last_event && r.direction.z * side > 0.0 && r.side != WalkResult::Side::None;
-      exits.add(straight_out ? r.weight[0] : 0.0);
-    }
-    const double se = std::hypot(exits.standard_error(), connections.standard_error());
-    EXPECT_NEAR(exits.mean(), connections.mean(), 4.0 * se) << "side " << side;
-    EXPECT_GT(exits.mean(), 30.0 * se) << "side " << side;
-  }
+  for (double side : {1.0, -1.0}) test::expect_connections_match_straight_exits(s, from_angle(35.0), side, 51 + (side > 0.0 ? 0 : 1));
 }
 
 // A grey absorbing skin-like stack under a rough top, with a smooth inner interface.
