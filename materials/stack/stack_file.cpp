@@ -227,8 +227,8 @@ class Reader {
       if (direct || j.contains("components") || j.contains("chromophores"))
         fail(path, "give either leaf, or chromophores, or sigma_a, sigma_s and g, or components, not two of them");
       if (leaf_out == nullptr)
-        fail(join(path, "leaf"), "a layer given by leaf contents has spectral coefficients: only "
-                                 "`lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
+        fail(join(path, "leaf"), "a layer given by leaf contents has spectral coefficients: it is read by "
+                                 "`lamina render --spectral`, `lamina brdf --wavelengths` and `lamina fit --spectrum`");
       if (!(layer.thickness > 0.0) || layer.thickness == kInfiniteThickness)
         fail(join(path, "thickness"), "a leaf layer needs a finite thickness > 0 (its contents are per leaf area)");
       *leaf_out = desc->leaf = leaf(j["leaf"], join(path, "leaf"));

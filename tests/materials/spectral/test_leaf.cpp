@@ -107,7 +107,7 @@ TEST(LeafStack, OneLineErrorsNameTheValue) {
     FAIL() << "expected an error";
   } catch (const StackFileError& e) {
     EXPECT_EQ(std::string(e.what()), "leaf.json: layers[0].leaf: a layer given by leaf contents has spectral coefficients: "
-                                     "only `lamina brdf --wavelengths` and `lamina fit --spectrum` read such a stack so far");
+                                     "it is read by `lamina render --spectral`, `lamina brdf --wavelengths` and `lamina fit --spectrum`");
   }
   const std::string head = R"({"lamina_material": 1, "layers": [{"thickness": 0.1, )";
   EXPECT_EQ(leaf_error(head + R"("leaf": {"chlorophyll": -1}}]})"),
