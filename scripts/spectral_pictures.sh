@@ -40,8 +40,12 @@ picture() {  # NAME SCENE ARGS...
   done
   "$LAMINA" compare "$OUT/${name}_rgb.exr" "$OUT/${name}_spectral.exr" --png "$OUT/${name}_difference.png" --smooth 1 \
     --range 0.2 --json "$OUT/${name}_difference.json"
-  oiiotool "$OUT/${name}_rgb.png" "$OUT/${name}_spectral.png" "$OUT/${name}_difference.png" --mosaic 3x1 \
-    -o "docs/images/spectral_$name.png"
+  # Each panel fitted to FIT (WxH) if set: small renders shown enlarged, beside the difference
+  # map, whose legend is wider than they are.
+  local fit=()
+  [ -n "${FIT:-}" ] && fit=(--fit:filter=box "$FIT")
+  oiiotool "$OUT/${name}_rgb.png" "${fit[@]}" "$OUT/${name}_spectral.png" "${fit[@]}" "$OUT/${name}_difference.png" \
+    "${fit[@]}" --mosaic 3x1 -o "docs/images/spectral_$name.png"
 }
 
 RGB_ARGS=()
@@ -58,11 +62,13 @@ fi
 # The leaves by pigment: the RGB mode cannot read leaf layers, so it renders their fitted RGB reading.
 SPP=${SP_LEAF_SPP:-1024}
 RGB_ARGS=(--materials scenes/leaves_spectral/leaves_rgb_materials.json)
+FIT=320x240  # the 160 x 120 renders shown at twice their size
 for side in front back; do
   picture "leaves_pigment_$side" "scenes/leaves_spectral/leaves_spectral_$side.gltf" --width 160 --height 120
 done
 # The leaf whose chlorophyll comes from a map (docs/stack_bindings.md, "Leaf parameters").
 if [ ${#SELECTED[@]} -eq 0 ] || [[ " ${SELECTED[*]} " == *" leaves_yellowing "* ]]; then
   "$LAMINA" render scenes/leaves_spectral/leaves_yellowing_back.gltf --width 160 --height 120 --spp "$SPP" --spectral \
-    -o "$OUT/leaves_yellowing_spectral.exr" --png docs/images/spectral_leaves_yellowing.png
+    -o "$OUT/leaves_yellowing_spectral.exr" --png "$OUT/leaves_yellowing_spectral.png"
+  oiiotool "$OUT/leaves_yellowing_spectral.png" --fit:filter=box "$FIT" -o docs/images/spectral_leaves_yellowing.png
 fi
