@@ -1161,6 +1161,11 @@ ZerothOrder zeroth_order_above_rough(const LayerStack& stack, double cos_theta_i
   if (first == 0) {
     ZerothOrder z = zeroth_order(stack, cos_theta_i);
     z.R_specular = z.T_ballistic = Spectrum(0.0);
+    // A diffuse top seen from its less dense side is a mirror F(mu) for the light it reflects
+    // (13.: the solver keeps that light in the incidence node); from the dense side it reflects
+    // by Lambert's law, and a rough top spreads its reflection: no delta lobe.
+    if (stack.diffuse_interface(0) && stack.above_ior < stack.layers[0].ior)
+      z.R_specular = Spectrum(fresnel_dielectric(cos_theta_i, stack.above_ior, stack.layers[0].ior));
     return z;
   }
   LayerStack above = stack;

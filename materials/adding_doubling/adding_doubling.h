@@ -84,10 +84,12 @@ struct AddingDoublingTotals {
   int doublings = 0;  // doubling steps over all layers and channels
 };
 
-// The unscattered light of a stack with energy-conserving rough interfaces that stays a delta
-// lobe: the light that meets no rough interface (the top's Fresnel reflection and the
-// reflections of the smooth interfaces above the first rough one); none under a rough top, and
-// no ballistic transmission (it would cross a rough interface). Other stacks: zeroth_order.
+// The unscattered light of a stack with energy-conserving rough or diffuse interfaces that stays
+// a delta lobe: the light that meets no rough or diffuse interface (the top's Fresnel reflection
+// and the reflections of the smooth interfaces above the first rough or diffuse one), and a
+// diffuse top's mirror reflection F(mu) from its less dense side; none under a rough top, and
+// no ballistic transmission (it would cross a rough or diffuse interface). Other stacks:
+// zeroth_order.
 ZerothOrder zeroth_order_above_rough(const LayerStack& stack, double cos_theta_i);
 
 // The totals of `stack` (validate_stack must accept it) for light from above at cos_theta_i in
