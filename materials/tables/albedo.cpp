@@ -17,14 +17,16 @@ namespace {
 // The top exit weight after >= 1 scattering of walk i with cosine-weighted incidence: mu_i =
 // sqrt(u) has density 2 mu_i on [0, 1], so its expectation is int_0^1 R_diffuse(mu) 2 mu dmu,
 // the white-sky albedo. The walk's weight is per unit incident power and excludes the top's
-// specular part.
+// specular part. Under a diffuse top every exit the walk returns crossed it, spread: unscattered
+// or not, it counts (the delta lobe, the top's mirror, is the caller's; zeroth_order_above_rough).
 Spectrum diffuse_albedo_sample(const LayerStack& stack, std::uint64_t seed, int i, const WalkOptions& settings) {
   Rng rng(seed, static_cast<std::uint64_t>(i), 0x1a3b);
   const double mu = std::sqrt(std::max(rng.uniform(), 1e-300));
   const double phi = 2.0 * kPi * rng.uniform();
   const double s = std::sqrt(std::max(0.0, 1.0 - mu * mu));
   const WalkResult r = random_walk(stack, {s * std::cos(phi), s * std::sin(phi), mu}, rng, {}, settings);
-  return r.side == WalkResult::Side::Top && r.scatter_count > 0 ? r.weight : Spectrum(0.0);
+  const bool spread = r.scatter_count > 0 || stack.diffuse_interface(0);
+  return r.side == WalkResult::Side::Top && spread ? r.weight : Spectrum(0.0);
 }
 
 struct MeanAccumulator {
@@ -80,7 +82,9 @@ Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack,
     for (int c = 0; c < kChannels; ++c) a[c] = std::max(a[c], 0.0);
     return a;
   }
-  // R_hs = 2 int_0^1 R_specular(mu) mu dmu. R_specular has a kink where an interface below starts
+  // R_hs = 2 int_0^1 R_specular(mu) mu dmu, the delta lobe (zeroth_order_above_rough: under a
+  // diffuse interface the unscattered light comes back spread, and belongs to the albedo; the
+  // same as zeroth_order for other stacks). R_specular has a kink where an interface below starts
   // to reflect totally: at Snell's invariant n_above sin(theta) = n_k of a medium k with
   // n_k < n_above, i.e. mu = sqrt(1 - (n_k / n_above)^2). Gauss-Legendre on each segment.
   std::vector<double> cuts = {0.0, 1.0};
@@ -96,7 +100,7 @@ Spectrum diffuse_bihemispherical_albedo_adding_doubling(const LayerStack& stack,
   for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
     if (!(cuts[k + 1] > cuts[k])) continue;
     gauss_legendre(kPoints, cuts[k], cuts[k + 1], mu, w);
-    for (int i = 0; i < kPoints; ++i) r_hs += zeroth_order(stack, mu[i]).R_specular * (2.0 * mu[i] * w[i]);
+    for (int i = 0; i < kPoints; ++i) r_hs += zeroth_order_above_rough(stack, mu[i]).R_specular * (2.0 * mu[i] * w[i]);
   }
   Spectrum a = r_h - r_hs;
   for (int c = 0; c < kChannels; ++c) a[c] = std::max(a[c], 0.0);

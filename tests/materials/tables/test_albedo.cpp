@@ -11,6 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include "materials/adding_doubling/adding_doubling.h"
+#include "materials/analytic/first_order.h"  // gauss_legendre
+#include "materials/interfaces/fresnel.h"
 #include "materials/stack/stack.h"
 #include "materials/stack/stack_file.h"
 #include "tests/materials/stack_fixtures.h"
@@ -29,6 +32,33 @@ void expect_same(const LayerStack& stack, const std::string& name) {
     EXPECT_GE(ad[c], 0.0);
     EXPECT_LE(ad[c], 1.0);
   }
+}
+
+// Under a diffuse top the delta lobe is the top's mirror F(mu) alone (zeroth_order_above_rough):
+// the light that crossed it comes back spread, unscattered or not, and belongs to the albedo,
+// which is then R_h less 2 int F(mu) mu dmu, to the solver's quadrature (1e-6). A clear plate
+// makes the difference large: taken as a smooth plate, its internal reflections would be a
+// mirror too.
+TEST(DiffuseAlbedo, UnderADiffuseTopOnlyTheTopsMirrorIsLeftOut) {
+  LayerStack plate;
+  plate.top_diffuse = true;
+  plate.layers.push_back(make_layer("clear", 1.5, 0.5, Spectrum(0.0, 0.2, 1.0), Spectrum(0.0), Spectrum(0.0)));
+  plate.below.ior = 1.0;
+  double mirror = 0.0;
+  double x[64], w[64];
+  gauss_legendre(64, 0.0, 1.0, x, w);
+  for (int i = 0; i < 64; ++i) mirror += 2.0 * x[i] * w[i] * fresnel_dielectric(x[i], 1.0, 1.5);
+  const Spectrum r_h = adding_doubling_totals(plate, 1.0).R_hemispherical;
+  const Spectrum a = diffuse_bihemispherical_albedo_adding_doubling(plate);
+  for (int c = 0; c < kChannels; ++c) EXPECT_NEAR(a[c], r_h[c] - mirror, 1e-6) << "channel " << c;
+  // The walk's albedo counts the same light (every exit through the diffuse top), on the plate
+  // and on a scattering leaf under it, from air and from a denser medium above.
+  expect_same(plate, "clear plate under a diffuse top");
+  LayerStack leaf = plate;
+  leaf.layers[0] = make_layer("mesophyll", 1.5, 0.2, Spectrum(0.3, 1.0, 3.0), Spectrum(20.0), Spectrum(0.6));
+  expect_same(leaf, "scattering leaf under a diffuse top");
+  leaf.above_ior = 1.7;
+  expect_same(leaf, "the leaf under a denser medium");
 }
 
 TEST(DiffuseAlbedo, AddingDoublingAgreesWithTheWalk) {
