@@ -17,6 +17,7 @@
 
 #include "renderer/image/image_io.h"
 #include "tests/renderer/cli/cli_runner.h"
+#include "tests/renderer/cli/exr_header.h"
 #include "tests/renderer/gltf_fixture.h"
 
 namespace lamina {
@@ -137,12 +138,6 @@ std::string job_hash(const TempDir& dir, const std::string& manifest) {
   return r.out.substr(r.out.rfind(' ') + 1);
 }
 
-std::string header(const std::string& exr, const std::string& key) {
-  for (const auto& [k, v] : read_metadata(exr))
-    if (k == key) return v;
-  return "";
-}
-
 const char* kStackA = R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 0.5, "sigma_s": 20, "g": 0.3}]})";
 const char* kStackB = R"({"lamina_material": 1, "layers": [{"ior": 1.4, "thickness": 0.2, "sigma_a": 2.0, "sigma_s": 20, "g": 0.3}]})";
 
@@ -178,9 +173,9 @@ TEST(SceneInputsCli, BatchStackAssignsRecordsAndHashes) {
   const Result r = run(dir, "batch " + dir / "m.json" + " --out " + dir / "out");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string exr = dir / "out/jobs/q__base__default__random-walk__spp1.exr";
-  EXPECT_EQ(header(exr, "lamina:stack"), "leaf=" + dir / "a.json");
-  EXPECT_NE(header(exr, "lamina:command").find("--stack leaf=" + dir / "a.json"), std::string::npos);
-  EXPECT_EQ(header(exr, "lamina:layered_materials"), "1");
+  EXPECT_EQ(test::exr_header(exr, "lamina:stack"), "leaf=" + dir / "a.json");
+  EXPECT_NE(test::exr_header(exr, "lamina:command").find("--stack leaf=" + dir / "a.json"), std::string::npos);
+  EXPECT_EQ(test::exr_header(exr, "lamina:layered_materials"), "1");
   // The file's content, not its name, is hashed: a changed stack reruns the job.
   std::ofstream(dir / "a.json") << kStackB;
   EXPECT_NE(job_hash(dir, "m.json"), named_a);
@@ -189,8 +184,8 @@ TEST(SceneInputsCli, BatchStackAssignsRecordsAndHashes) {
   const Result both = run(dir, "batch " + dir / "m.json" + " --out " + dir / "out2");
   ASSERT_EQ(both.exit_code, 0) << both.err;
   const std::string exr2 = dir / "out2/jobs/q__base__default__random-walk__spp1.exr";
-  EXPECT_EQ(header(exr2, "lamina:stack"), dir / "a.json" + "; leaf=" + dir / "b.json");
-  EXPECT_EQ(header(exr2, "lamina:layered_materials"), "2");
+  EXPECT_EQ(test::exr_header(exr2, "lamina:stack"), dir / "a.json" + "; leaf=" + dir / "b.json");
+  EXPECT_EQ(test::exr_header(exr2, "lamina:layered_materials"), "2");
 }
 
 // Bad assignments: the command line's reasons, at the manifest's JSON path.

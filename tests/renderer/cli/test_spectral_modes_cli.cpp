@@ -13,6 +13,7 @@
 #include "renderer/image/image_io.h"
 #include "tests/renderer/batch_fixture.h"
 #include "tests/renderer/cli/cli_runner.h"
+#include "tests/renderer/cli/exr_header.h"
 #include "tests/renderer/gltf_fixture.h"
 
 namespace lamina {
@@ -23,12 +24,6 @@ using testing::TempDir;
 using Result = test::CliResult;
 
 Result run(const TempDir& dir, const std::string& args) { return test::run_lamina(dir.path, args); }
-
-std::string header(const std::string& exr, const std::string& key) {
-  for (const auto& [k, v] : read_metadata(exr))
-    if (k == key) return v;
-  return "";
-}
 
 // The quad with a layered "skin" (the fixture's two-layer stack) under a white sky.
 struct SpectralBatch {
@@ -80,15 +75,15 @@ TEST(SpectralModesCli, BatchSpectralRendersWhatTheCommandLineRenders) {
                      plain = read_channels(b.dir / "rgb.exr");
   EXPECT_EQ(pixels(batch_image), pixels(spectral));  // bit for bit
   EXPECT_NE(pixels(batch_image), pixels(plain));     // and not the RGB mode's image
-  EXPECT_EQ(header(job, "lamina:spectral"), header(b.dir / "cli.exr", "lamina:spectral"));
-  EXPECT_NE(header(job, "lamina:spectral"), "");
-  EXPECT_NE(header(job, "lamina:command").find(" --spectral"), std::string::npos) << header(job, "lamina:command");
+  EXPECT_EQ(test::exr_header(job, "lamina:spectral"), test::exr_header(b.dir / "cli.exr", "lamina:spectral"));
+  EXPECT_NE(test::exr_header(job, "lamina:spectral"), "");
+  EXPECT_NE(test::exr_header(job, "lamina:command").find(" --spectral"), std::string::npos) << test::exr_header(job, "lamina:command");
   // The scene's own "spectral": false wins over the settings': the RGB image.
   const Result off = b.batch(b.manifest(true, false), "--out " + b.dir / "out_off");
   ASSERT_EQ(off.exit_code, 0) << off.err;
   const std::string off_job = b.dir / "out_off/jobs/q__base__sky__random-walk__spp2.exr";
   EXPECT_EQ(pixels(read_channels(off_job)), pixels(plain));
-  EXPECT_EQ(header(off_job, "lamina:spectral"), "");
+  EXPECT_EQ(test::exr_header(off_job, "lamina:spectral"), "");
 }
 
 // "spectral" enters the hash only when true: a manifest without it, or with false, keeps the
@@ -156,7 +151,7 @@ TEST(SpectralModesCli, BadValuesAndRefusalsAreTheCommandLines) {
   const Result a = run(b.dir, "render " + b.dir / "m.gltf" + " --width 8 --height 6 --spp 1 --env 1 --spectral --subsurface auto "
                               "--tolerance 0.5 -o " + b.dir / "a.exr");
   ASSERT_EQ(a.exit_code, 0) << a.err;
-  EXPECT_EQ(header(b.dir / "a.exr", "lamina:auto_mode:skin"), "random-walk");
+  EXPECT_EQ(test::exr_header(b.dir / "a.exr", "lamina:auto_mode:skin"), "random-walk");
 }
 
 }  // namespace
