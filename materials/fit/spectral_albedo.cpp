@@ -44,15 +44,11 @@ Spectrum spectral_albedo_colour(const ChromophoreMaterial& m, const std::vector<
   AddingDoublingSettings one = settings;
   one.only_channel = 0;  // each wavelength is a grey stack
   // The colour grid's 85 wavelengths; the solutions are independent, the sum is in order.
-  const ChannelWeights& cw = rec709_channel_weights();
-  Spectrum colour(0.0);
-  for (int i = 0; i < 85; ++i) {
-    const LayerStack grey = stack_at_wavelength(s, cw.nm(i));
-    const double a = kind == AlbedoKind::kTotal ? adding_doubling_totals(grey, 1.0, one).R_hemispherical[0]
-                                                : diffuse_bihemispherical_albedo_adding_doubling(grey, one)[0];
-    for (int c = 0; c < kChannels; ++c) colour[c] += cw.w[i][c] * a;
-  }
-  return colour;
+  return rec709_channel_mean([&](double nm) {
+    const LayerStack grey = stack_at_wavelength(s, nm);
+    return kind == AlbedoKind::kTotal ? adding_doubling_totals(grey, 1.0, one).R_hemispherical[0]
+                                      : diffuse_bihemispherical_albedo_adding_doubling(grey, one)[0];
+  });
 }
 
 namespace {

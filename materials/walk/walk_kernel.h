@@ -108,6 +108,15 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
   const double n_top = stack.layers[0].ior;
   PathWeight pw;
   glm::dvec3 d = -wi;
+  // A reflection at entry by an interface that decides with weight 1: the walk's exit.
+  auto reflected_at_entry = [&result](const glm::dvec3& up) {
+    result.side = WalkResult::Side::Top;
+    result.end = WalkResult::End::ExitTop;
+    result.direction = up;
+    result.weight = Spectrum(1.0);
+    result.entry_reflection = true;
+    return result;
+  };
   if (plan.diffuse_at(0)) {
     // A diffuse top (materials/interfaces/diffuse_interface.h). From its light side the walk
     // carries the transmitted part 1 - F (the specular reflection F is the caller's delta lobe,
@@ -120,14 +129,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       d.z = -d.z;
     } else {
       d = top_diffuse.sample(-wi, stack.above_ior, rng);
-      if (d.z > 0.0) {
-        result.side = WalkResult::Side::Top;
-        result.end = WalkResult::End::ExitTop;
-        result.direction = d;
-        result.weight = Spectrum(1.0);
-        result.entry_reflection = true;
-        return result;
-      }
+      if (d.z > 0.0) return reflected_at_entry(d);
     }
   } else if (plan.rough_at(0)) {
     // An energy-conserving rough top: one walk on its microsurface decides, with weight 1,
@@ -138,14 +140,7 @@ WalkResult run_walk(const WalkPlan& plan, const glm::dvec3& wi, Rng& rng, const 
       result.end = WalkResult::End::Absorbed;
       return result;
     }
-    if (t.z > 0.0) {
-      result.side = WalkResult::Side::Top;
-      result.end = WalkResult::End::ExitTop;
-      result.direction = t;
-      result.weight = Spectrum(1.0);
-      result.entry_reflection = true;
-      return result;
-    }
+    if (t.z > 0.0) return reflected_at_entry(t);
     d = t;
   } else if (rough) {
     // Through a rough top the packet meets a facet m ~ D_wi (the visible normals) and carries
